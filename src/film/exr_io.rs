@@ -1,0 +1,385 @@
+//! OpenEXR input and output: linear float32 R, G, B.
+//!
+//! Extra layers (albedo, normal, variance, ...) go into the same single-part file
+//! as prefixed channels (`albedo.R`, `albedo.G`, `albedo.B`), which is the
+//! OpenEXR layer naming convention and what denoisers and viewers (tev, Blender,
+//! oiiotool) read; multi-part files are less widely supported.
+
+use std::fs::File;
+use std::io::{BufWriter, Cursor, Read, Seek};
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    self as x, AnyChannel, AnyChannels, FlatSamples, Layer, LayerAttributes, ReadChannels,
+    ReadLayers, SmallVec, Text, WritableImage,
+};
+use glam::Vec3 as Rgb;
+
+use super::atomic::write_atomic;
+use super::{FilmError, Image};
+
+/// Lossless, scan lines, widely readable; ZIP keeps noisy float snapshots smaller
+/// than RLE does.
+const ENCODING: x::Encoding = x::Encoding {
+    compression: x::Compression::ZIP16,
+    blocks: x::Blocks::ScanLines,
+    line_order: x::LineOrder::Increasing,
+};
+
+const MEMORY: &str = "<memory>";
+
+/// Writes `image` as linear float32 R, G, B, atomically (temporary file + rename).
+pub fn write_exr(path: impl AsRef<Path>, image: &Image) -> Result<(), FilmError> {
+    write_exr_layers(path, image, &[])
+}
+
+/// Writes `base` as R, G, B plus each `(name, image)` as `name.R`, `name.G`,
+/// `name.B`, atomically. All images must have the base's size; names must be
+/// non-empty, distinct, Latin-1, and not begin or end with a dot.
+pub fn write_exr_layers(
+    path: impl AsRef<Path>,
+    base: &Image,
+    layers: &[(&str, &Image)],
+) -> Result<(), FilmError> {
+    let path = path.as_ref();
+    let exr = build(base, layers, &path.display().to_string())?;
+    write_atomic(path, |out| write_to(&exr, out, path))
+}
+
+/// The EXR file for `image` as bytes (e.g. for an HTTP response).
+pub fn encode_exr(image: &Image) -> Result<Vec<u8>, FilmError> {
+    encode_exr_layers(image, &[])
+}
+
+/// The layered EXR file of [`write_exr_layers`] as bytes.
+pub fn encode_exr_layers(base: &Image, layers: &[(&str, &Image)]) -> Result<Vec<u8>, FilmError> {
+    let exr = build(base, layers, MEMORY)?;
+    let mut out = Cursor::new(Vec::new());
+    write_to(&exr, &mut out, Path::new(MEMORY))?;
+    Ok(out.into_inner())
+}
+
+/// Reads the R, G, B channels (alpha and other layers are ignored) of the first
+/// part that has them, converting f16/u32 samples to f32. The image is the data
+/// window; its offset is ignored.
+pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
+    read_exr_layer(path, "")
+}
+
+/// Reads layer `name` (channels `name.R`, `name.G`, `name.B`); `""` is the base.
+pub fn read_exr_layer(path: impl AsRef<Path>, name: &str) -> Result<Image, FilmError> {
+    let path = path.as_ref();
+    let file = File::open(path).map_err(|source| FilmError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    decode(std::io::BufReader::new(file), path, name)
+}
+
+/// [`read_exr`] from bytes in memory (e.g. an uploaded reference image).
+pub fn decode_exr(bytes: &[u8]) -> Result<Image, FilmError> {
+    decode_exr_layer(bytes, "")
+}
+
+/// [`read_exr_layer`] from bytes in memory.
+pub fn decode_exr_layer(bytes: &[u8], name: &str) -> Result<Image, FilmError> {
+    decode(Cursor::new(bytes), Path::new(MEMORY), name)
+}
+
+type FlatImage = x::Image<Layer<AnyChannels<FlatSamples>>>;
+
+fn build(base: &Image, layers: &[(&str, &Image)], what: &str) -> Result<FlatImage, FilmError> {
+    let mut channels = rgb_channels("", base, what)?;
+    for (i, (name, image)) in layers.iter().enumerate() {
+        check_layer_name(name, &layers[..i], what)?;
+        if image.size() != base.size() {
+            return Err(FilmError::SizeMismatch {
+                a: base.size(),
+                b: image.size(),
+            });
+        }
+        channels.extend(rgb_channels(&format!("{name}."), image, what)?);
+    }
+    let size = (base.width() as usize, base.height() as usize);
+    let channels = AnyChannels::sort(SmallVec::from_vec(channels));
+    let layer = Layer::new(size, LayerAttributes::default(), ENCODING, channels);
+    Ok(x::Image::from_layer(layer))
+}
+
+fn check_layer_name(name: &str, earlier: &[(&str, &Image)], what: &str) -> Result<(), FilmError> {
+    let bad = if name.is_empty() || name.starts_with('.') || name.ends_with('.') {
+        Some("empty or dot at an end")
+    } else if earlier.iter().any(|(n, _)| *n == name) {
+        Some("duplicate")
+    } else {
+        None
+    };
+    match bad {
+        Some(why) => Err(FilmError::Exr(format!(
+            "{what}: bad layer name {name:?} ({why})"
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn rgb_channels(
+    prefix: &str,
+    image: &Image,
+    what: &str,
+) -> Result<Vec<AnyChannel<FlatSamples>>, FilmError> {
+    let px = image.pixels();
+    let plane = |f: fn(&Rgb) -> f32| FlatSamples::F32(px.iter().map(f).collect());
+    let name = |c: &str| {
+        Text::new_or_none(format!("{prefix}{c}")).ok_or_else(|| {
+            FilmError::Exr(format!(
+                "{what}: channel name \"{prefix}{c}\" is not Latin-1"
+            ))
+        })
+    };
+    Ok(vec![
+        AnyChannel::new(name("R")?, plane(|p| p.x)),
+        AnyChannel::new(name("G")?, plane(|p| p.y)),
+        AnyChannel::new(name("B")?, plane(|p| p.z)),
+    ])
+}
+
+fn write_to(
+    exr: &FlatImage,
+    out: &mut (impl std::io::Write + Seek),
+    path: &Path,
+) -> Result<(), FilmError> {
+    // exr expects a buffered writer; BufWriter over &mut keeps the caller's handle.
+    let mut buffered = BufWriter::new(out);
+    exr.write()
+        .to_buffered(&mut buffered)
+        .map_err(|e| exr_error(e, path))?;
+    buffered.into_inner().map_err(|e| FilmError::Io {
+        path: path.to_path_buf(),
+        source: e.into_error(),
+    })?;
+    Ok(())
+}
+
+type FlatLayers = x::Image<x::Layers<AnyChannels<FlatSamples>>>;
+
+fn read_flat(reader: impl Read + Seek, path: &Path) -> Result<FlatLayers, FilmError> {
+    x::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(reader)
+        .map_err(|e| exr_error(e, path))
+}
+
+fn decode(reader: impl Read + Seek, path: &Path, prefix: &str) -> Result<Image, FilmError> {
+    let exr = read_flat(reader, path)?;
+    let prefix = if prefix.is_empty() {
+        String::new()
+    } else {
+        format!("{prefix}.")
+    };
+    exr.layer_data
+        .iter()
+        .find_map(|layer| rgb_of_layer(layer, &prefix))
+        .ok_or_else(|| FilmError::NoRgb(no_rgb_path(path, &prefix)))
+}
+
+/// `None` if the part lacks any of the channels or one is subsampled.
+fn rgb_of_layer(layer: &Layer<AnyChannels<FlatSamples>>, prefix: &str) -> Option<Image> {
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let channel = |c: &str| {
+        let name = format!("{prefix}{c}");
+        let ch = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|ch| ch.name.eq(&name))?;
+        (ch.sample_data.len() == w * h).then_some(&ch.sample_data)
+    };
+    let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
+    let pixels = r
+        .values_as_f32()
+        .zip(g.values_as_f32())
+        .zip(b.values_as_f32())
+        .map(|((r, g), b)| Rgb::new(r, g, b))
+        .collect();
+    Some(Image::from_pixels(
+        u32::try_from(w).ok()?,
+        u32::try_from(h).ok()?,
+        pixels,
+    ))
+}
+
+// NoRgb carries a path; for a named layer say which layer was missing.
+fn no_rgb_path(path: &Path, prefix: &str) -> PathBuf {
+    if prefix.is_empty() {
+        path.to_path_buf()
+    } else {
+        PathBuf::from(format!(
+            "{} (layer {})",
+            path.display(),
+            prefix.trim_end_matches('.')
+        ))
+    }
+}
+
+fn exr_error(e: x::Error, path: &Path) -> FilmError {
+    match e {
+        x::Error::Io(source) => FilmError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => FilmError::Exr(format!("{}: {other}", path.display())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(w: u32, h: u32, k: f32) -> Image {
+        let pixels = (0..w * h)
+            .map(|i| {
+                Rgb::new(
+                    i as f32 * k,
+                    1.0 / (i as f32 + 3.0),
+                    -(i as f32) * 1e-7 + 1e20 * k,
+                )
+            })
+            .collect();
+        Image::from_pixels(w, h, pixels)
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let img = ramp(7, 5, 0.37);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rt.exr");
+        write_exr(&path, &img).unwrap();
+        let back = read_exr(&path).unwrap();
+        assert_eq!(back.size(), (7, 5));
+        assert_eq!(back, img);
+        assert_eq!(back.get(6, 0), img.get(6, 0), "row 0 stays at the top");
+    }
+
+    #[test]
+    fn encode_decode_in_memory() {
+        let img = ramp(3, 4, 2.5);
+        let bytes = encode_exr(&img).unwrap();
+        assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic number");
+        assert_eq!(decode_exr(&bytes).unwrap(), img);
+    }
+
+    #[test]
+    fn layered_file_round_trip() {
+        let base = ramp(4, 3, 1.0);
+        let albedo = ramp(4, 3, 0.5);
+        let normal = ramp(4, 3, -0.25);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("layers.exr");
+        write_exr_layers(&path, &base, &[("albedo", &albedo), ("normal", &normal)]).unwrap();
+        assert_eq!(read_exr(&path).unwrap(), base);
+        assert_eq!(read_exr_layer(&path, "albedo").unwrap(), albedo);
+        assert_eq!(read_exr_layer(&path, "normal").unwrap(), normal);
+        let err = read_exr_layer(&path, "variance").unwrap_err();
+        assert!(matches!(err, FilmError::NoRgb(_)));
+        assert!(err.to_string().contains("layers.exr (layer variance)"));
+    }
+
+    #[test]
+    fn layer_names_are_prefixed_channels() {
+        let base = Image::new(2, 2);
+        let bytes = encode_exr_layers(&base, &[("albedo", &base)]).unwrap();
+        let exr = read_flat(Cursor::new(bytes), Path::new(MEMORY)).unwrap();
+        let names: Vec<String> = exr.layer_data[0]
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        assert_eq!(names, ["B", "G", "R", "albedo.B", "albedo.G", "albedo.R"]);
+    }
+
+    #[test]
+    fn bad_layers_are_errors() {
+        let base = Image::new(2, 2);
+        let small = Image::new(1, 2);
+        let mismatch = encode_exr_layers(&base, &[("albedo", &small)]).unwrap_err();
+        assert!(matches!(
+            mismatch,
+            FilmError::SizeMismatch {
+                a: (2, 2),
+                b: (1, 2)
+            }
+        ));
+        let dup = encode_exr_layers(&base, &[("a", &base), ("a", &base)]).unwrap_err();
+        assert!(dup.to_string().contains("duplicate"));
+        assert!(encode_exr_layers(&base, &[("", &base)]).is_err());
+        assert!(encode_exr_layers(&base, &[("albédo✓", &base)]).is_err());
+    }
+
+    #[test]
+    fn reads_f16_rgba_and_rejects_missing_rgb() {
+        use x::f16;
+        let size = (2usize, 1usize);
+        let rgba = |n: &str, v: [f32; 2]| {
+            AnyChannel::new(
+                n,
+                FlatSamples::F16(v.iter().map(|&v| f16::from_f32(v)).collect()),
+            )
+        };
+        let chans = vec![
+            rgba("A", [1.0, 1.0]),
+            rgba("B", [0.25, 4.0]),
+            rgba("G", [0.5, 2.0]),
+            rgba("R", [1.5, 0.125]),
+        ];
+        let layer = Layer::new(
+            size,
+            LayerAttributes::default(),
+            ENCODING,
+            AnyChannels::sort(SmallVec::from_vec(chans)),
+        );
+        let mut bytes = Cursor::new(Vec::new());
+        x::Image::from_layer(layer)
+            .write()
+            .to_buffered(&mut bytes)
+            .unwrap();
+        let img = decode_exr(bytes.get_ref()).unwrap();
+        assert_eq!(
+            img.pixels(),
+            &[Rgb::new(1.5, 0.5, 0.25), Rgb::new(0.125, 2.0, 4.0)]
+        );
+
+        let only_y = vec![AnyChannel::new("Y", FlatSamples::F32(vec![1.0, 2.0]))];
+        let layer = Layer::new(
+            size,
+            LayerAttributes::default(),
+            ENCODING,
+            AnyChannels::sort(SmallVec::from_vec(only_y)),
+        );
+        let mut bytes = Cursor::new(Vec::new());
+        x::Image::from_layer(layer)
+            .write()
+            .to_buffered(&mut bytes)
+            .unwrap();
+        assert!(matches!(
+            decode_exr(bytes.get_ref()),
+            Err(FilmError::NoRgb(_))
+        ));
+    }
+
+    #[test]
+    fn read_errors_name_the_file() {
+        let missing = read_exr("/no/such/dir/missing.exr").unwrap_err();
+        assert!(matches!(missing, FilmError::Io { .. }));
+        assert!(missing.to_string().contains("/no/such/dir/missing.exr"));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("garbage.exr");
+        std::fs::write(&path, b"not an exr file at all").unwrap();
+        let garbage = read_exr(&path).unwrap_err();
+        assert!(garbage.to_string().contains("garbage.exr"), "{garbage}");
+    }
+}

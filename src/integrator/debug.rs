@@ -1,0 +1,37 @@
+//! Debug views: shading normals and albedo at the first visible surface.
+
+use super::pixels::render_pixels;
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::material::Material;
+use crate::math::Rgb;
+use crate::scene::Scene;
+
+pub enum DebugIntegrator {
+    Normals,
+    Albedo,
+}
+
+impl Integrator for DebugIntegrator {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        render_pixels(scene, seed, iteration, film, |mut ray, _, stats| {
+            // Null boundaries are not surfaces: look through them.
+            for _ in 0..64 {
+                let Some(it) = scene.intersect(&ray) else {
+                    return Rgb::ZERO;
+                };
+                let m = scene.material(&it);
+                if matches!(m, Material::Null) {
+                    ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                    stats.rays += 1;
+                    continue;
+                }
+                return match self {
+                    DebugIntegrator::Normals => (it.ns + Rgb::ONE) * 0.5,
+                    DebugIntegrator::Albedo => m.albedo(),
+                };
+            }
+            Rgb::ZERO
+        })
+    }
+}

@@ -1,0 +1,61 @@
+//! Running a range of progressive iterations with a halting rule, for the CLI, the
+//! benchmarks and the tests (the server schedules iterations itself).
+
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::scene::Scene;
+use std::time::{Duration, Instant};
+
+/// When to stop: whichever limit is reached first (at least one iteration runs).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Halt {
+    pub iterations: Option<u64>,
+    pub time: Option<Duration>,
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderOutcome {
+    pub film: Film,
+    pub iterations: u64,
+    pub elapsed: Duration,
+    pub stats: RenderStats,
+}
+
+/// Runs iterations `first..` until `halt`; `progress(done, elapsed)` is called after each.
+pub fn render(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    seed: u64,
+    halt: Halt,
+    mut progress: impl FnMut(u64, Duration),
+) -> RenderOutcome {
+    let mut film = Film::new(scene.width(), scene.height());
+    let mut stats = RenderStats::default();
+    let start = Instant::now();
+    let mut i = 0u64;
+    loop {
+        stats += integrator.iterate(scene, seed, i, &mut film);
+        i += 1;
+        let elapsed = start.elapsed();
+        progress(i, elapsed);
+        let by_count = halt.iterations.is_some_and(|n| i >= n);
+        let by_time = halt.time.is_some_and(|t| elapsed >= t);
+        let unbounded = halt.iterations.is_none() && halt.time.is_none();
+        if by_count || by_time || unbounded {
+            break;
+        }
+    }
+    RenderOutcome {
+        film,
+        iterations: i,
+        elapsed: start.elapsed(),
+        stats,
+    }
+}
+
+impl RenderOutcome {
+    /// The mean of all iterations.
+    pub fn image(&self) -> crate::film::Image {
+        self.film.to_image(1.0 / self.iterations.max(1) as f64)
+    }
+}

@@ -1,0 +1,176 @@
+//! Light-transport algorithms. Each is one module with its settings (serde, tagged by
+//! `algorithm`) and its kernel; this file is the registry and the progressive driver.
+//!
+//! An iteration is the unit of work (one camera sample per pixel, or one light pass);
+//! iteration i depends only on (scene, settings, seed, i), so iterations can run
+//! anywhere, in any order, and be summed. The image is sum / iterations.
+
+mod debug;
+pub mod driver;
+mod pixels;
+pub mod pt;
+
+use crate::film::Film;
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Work counters of one or more iterations.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderStats {
+    /// Closest-hit rays traced.
+    pub rays: u64,
+    /// Shadow (any-hit) rays traced.
+    pub shadow_rays: u64,
+    /// Camera samples (or light paths) taken.
+    pub samples: u64,
+}
+
+impl std::ops::AddAssign for RenderStats {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.shadow_rays += o.shadow_rays;
+        self.samples += o.samples;
+    }
+}
+
+/// Thread-shared counters, added to once per tile.
+#[derive(Default)]
+pub struct Counters {
+    rays: AtomicU64,
+    shadow_rays: AtomicU64,
+    samples: AtomicU64,
+}
+
+impl Counters {
+    pub fn add(&self, s: &RenderStats) {
+        self.rays.fetch_add(s.rays, Ordering::Relaxed);
+        self.shadow_rays.fetch_add(s.shadow_rays, Ordering::Relaxed);
+        self.samples.fetch_add(s.samples, Ordering::Relaxed);
+    }
+
+    pub fn get(&self) -> RenderStats {
+        RenderStats {
+            rays: self.rays.load(Ordering::Relaxed),
+            shadow_rays: self.shadow_rays.load(Ordering::Relaxed),
+            samples: self.samples.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// A progressive algorithm. Implementations are pure functions of their inputs.
+pub trait Integrator: Send + Sync {
+    /// Adds iteration `iteration` of a job with `seed` into `film`.
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats;
+}
+
+/// Every algorithm's settings, tagged by `algorithm`. Unknown fields are errors.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "algorithm", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Settings {
+    /// Unidirectional path tracing with next-event estimation and MIS.
+    Pt(pt::PtSettings),
+    /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
+    Normals,
+    /// Debug: the material's reflectance at the first hit.
+    Albedo,
+}
+
+/// Names accepted for `algorithm`.
+pub const ALGORITHMS: &[&str] = &["pt", "normals", "albedo"];
+
+#[derive(Debug, thiserror::Error)]
+pub enum SettingsError {
+    #[error("unknown algorithm \"{0}\" (known: {list})", list = ALGORITHMS.join(", "))]
+    UnknownAlgorithm(String),
+    #[error("integrator settings: {0}")]
+    Invalid(String),
+}
+
+impl Settings {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Settings::Pt(_) => "pt",
+            Settings::Normals => "normals",
+            Settings::Albedo => "albedo",
+        }
+    }
+
+    /// Settings for `algorithm`: the scene's defaults when they name the same
+    /// algorithm, then `overrides` (a JSON object of parameters) on top.
+    pub fn resolve(
+        algorithm: Option<&str>,
+        scene_default: Option<&serde_json::Value>,
+        overrides: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Settings, SettingsError> {
+        let scene_alg = scene_default
+            .and_then(|v| v.get("algorithm"))
+            .and_then(|a| a.as_str());
+        let alg = algorithm.or(scene_alg).unwrap_or("pt");
+        if !ALGORITHMS.contains(&alg) {
+            return Err(SettingsError::UnknownAlgorithm(alg.to_string()));
+        }
+        let mut obj = serde_json::Map::new();
+        if scene_alg == Some(alg) {
+            if let Some(serde_json::Value::Object(m)) = scene_default {
+                obj.extend(m.clone());
+            }
+        }
+        obj.extend(overrides.clone());
+        obj.insert("algorithm".into(), alg.into());
+        let settings: Settings = serde_json::from_value(serde_json::Value::Object(obj))
+            .map_err(|e| SettingsError::Invalid(e.to_string()))?;
+        settings.validate()?;
+        Ok(settings)
+    }
+
+    fn validate(&self) -> Result<(), SettingsError> {
+        match self {
+            Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
+            _ => Ok(()),
+        }
+    }
+
+    pub fn build(&self) -> Box<dyn Integrator> {
+        match self {
+            Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
+            Settings::Normals => Box::new(debug::DebugIntegrator::Normals),
+            Settings::Albedo => Box::new(debug::DebugIntegrator::Albedo),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_round_trip_and_reject_unknown_fields() {
+        let s = Settings::resolve(Some("pt"), None, &serde_json::Map::new()).unwrap();
+        let back: Settings = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        assert_eq!(s, back);
+        let mut bad = serde_json::Map::new();
+        bad.insert("max_dept".into(), 3.into());
+        let err = Settings::resolve(Some("pt"), None, &bad).unwrap_err();
+        assert!(err.to_string().contains("max_dept"), "{err}");
+        assert!(matches!(
+            Settings::resolve(Some("vcmm"), None, &serde_json::Map::new()),
+            Err(SettingsError::UnknownAlgorithm(_))
+        ));
+    }
+
+    #[test]
+    fn scene_defaults_apply_only_to_their_algorithm() {
+        let scene = serde_json::json!({"algorithm": "pt", "max_depth": 7});
+        let s = Settings::resolve(None, Some(&scene), &serde_json::Map::new()).unwrap();
+        assert_eq!(
+            s,
+            Settings::Pt(pt::PtSettings {
+                max_depth: 7,
+                ..Default::default()
+            })
+        );
+        let s = Settings::resolve(Some("normals"), Some(&scene), &serde_json::Map::new()).unwrap();
+        assert_eq!(s, Settings::Normals);
+    }
+}

@@ -1,0 +1,206 @@
+//! Path tracing with next-event estimation and BSDF sampling combined by multiple
+//! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
+//! an emitter reached after k scattering events counts when k <= max_depth - 1.
+
+use super::pixels::render_pixels;
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::material::{Material, Mode};
+use crate::math::{balance_heuristic, max_component, power_heuristic, Frame, Rgb, Rng, Vec3};
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Heuristic {
+    #[default]
+    Power,
+    Balance,
+}
+
+/// Path tracer parameters.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path, in Mitsuba's sense (1 = emitters seen directly) |
+/// | `rr_depth` | 5 | scattering events before Russian roulette starts |
+/// | `heuristic` | `power` | MIS weights: `power` (beta = 2) or `balance` |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct PtSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub heuristic: Heuristic,
+}
+
+impl Default for PtSettings {
+    fn default() -> Self {
+        PtSettings {
+            max_depth: 64,
+            rr_depth: 5,
+            heuristic: Heuristic::Power,
+        }
+    }
+}
+
+impl PtSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+pub struct PathTracer {
+    s: PtSettings,
+}
+
+impl PathTracer {
+    pub fn new(s: PtSettings) -> Self {
+        PathTracer { s }
+    }
+
+    #[inline]
+    fn mis(&self, a: f32, b: f32) -> f32 {
+        match self.s.heuristic {
+            Heuristic::Power => power_heuristic(a, b),
+            Heuristic::Balance => balance_heuristic(a, b),
+        }
+    }
+
+    /// Next-event estimation at a non-delta vertex: one light, one shadow ray.
+    #[inline]
+    fn direct(
+        &self,
+        scene: &Scene,
+        it: &Interaction,
+        frame: &Frame,
+        wo: Vec3,
+        m: &Material,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+        let u = rng.next_2d();
+        let Some(ls) = scene.lights[li].sample_li(it.p, u) else {
+            return Rgb::ZERO;
+        };
+        let wi = frame.to_local(ls.wi);
+        // Light arriving from behind the geometric surface would leak through it.
+        if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) {
+            return Rgb::ZERO;
+        }
+        let f = m.eval(wo, wi, Mode::Radiance);
+        if f == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let ray = if ls.dist.is_finite() {
+            spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+        } else {
+            spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+        };
+        stats.shadow_rays += 1;
+        if !scene.visible(&ray) {
+            return Rgb::ZERO;
+        }
+        let pdf_light = sel_pdf * ls.pdf;
+        let w = if ls.delta {
+            1.0
+        } else {
+            self.mis(pdf_light, m.pdf(wo, wi))
+        };
+        f * ls.li * (w / pdf_light)
+    }
+
+    /// Radiance along one camera ray.
+    fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32; // scattering events so far
+        let mut specular = true; // the last event was a delta lobe (or the camera)
+        let mut pdf_bsdf = 0.0f32;
+        let mut prev_p = ray.o;
+        let mut null_crossings = 0u32;
+        loop {
+            let Some(it) = scene.intersect(&ray) else {
+                if !scene.env_lights.is_empty() {
+                    let le = scene.env_radiance(ray.d);
+                    let w = if specular {
+                        1.0
+                    } else {
+                        self.mis(pdf_bsdf, scene.env_pdf(ray.d))
+                    };
+                    l += beta * le * w;
+                }
+                break;
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                // An index-matched boundary is not a scattering event.
+                null_crossings += 1;
+                if null_crossings > 256 {
+                    break;
+                }
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                stats.rays += 1;
+                continue;
+            }
+            if let Some((li, area)) = scene.area_light(&it) {
+                let le = area.le(it.ng, -ray.d);
+                if le != Rgb::ZERO {
+                    let w = if specular {
+                        1.0
+                    } else {
+                        let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
+                        self.mis(pdf_bsdf, pdf_l)
+                    };
+                    l += beta * le * w;
+                }
+            }
+            if depth + 1 >= self.s.max_depth {
+                break;
+            }
+            let frame = Frame::from_normal(it.ns);
+            let wo = frame.to_local(-ray.d);
+            if !m.is_delta() && !scene.lights.is_empty() {
+                l += beta * self.direct(scene, &it, &frame, wo, m, rng, stats);
+            }
+            let u_lobe = rng.next_f32();
+            let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+                break;
+            };
+            let wi = frame.to_world(s.wi);
+            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+                break;
+            }
+            beta *= s.weight;
+            specular = s.delta;
+            pdf_bsdf = s.pdf;
+            prev_p = it.p;
+            depth += 1;
+            if depth >= self.s.rr_depth {
+                let q = max_component(beta).min(0.95);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            if beta == Rgb::ZERO {
+                break;
+            }
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            stats.rays += 1;
+        }
+        l
+    }
+}
+
+impl Integrator for PathTracer {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        render_pixels(scene, seed, iteration, film, |ray, rng, stats| {
+            self.li(scene, ray, rng, stats)
+        })
+    }
+}

@@ -1,0 +1,11 @@
+//! caustic: progressive, physically based global illumination, as a library, a CLI and
+//! a render server.
+
+pub mod camera;
+pub mod film;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod scene;

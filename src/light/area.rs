@@ -1,0 +1,189 @@
+use super::{Distribution1D, LightSample};
+use crate::geometry::Prim;
+use crate::math::warp::{square_to_disk, square_to_triangle};
+use crate::math::{safe_sqrt, Frame, Rgb, Vec2, Vec3, PI};
+
+/// Lambertian emission from a shape, on the side its (possibly flipped) normal points
+/// to, or both sides when `two_sided`.
+#[derive(Clone, Debug)]
+pub struct AreaLight {
+    pub shape: u32,
+    pub radiance: Rgb,
+    pub two_sided: bool,
+    /// World-space primitives of the shape.
+    prims: Vec<Prim>,
+    /// -1 when the shape's normals are flipped.
+    normal_sign: f32,
+    by_area: Distribution1D,
+    area: f32,
+}
+
+impl AreaLight {
+    pub fn new(shape: u32, prims: Vec<Prim>, flip: bool, radiance: Rgb, two_sided: bool) -> Self {
+        let areas: Vec<f32> = prims.iter().map(Prim::area).collect();
+        let area = areas.iter().sum();
+        AreaLight {
+            shape,
+            radiance,
+            two_sided,
+            by_area: Distribution1D::new(&areas),
+            prims,
+            normal_sign: if flip { -1.0 } else { 1.0 },
+            area,
+        }
+    }
+
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+
+    /// Radiance leaving the light at a point with front normal `n` towards `w`.
+    #[inline]
+    pub fn le(&self, n: Vec3, w: Vec3) -> Rgb {
+        if self.two_sided || n.dot(w) > 0.0 {
+            self.radiance
+        } else {
+            Rgb::ZERO
+        }
+    }
+
+    pub fn power(&self) -> Rgb {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        self.radiance * (PI * self.area * sides)
+    }
+
+    /// The analytic sphere to sample by solid angle, when the light is one and `p` is
+    /// outside it.
+    #[inline]
+    fn visible_sphere(&self, p: Vec3) -> Option<(Vec3, f32)> {
+        match self.prims.as_slice() {
+            [Prim::Sphere { c, r }] if (p - Vec3::from(*c)).length_squared() > r * r * 1.0001 => {
+                Some(((*c).into(), *r))
+            }
+            _ => None,
+        }
+    }
+
+    /// A uniformly distributed point on the light: (point, front normal).
+    #[inline]
+    pub fn sample_area(&self, u_prim: f32, u: Vec2) -> (Vec3, Vec3) {
+        let (i, _, _) = self.by_area.sample_discrete(u_prim);
+        self.point_on(i, u)
+    }
+
+    #[inline]
+    fn point_on(&self, i: usize, u: Vec2) -> (Vec3, Vec3) {
+        let (p, n) = match self.prims[i] {
+            Prim::Tri { p0, e1, e2 } => {
+                let b = square_to_triangle(u);
+                (p0 + e1 * b.x + e2 * b.y, e1.cross(e2).normalize())
+            }
+            Prim::Sphere { c, r } => {
+                let d = Vec3::from(crate::math::warp::square_to_uniform_sphere(u));
+                (c + r * glam::Vec3A::from(d), d.into())
+            }
+            Prim::Disk { c, u: du, v: dv } => {
+                let q = square_to_disk(u);
+                (c + du * q.x + dv * q.y, du.cross(dv).normalize())
+            }
+        };
+        (p.into(), Vec3::from(n) * self.normal_sign)
+    }
+
+    #[inline]
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        if let Some((c, r)) = self.visible_sphere(p) {
+            return self.sample_sphere_cone(p, c, r, u);
+        }
+        // Reuse the first dimension to pick the primitive, remapped, so each sample
+        // costs two random numbers.
+        let (i, _, ux) = self.by_area.sample_discrete(u.x);
+        let (pl, n) = self.point_on(i, Vec2::new(ux, u.y));
+        let d = pl - p;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        if dist <= 0.0 {
+            return None;
+        }
+        let wi = d / dist;
+        let cos_l = n.dot(-wi);
+        let li = self.le(n, -wi);
+        if cos_l.abs() <= 0.0 || li == Rgb::ZERO {
+            return None;
+        }
+        Some(LightSample {
+            p: pl,
+            n,
+            wi,
+            dist,
+            li,
+            pdf: dist2 / (cos_l.abs() * self.area),
+            delta: false,
+        })
+    }
+
+    /// Uniform sampling of the cone the sphere subtends (pbrt-v4, sec. 6.2.4, with its
+    /// small-angle series for distant spheres).
+    fn sample_sphere_cone(&self, p: Vec3, c: Vec3, r: f32, u: Vec2) -> Option<LightSample> {
+        let to_c = c - p;
+        let dc = to_c.length();
+        let sin_max = r / dc;
+        let sin2_max = sin_max * sin_max;
+        let cos_max = safe_sqrt(1.0 - sin2_max);
+        let mut one_minus_cos_max = 1.0 - cos_max;
+        let mut cos_t = (cos_max - 1.0) * u.x + 1.0;
+        let mut sin2_t = 1.0 - cos_t * cos_t;
+        if sin2_max < 0.000_685_23 {
+            // sin^2(1.5 deg): below it, 1 - cos loses every digit.
+            sin2_t = sin2_max * u.x;
+            cos_t = (1.0 - sin2_t).sqrt();
+            one_minus_cos_max = sin2_max / 2.0;
+        }
+        // Angle alpha at the sphere's centre between the axis and the sampled point.
+        let cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
+        let sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+        let phi = 2.0 * PI * u.y;
+        let frame = Frame::from_normal(to_c / dc);
+        let w = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+        let n_out = frame.to_world(-w);
+        let pl = c + r * n_out;
+        let d = pl - p;
+        let dist = d.length();
+        let wi = d / dist;
+        let n = n_out * self.normal_sign;
+        let li = self.le(n, -wi);
+        if li == Rgb::ZERO {
+            return None;
+        }
+        Some(LightSample {
+            p: pl,
+            n,
+            wi,
+            dist,
+            li,
+            pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
+            delta: false,
+        })
+    }
+
+    /// Solid-angle density of reaching `pl` (front normal `n`) from `p`.
+    #[inline]
+    pub fn pdf_li(&self, p: Vec3, pl: Vec3, n: Vec3) -> f32 {
+        if let Some((c, r)) = self.visible_sphere(p) {
+            let sin2_max = r * r / (c - p).length_squared();
+            let one_minus_cos_max = if sin2_max < 0.000_685_23 {
+                sin2_max / 2.0
+            } else {
+                1.0 - safe_sqrt(1.0 - sin2_max)
+            };
+            return 1.0 / (2.0 * PI * one_minus_cos_max);
+        }
+        let d = pl - p;
+        let dist2 = d.length_squared();
+        let cos_l = n.dot(d).abs() / dist2.sqrt();
+        if cos_l <= 0.0 {
+            return 0.0;
+        }
+        dist2 / (cos_l * self.area)
+    }
+}

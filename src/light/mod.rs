@@ -1,0 +1,127 @@
+//! Lights as one closed enum, plus light selection. Area lights are emitting shapes;
+//! the rest are points, spots, directional and environment lights.
+
+mod area;
+pub mod distribution;
+mod environment;
+mod point;
+mod selection;
+mod spot;
+
+pub use area::AreaLight;
+pub use distribution::{Distribution1D, Distribution2D};
+pub use environment::{EnvMap, LatLong};
+pub use point::{DirectionalLight, PointLight};
+pub use selection::LightSampler;
+pub use spot::SpotLight;
+
+use crate::math::{Rgb, Vec2, Vec3, PI};
+
+/// A sphere bounding the scene, for lights at infinity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneSphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+/// A direct-lighting sample as seen from a reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Point on the light (for lights at infinity, unused: `dist` is infinite).
+    pub p: Vec3,
+    /// Surface normal at `p` (zero for lights that are not surfaces).
+    pub n: Vec3,
+    /// Unit direction from the reference point towards the light.
+    pub wi: Vec3,
+    pub dist: f32,
+    /// Incident radiance (or intensity / d^2 for point-like lights) along `wi`.
+    pub li: Rgb,
+    /// Solid-angle density of `wi` for this light (1 for delta lights).
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+#[derive(Clone, Debug)]
+pub enum Light {
+    Area(AreaLight),
+    Point(PointLight),
+    Spot(SpotLight),
+    Directional(DirectionalLight),
+    Constant { radiance: Rgb },
+    EnvMap(EnvMap),
+}
+
+impl Light {
+    /// Samples a direction towards the light from `p`.
+    #[inline]
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Light::Area(l) => l.sample_li(p, u),
+            Light::Point(l) => l.sample_li(p),
+            Light::Spot(l) => l.sample_li(p),
+            Light::Directional(l) => l.sample_li(),
+            Light::Constant { radiance } => {
+                let wi = crate::math::warp::square_to_uniform_sphere(u);
+                Some(LightSample {
+                    p: Vec3::ZERO,
+                    n: Vec3::ZERO,
+                    wi,
+                    dist: f32::INFINITY,
+                    li: *radiance,
+                    pdf: crate::math::warp::UNIFORM_SPHERE_PDF,
+                    delta: false,
+                })
+            }
+            Light::EnvMap(l) => l.sample_li(u),
+        }
+    }
+
+    /// Solid-angle density with which `sample_li` from `p` picks direction `wi` that
+    /// reaches the light at `p_light` with normal `n_light` (unused for infinite lights).
+    #[inline]
+    pub fn pdf_li(&self, p: Vec3, wi: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+        match self {
+            Light::Area(l) => l.pdf_li(p, p_light, n_light),
+            Light::Constant { .. } => crate::math::warp::UNIFORM_SPHERE_PDF,
+            Light::EnvMap(l) => l.pdf_li(wi),
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_) => 0.0,
+        }
+    }
+
+    /// Radiance arriving along a ray that escapes the scene in direction `d`.
+    #[inline]
+    pub fn le_escaped(&self, d: Vec3) -> Rgb {
+        match self {
+            Light::Constant { radiance } => *radiance,
+            Light::EnvMap(l) => l.eval(d),
+            _ => Rgb::ZERO,
+        }
+    }
+
+    pub fn is_infinite(&self) -> bool {
+        matches!(
+            self,
+            Light::Constant { .. } | Light::EnvMap(_) | Light::Directional(_)
+        )
+    }
+
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_)
+        )
+    }
+
+    /// Emitted power (W per channel), for power-proportional light selection.
+    pub fn power(&self, sphere: &SceneSphere) -> Rgb {
+        let disk = PI * sphere.radius * sphere.radius;
+        match self {
+            Light::Area(l) => l.power(),
+            Light::Point(l) => 4.0 * PI * l.intensity,
+            Light::Spot(l) => l.power(),
+            Light::Directional(l) => l.irradiance * disk,
+            Light::Constant { radiance } => *radiance * (4.0 * PI * disk),
+            Light::EnvMap(l) => l.mean_radiance() * (4.0 * PI * disk),
+        }
+    }
+}

@@ -1,0 +1,314 @@
+//! The caustic command line: render, diff and bench.
+
+use anyhow::{bail, Context, Result};
+use caustic::film::{self, Image};
+use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::{RenderStats, Settings};
+use caustic::scene::Scene;
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+#[derive(Parser)]
+#[command(
+    name = "caustic",
+    version,
+    about = "Progressive physically based rendering"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to EXR (and optionally PNG).
+    Render(RenderArgs),
+    /// Compare two EXR images: RMSE and relative MSE, optional false-colour PNG.
+    Diff {
+        a: PathBuf,
+        /// The reference.
+        b: PathBuf,
+        /// Write a false-colour difference image here.
+        #[arg(long)]
+        png: Option<PathBuf>,
+    },
+    /// Measure speed: time per iteration, samples/s and rays/s (median of repeats).
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    scene: PathBuf,
+    /// Algorithm (default: the scene's, else pt).
+    #[arg(long, short)]
+    algorithm: Option<String>,
+    /// Iterations (samples per pixel for pt).
+    #[arg(long, conflicts_with = "time")]
+    spp: Option<u64>,
+    /// Wall-clock budget in seconds.
+    #[arg(long)]
+    time: Option<f64>,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Algorithm parameter, repeatable: --param max_depth=8
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
+    /// Output EXR (linear float32 RGB).
+    #[arg(short, long, default_value = "out.exr")]
+    output: PathBuf,
+    /// Also write an sRGB PNG here.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0)]
+    exposure: f32,
+    /// Add albedo and normal layers to the EXR.
+    #[arg(long)]
+    exr_layers: bool,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    scene: PathBuf,
+    /// Comma-separated algorithms.
+    #[arg(long, default_value = "pt")]
+    algorithms: String,
+    /// Iterations per timed run.
+    #[arg(long, default_value_t = 16)]
+    spp: u64,
+    /// Timed runs per algorithm; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    repeat: usize,
+    #[arg(long)]
+    threads: Option<usize>,
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    match Cli::parse().command {
+        Command::Render(a) => with_threads(a.threads, || render(&a)),
+        Command::Diff { a, b, png } => diff(&a, &b, png.as_deref()),
+        Command::Bench(a) => with_threads(a.threads, || bench(&a)),
+    }
+}
+
+fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+    match threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .expect("thread pool")
+            .install(f),
+        None => f(),
+    }
+}
+
+/// `key=value` pairs; values parse as JSON when they can, else as strings.
+fn parse_params(params: &[String]) -> Result<serde_json::Map<String, serde_json::Value>> {
+    let mut m = serde_json::Map::new();
+    for p in params {
+        let Some((k, v)) = p.split_once('=') else {
+            bail!("--param {p}: expected KEY=VALUE");
+        };
+        let val = serde_json::from_str(v).unwrap_or_else(|_| serde_json::Value::String(v.into()));
+        m.insert(k.trim().to_string(), val);
+    }
+    Ok(m)
+}
+
+fn load_scene(path: &Path) -> Result<Scene> {
+    let t = Instant::now();
+    let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let s = &scene.stats;
+    eprintln!(
+        "scene: {} triangles, {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",
+        s.triangles,
+        s.spheres,
+        s.disks,
+        scene.lights.len(),
+        s.bvh_build.as_secs_f64() * 1e3,
+        s.bvh_bytes as f64 / 1024.0,
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    if s.degenerate_dropped > 0 {
+        eprintln!(
+            "warning: {} degenerate triangles dropped",
+            s.degenerate_dropped
+        );
+    }
+    Ok(scene)
+}
+
+fn render(a: &RenderArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let settings = Settings::resolve(
+        a.algorithm.as_deref(),
+        scene.integrator.as_ref(),
+        &parse_params(&a.params)?,
+    )?;
+    let halt = match (a.spp, a.time) {
+        (None, None) => Halt {
+            iterations: Some(16),
+            time: None,
+        },
+        (spp, time) => Halt {
+            iterations: spp,
+            time: time.map(Duration::from_secs_f64),
+        },
+    };
+    let integrator = settings.build();
+    let bar = progress_bar(halt);
+    let out = driver::render(&scene, integrator.as_ref(), a.seed, halt, |i, el| {
+        match halt.iterations {
+            Some(_) => bar.set_position(i),
+            None => bar.set_position(el.as_millis() as u64),
+        }
+        bar.set_message(format!("{i} it"));
+    });
+    bar.finish_and_clear();
+    let image = out.image();
+    write_outputs(a, &scene, &image)?;
+    print_summary(
+        settings.name(),
+        out.iterations,
+        out.elapsed,
+        &out.stats,
+        out.film.dropped(),
+    );
+    Ok(())
+}
+
+fn progress_bar(halt: Halt) -> ProgressBar {
+    let (len, unit) = match (halt.iterations, halt.time) {
+        (Some(n), _) => (n, "it"),
+        (None, Some(t)) => (t.as_millis() as u64, "ms"),
+        _ => (1, "it"),
+    };
+    let bar = ProgressBar::new(len);
+    let style = format!("{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}} < {{eta}}]");
+    bar.set_style(ProgressStyle::with_template(&style).expect("template"));
+    bar
+}
+
+fn write_outputs(a: &RenderArgs, scene: &Scene, image: &Image) -> Result<()> {
+    if a.exr_layers {
+        let aov = |s: Settings| {
+            driver::render(
+                scene,
+                s.build().as_ref(),
+                a.seed,
+                Halt {
+                    iterations: Some(4),
+                    time: None,
+                },
+                |_, _| {},
+            )
+            .image()
+        };
+        let (albedo, normal) = (aov(Settings::Albedo), aov(Settings::Normals));
+        film::write_exr_layers(
+            &a.output,
+            image,
+            &[("albedo", &albedo), ("normal", &normal)],
+        )?;
+    } else {
+        film::write_exr(&a.output, image)?;
+    }
+    eprintln!("wrote {}", a.output.display());
+    if let Some(p) = &a.png {
+        film::write_png(p, image, a.exposure)?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats, dropped: u64) {
+    let secs = elapsed.as_secs_f64().max(1e-9);
+    println!(
+        "{alg}: {iterations} iterations in {secs:.3} s ({:.2} ms/iteration), {:.3} M samples/s, {:.2} M rays/s ({} closest + {} shadow), {dropped} dropped samples",
+        secs * 1e3 / iterations.max(1) as f64,
+        s.samples as f64 / secs / 1e6,
+        (s.rays + s.shadow_rays) as f64 / secs / 1e6,
+        s.rays,
+        s.shadow_rays,
+    );
+}
+
+fn diff(a: &Path, b: &Path, png: Option<&Path>) -> Result<()> {
+    let ia = film::read_exr(a)?;
+    let ib = film::read_exr(b)?;
+    let m = film::compare(&ia, &ib)?;
+    println!("rmse {:.6e}\nrel_mse {:.6e}", m.rmse, m.rel_mse);
+    if let Some(p) = png {
+        let d = film::false_colour_diff(&ia, &ib)?;
+        film::write_png(p, &d, 0.0).with_context(|| format!("writing {}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn bench(a: &BenchArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let params = parse_params(&a.params)?;
+    println!(
+        "{:<10} {:>12} {:>14} {:>12} {:>10}",
+        "algorithm", "ms/iteration", "M samples/s", "M rays/s", "dropped"
+    );
+    for alg in a.algorithms.split(',').map(str::trim) {
+        let settings = Settings::resolve(Some(alg), scene.integrator.as_ref(), &params)?;
+        let integrator = settings.build();
+        let halt = Halt {
+            iterations: Some(a.spp),
+            time: None,
+        };
+        // One untimed warm-up run, then the timed repeats.
+        driver::render(
+            &scene,
+            integrator.as_ref(),
+            1,
+            Halt {
+                iterations: Some(1),
+                time: None,
+            },
+            |_, _| {},
+        );
+        let mut ms = Vec::new();
+        let mut sps = Vec::new();
+        let mut rps = Vec::new();
+        let mut dropped = 0;
+        for r in 0..a.repeat.max(1) {
+            let out = driver::render(&scene, integrator.as_ref(), r as u64, halt, |_, _| {});
+            let secs = out.elapsed.as_secs_f64();
+            ms.push(secs * 1e3 / out.iterations as f64);
+            sps.push(out.stats.samples as f64 / secs / 1e6);
+            rps.push((out.stats.rays + out.stats.shadow_rays) as f64 / secs / 1e6);
+            dropped += out.film.dropped();
+        }
+        println!(
+            "{:<10} {:>12.2} {:>14.3} {:>12.2} {:>10}",
+            alg,
+            median(ms),
+            median(sps),
+            median(rps),
+            dropped
+        );
+    }
+    Ok(())
+}

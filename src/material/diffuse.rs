@@ -1,0 +1,46 @@
+use crate::math::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::math::{Rgb, Vec2, Vec3, INV_PI};
+
+use super::BsdfSample;
+
+/// Lambertian reflection, one-sided: zero unless both directions are above the surface.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diffuse {
+    pub reflectance: Rgb,
+    pub two_sided: bool,
+}
+
+impl Diffuse {
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.reflectance * (INV_PI * wi.z)
+    }
+
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(wi.z)
+    }
+
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wi = square_to_cosine_hemisphere(u);
+        if wi.z <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.reflectance,
+            pdf: cosine_hemisphere_pdf(wi.z),
+            delta: false,
+        })
+    }
+}

@@ -1,0 +1,25 @@
+use crate::math::{Rgb, Vec3};
+
+use super::BsdfSample;
+
+/// Perfect specular reflection.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mirror {
+    pub reflectance: Rgb,
+    pub two_sided: bool,
+}
+
+impl Mirror {
+    #[inline]
+    pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi: Vec3::new(-wo.x, -wo.y, wo.z),
+            weight: self.reflectance,
+            pdf: 1.0,
+            delta: true,
+        })
+    }
+}

@@ -1,0 +1,165 @@
+//! BSDFs as one closed enum. Every routine works in the local shading frame (+z is the
+//! surface normal on the shape's front side); `wo` points towards where the path came
+//! from, `wi` towards where it goes next, both away from the surface. `eval` returns
+//! f(wo, wi) |cos theta_i| (the cosine included, as in Mitsuba) and `sample` returns
+//! that value divided by the pdf.
+
+mod conductor;
+mod dielectric;
+mod diffuse;
+pub mod fresnel;
+mod ggx;
+mod mirror;
+mod phong;
+
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
+pub use diffuse::Diffuse;
+pub use mirror::Mirror;
+pub use phong::Phong;
+
+use crate::math::{Rgb, Vec2, Vec3};
+
+/// Which quantity flows along the path: radiance (camera paths) or importance (light
+/// paths). Only non-symmetric BSDFs care (refraction scales radiance by 1/eta^2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Radiance,
+    Importance,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// Sampled direction, local frame.
+    pub wi: Vec3,
+    /// f |cos theta_i| / pdf.
+    pub weight: Rgb,
+    /// Solid-angle density of `wi` (for delta lobes, the discrete probability of the
+    /// chosen lobe, which MIS never compares with a continuous pdf).
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    Diffuse(Diffuse),
+    Phong(Phong),
+    Mirror(Mirror),
+    Dielectric(Dielectric),
+    Conductor(Conductor),
+    /// Index-matched boundary: not a scattering event at all.
+    Null,
+}
+
+/// Two-sided materials see the back face as a mirrored copy of the front.
+#[inline]
+fn orient(two_sided: bool, wo: Vec3, wi: Vec3) -> (Vec3, Vec3, bool) {
+    if two_sided && wo.z < 0.0 {
+        let m = Vec3::new(1.0, 1.0, -1.0);
+        (wo * m, wi * m, true)
+    } else {
+        (wo, wi, false)
+    }
+}
+
+impl Material {
+    fn two_sided(&self) -> bool {
+        match self {
+            Material::Diffuse(m) => m.two_sided,
+            Material::Phong(m) => m.two_sided,
+            Material::Mirror(m) => m.two_sided,
+            Material::Conductor(m) => m.two_sided,
+            Material::Dielectric(_) | Material::Null => false,
+        }
+    }
+
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: Mode) -> Rgb {
+        let (wo, wi, _) = orient(self.two_sided(), wo, wi);
+        match self {
+            Material::Diffuse(m) => m.eval(wo, wi),
+            Material::Phong(m) => m.eval(wo, wi),
+            Material::Conductor(m) => m.eval(wo, wi),
+            Material::Dielectric(_) | Material::Mirror(_) | Material::Null => {
+                let _ = mode;
+                Rgb::ZERO
+            }
+        }
+    }
+
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let (wo, wi, _) = orient(self.two_sided(), wo, wi);
+        match self {
+            Material::Diffuse(m) => m.pdf(wo, wi),
+            Material::Phong(m) => m.pdf(wo, wi),
+            Material::Conductor(m) => m.pdf(wo, wi),
+            Material::Dielectric(_) | Material::Mirror(_) | Material::Null => 0.0,
+        }
+    }
+
+    /// Samples `wi` given `wo`; `u_lobe` picks a lobe, `u` the direction within it.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
+        let (wo_o, _, flipped) = orient(self.two_sided(), wo, Vec3::Z);
+        let mut s = match self {
+            Material::Diffuse(m) => m.sample(wo_o, u),
+            Material::Phong(m) => m.sample(wo_o, u_lobe, u),
+            Material::Mirror(m) => m.sample(wo_o),
+            Material::Conductor(m) => m.sample(wo_o, u),
+            Material::Dielectric(m) => m.sample(wo_o, u_lobe, mode),
+            Material::Null => None,
+        }?;
+        if flipped {
+            s.wi.z = -s.wi.z;
+        }
+        Some(s)
+    }
+
+    /// True when every lobe is a Dirac delta (no connection or merging possible).
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Material::Mirror(_) | Material::Dielectric(_) | Material::Null => true,
+            Material::Conductor(c) => c.is_smooth(),
+            Material::Diffuse(_) | Material::Phong(_) => false,
+        }
+    }
+
+    /// Hemispherical reflectance estimate, for the albedo AOV and light power.
+    pub fn albedo(&self) -> Rgb {
+        match self {
+            Material::Diffuse(m) => m.reflectance,
+            Material::Phong(m) => m.kd + m.ks,
+            Material::Mirror(m) => m.reflectance,
+            Material::Dielectric(m) => m.specular_transmittance,
+            Material::Conductor(m) => m.normal_reflectance(),
+            Material::Null => Rgb::ONE,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_sided_back_face_mirrors_front() {
+        let one = Material::Diffuse(Diffuse {
+            reflectance: Rgb::splat(0.5),
+            two_sided: false,
+        });
+        let two = Material::Diffuse(Diffuse {
+            reflectance: Rgb::splat(0.5),
+            two_sided: true,
+        });
+        let wo = Vec3::new(0.3, 0.0, -0.95).normalize();
+        let wi = Vec3::new(-0.3, 0.2, -0.9).normalize();
+        assert_eq!(one.eval(wo, wi, Mode::Radiance), Rgb::ZERO);
+        assert!(two.eval(wo, wi, Mode::Radiance).x > 0.0);
+        let s = two
+            .sample(wo, 0.5, Vec2::new(0.3, 0.7), Mode::Radiance)
+            .unwrap();
+        assert!(s.wi.z < 0.0);
+    }
+}

@@ -1,0 +1,82 @@
+use crate::math::warp::{
+    cosine_hemisphere_pdf, cosine_power_pdf, square_to_cosine_hemisphere, square_to_cosine_power,
+};
+use crate::math::{luminance, Frame, Rgb, Vec2, Vec3, INV_2PI, INV_PI};
+
+use super::BsdfSample;
+
+/// Energy-normalised modified Phong (Lafortune and Willems 1994), as in SmallVCM and the
+/// VCM thesis: f = kd / pi + ks (n + 2) / (2 pi) max(0, R(wo) . wi)^n.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Phong {
+    pub kd: Rgb,
+    pub ks: Rgb,
+    pub exponent: f32,
+    pub two_sided: bool,
+}
+
+#[inline]
+fn mirror_local(w: Vec3) -> Vec3 {
+    Vec3::new(-w.x, -w.y, w.z)
+}
+
+impl Phong {
+    /// Probability of sampling the glossy lobe: its share of the luminance.
+    #[inline]
+    fn p_glossy(&self) -> f32 {
+        let (d, s) = (luminance(self.kd), luminance(self.ks));
+        if d + s > 0.0 {
+            s / (d + s)
+        } else {
+            0.0
+        }
+    }
+
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let cos_a = mirror_local(wo).dot(wi);
+        let glossy = if cos_a > 0.0 {
+            (self.exponent + 2.0) * INV_2PI * cos_a.powf(self.exponent)
+        } else {
+            0.0
+        };
+        (self.kd * INV_PI + self.ks * glossy) * wi.z
+    }
+
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let ps = self.p_glossy();
+        let cos_a = mirror_local(wo).dot(wi);
+        (1.0 - ps) * cosine_hemisphere_pdf(wi.z) + ps * cosine_power_pdf(cos_a, self.exponent)
+    }
+
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wi = if u_lobe < self.p_glossy() {
+            let lobe = Frame::from_normal(mirror_local(wo));
+            lobe.to_world(square_to_cosine_power(u, self.exponent))
+        } else {
+            square_to_cosine_hemisphere(u)
+        };
+        // Glossy samples may fall below the surface: the BSDF is zero there.
+        let pdf = self.pdf(wo, wi);
+        if wi.z <= 0.0 || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.eval(wo, wi) / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+}

@@ -1,0 +1,106 @@
+//! Vectors (glam), colours, orthonormal frames, sample warps and the deterministic RNG.
+
+pub mod frame;
+pub mod rng;
+pub mod warp;
+
+pub use frame::Frame;
+pub use glam::{vec2, vec3, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A};
+pub use rng::Rng;
+
+/// Linear RGB radiance or reflectance: three independent channels.
+pub type Rgb = Vec3;
+
+pub const PI: f32 = std::f32::consts::PI;
+pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
+pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
+pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
+
+/// Rec. 709 luminance of a linear RGB value.
+#[inline]
+pub fn luminance(c: Rgb) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
+}
+
+#[inline]
+pub fn max_component(c: Rgb) -> f32 {
+    c.x.max(c.y).max(c.z)
+}
+
+/// Power heuristic with beta = 2, written so that it never divides by zero.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    if a + b > 0.0 {
+        a / (a + b)
+    } else {
+        0.0
+    }
+}
+
+/// Balance heuristic, safe against 0/0.
+#[inline]
+pub fn balance_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    if pdf_a + pdf_b > 0.0 {
+        pdf_a / (pdf_a + pdf_b)
+    } else {
+        0.0
+    }
+}
+
+/// Converts a solid-angle density at a point seen from distance `dist2.sqrt()` under
+/// cosine `cos` into an area density: p_A = p_w |cos| / d^2 (Veach 1997, eq. 8.10).
+#[inline]
+pub fn pdf_w_to_a(pdf_w: f32, dist2: f32, cos: f32) -> f32 {
+    pdf_w * cos.abs() / dist2
+}
+
+/// The smallest f32 greater than `v` (pbrt-v4's NextFloatUp).
+#[inline]
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == -0.0 { 0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
+    f32::from_bits(bits)
+}
+
+/// The largest f32 smaller than `v`.
+#[inline]
+pub fn next_float_down(v: f32) -> f32 {
+    if v.is_infinite() && v < 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { -0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
+    f32::from_bits(bits)
+}
+
+/// Conservative bound on the relative error of n chained f32 operations (pbrt-v4 gamma(n)).
+#[inline]
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    (n as f32 * e) / (1.0 - n as f32 * e)
+}
+
+/// Reflects `w` about `n` (both pointing away from the surface).
+#[inline]
+pub fn reflect(w: Vec3, n: Vec3) -> Vec3 {
+    2.0 * w.dot(n) * n - w
+}
+
+/// sqrt that treats tiny negative rounding as zero.
+#[inline]
+pub fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// True when every channel is finite and non-negative.
+#[inline]
+pub fn is_valid_radiance(c: Rgb) -> bool {
+    c.is_finite() && c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0
+}

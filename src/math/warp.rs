@@ -1,0 +1,108 @@
+//! Warps from the unit square to directions and points, each with its density.
+
+use super::{safe_sqrt, INV_2PI, INV_4PI, INV_PI, PI};
+use glam::{Vec2, Vec3};
+
+/// Shirley-Chiu concentric map to the unit disk (area preserving, low distortion).
+#[inline]
+pub fn square_to_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, (PI / 2.0) - (PI / 4.0) * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Cosine-weighted hemisphere about +z (Malley's method).
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk(u);
+    let z = safe_sqrt(1.0 - d.length_squared());
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * INV_PI
+}
+
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = safe_sqrt(1.0 - z * z);
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_SPHERE_PDF: f32 = INV_4PI;
+
+/// Uniform directions in the cone of half-angle acos(cos_max) about +z.
+#[inline]
+pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_t = 1.0 - u.x * (1.0 - cos_max);
+    let sin_t = safe_sqrt(1.0 - cos_t * cos_t);
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    INV_2PI / (1.0 - cos_max)
+}
+
+/// Directions about +z with density (n+1)/(2 pi) cos^n (Phong lobe).
+#[inline]
+pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3 {
+    let cos_t = u.x.powf(1.0 / (exponent + 1.0));
+    let sin_t = safe_sqrt(1.0 - cos_t * cos_t);
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+#[inline]
+pub fn cosine_power_pdf(cos_theta: f32, exponent: f32) -> f32 {
+    if cos_theta <= 0.0 {
+        0.0
+    } else {
+        (exponent + 1.0) * INV_2PI * cos_theta.powf(exponent)
+    }
+}
+
+/// Uniform barycentrics (b1, b2) on a triangle (Heitz 2019's low-distortion map).
+#[inline]
+pub fn square_to_triangle(u: Vec2) -> Vec2 {
+    let (b0, b1);
+    if u.x < u.y {
+        b0 = u.x / 2.0;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0;
+        b0 = u.x - b1;
+    }
+    Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warps_land_in_their_domains() {
+        let mut rng = crate::math::Rng::new(3, 0, 0);
+        for _ in 0..10_000 {
+            let u = rng.next_2d();
+            assert!(square_to_disk(u).length() <= 1.0 + 1e-6);
+            let h = square_to_cosine_hemisphere(u);
+            assert!(h.z >= 0.0 && (h.length() - 1.0).abs() < 1e-5);
+            let c = square_to_uniform_cone(u, 0.9);
+            assert!(c.z >= 0.9 - 1e-6);
+            let b = square_to_triangle(u);
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+        }
+    }
+}

@@ -1,0 +1,384 @@
+//! The scene file format (JSON, `"format": 1`). These serde types are the contract with
+//! users: every field is documented here and in README.md. Unknown fields are errors.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+pub type V3 = [f32; 3];
+
+/// The whole scene file.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Format version; only 1 exists.
+    pub format: u32,
+    pub camera: CameraDesc,
+    pub film: FilmDesc,
+    /// Named materials, referred to by shapes.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialDesc>,
+    /// Named participating media, referred to by shapes' `interior` / `exterior` and by
+    /// the camera's `medium`.
+    #[serde(default)]
+    pub media: BTreeMap<String, MediumDesc>,
+    #[serde(default)]
+    pub shapes: Vec<ShapeDesc>,
+    /// Lights that are not shapes (area lights are shapes with `emission`).
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+    /// How a light is picked for next-event estimation and emission sampling.
+    #[serde(default)]
+    pub light_selection: LightSelection,
+    /// Default integrator settings (`{"algorithm": "pt", ...}`); requests may override.
+    #[serde(default)]
+    pub integrator: Option<serde_json::Value>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum LightSelection {
+    /// Proportional to each light's emitted power (luminance).
+    #[default]
+    Power,
+    Uniform,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LookAt {
+    pub origin: V3,
+    pub target: V3,
+    pub up: V3,
+}
+
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FovAxis {
+    #[default]
+    X,
+    Y,
+}
+
+/// A pinhole camera, or a thin lens when `aperture_radius` > 0.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    #[serde(rename = "type", default = "default_camera_type")]
+    pub kind: String,
+    pub look_at: LookAt,
+    /// Field of view in degrees across `fov_axis`.
+    pub fov: f32,
+    #[serde(default)]
+    pub fov_axis: FovAxis,
+    /// Thin-lens aperture radius in scene units (0 = pinhole).
+    #[serde(default)]
+    pub aperture_radius: f32,
+    /// Distance to the plane in focus; defaults to |target - origin|.
+    #[serde(default)]
+    pub focus_distance: Option<f32>,
+    /// Medium the camera sits in, if any.
+    #[serde(default)]
+    pub medium: Option<String>,
+}
+
+fn default_camera_type() -> String {
+    "pinhole".into()
+}
+
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FilterDesc {
+    /// One pixel wide box: a pixel is the mean radiance over its area.
+    #[default]
+    Box,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FilmDesc {
+    pub width: u32,
+    pub height: u32,
+    #[serde(default)]
+    pub filter: FilterDesc,
+}
+
+/// Surface scattering models. Reflectances are linear RGB in [0, 1].
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialDesc {
+    /// Lambertian: reflectance / pi, one-sided unless `two_sided`.
+    Diffuse {
+        reflectance: V3,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Energy-normalised modified Phong (Lafortune and Willems 1994):
+    /// kd / pi + ks (n + 2) / (2 pi) cos^n(alpha). kd + ks must not exceed 1 per channel.
+    Phong {
+        #[serde(default)]
+        kd: V3,
+        ks: V3,
+        exponent: f32,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Perfect specular reflection.
+    Mirror {
+        #[serde(default = "one3")]
+        reflectance: V3,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Smooth dielectric interface with exact Fresnel; `int_ior` is on the side opposite
+    /// the normal.
+    Dielectric {
+        #[serde(default = "default_int_ior")]
+        int_ior: f32,
+        #[serde(default = "default_ext_ior")]
+        ext_ior: f32,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default = "one3")]
+        specular_transmittance: V3,
+    },
+    /// Metal with complex IOR (eta, k) and GGX roughness `alpha` (0 = smooth).
+    Conductor {
+        #[serde(default = "gold_eta")]
+        eta: V3,
+        #[serde(default = "gold_k")]
+        k: V3,
+        #[serde(default)]
+        roughness: f32,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Index-matched boundary: rays pass straight through; only the medium changes.
+    Null,
+}
+
+fn one3() -> V3 {
+    [1.0; 3]
+}
+fn default_int_ior() -> f32 {
+    1.5046
+}
+fn default_ext_ior() -> f32 {
+    1.000277
+}
+// Gold at roughly 650/550/450 nm, as the default conductor in Mitsuba is gold-like.
+fn gold_eta() -> V3 {
+    [0.143, 0.374, 1.442]
+}
+fn gold_k() -> V3 {
+    [3.983, 2.385, 1.603]
+}
+
+/// Participating media are declared here; they are rendered from issue 5 on.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MediumDesc {
+    Homogeneous {
+        sigma_a: V3,
+        sigma_s: V3,
+        #[serde(default = "one")]
+        scale: f32,
+        #[serde(default)]
+        g: f32,
+    },
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+/// A rotation: `axis` and `angle` in degrees (right-handed).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Rotation {
+    pub axis: V3,
+    pub angle: f32,
+}
+
+/// Either a row-major 4x4 `matrix`, or `translate * rotate[0] * rotate[1] ... * scale`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    #[serde(default)]
+    pub matrix: Option<[f32; 16]>,
+    #[serde(default)]
+    pub translate: Option<V3>,
+    /// Applied right to left, like matrices: the last rotation acts first.
+    #[serde(default)]
+    pub rotate: Vec<Rotation>,
+    /// A number (uniform) or three numbers.
+    #[serde(default)]
+    pub scale: Option<Scale>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Scale {
+    Uniform(f32),
+    PerAxis(V3),
+}
+
+/// Area emission of a shape: Lambertian, on the side its normal points to.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EmissionDesc {
+    pub radiance: V3,
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// A shape: its geometry (tagged by `type`) and the fields every shape has.
+/// Deserialised by hand because serde cannot combine `flatten` with
+/// `deny_unknown_fields`, and a misspelt field must be an error.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ShapeDesc {
+    #[serde(flatten)]
+    pub geometry: GeometryDesc,
+    #[serde(flatten)]
+    pub common: ShapeCommon,
+}
+
+/// Fields every shape has.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ShapeCommon {
+    /// Name of a material in `materials`.
+    pub material: String,
+    #[serde(default)]
+    pub transform: Option<TransformDesc>,
+    #[serde(default)]
+    pub emission: Option<EmissionDesc>,
+    /// Reverses the normals (and so the emitting / front side).
+    #[serde(default)]
+    pub flip_normals: bool,
+    /// Medium on the side opposite the normal.
+    #[serde(default)]
+    pub interior: Option<String>,
+    /// Medium on the side the normal points to.
+    #[serde(default)]
+    pub exterior: Option<String>,
+    /// Optional label for error messages and statistics.
+    #[serde(default)]
+    pub name: Option<String>,
+}
+
+const COMMON_SHAPE_FIELDS: [&str; 7] = [
+    "material",
+    "transform",
+    "emission",
+    "flip_normals",
+    "interior",
+    "exterior",
+    "name",
+];
+
+impl<'de> Deserialize<'de> for ShapeDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut geometry = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let mut common = serde_json::Map::new();
+        for key in COMMON_SHAPE_FIELDS {
+            if let Some(v) = geometry.remove(key) {
+                common.insert(key.to_string(), v);
+            }
+        }
+        let common = ShapeCommon::deserialize(serde_json::Value::Object(common))
+            .map_err(D::Error::custom)?;
+        let geometry = GeometryDesc::deserialize(serde_json::Value::Object(geometry))
+            .map_err(D::Error::custom)?;
+        Ok(ShapeDesc { geometry, common })
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum GeometryDesc {
+    /// Analytic sphere (not tessellated). A transform may only translate, rotate and
+    /// scale uniformly.
+    Sphere {
+        #[serde(default)]
+        center: V3,
+        #[serde(default = "one")]
+        radius: f32,
+    },
+    /// A quad. With `corners` (counter-clockwise seen from the front), the quad is
+    /// exactly those four points; without, it is [-1,1]^2 at z = 0 facing +z.
+    Rectangle {
+        #[serde(default)]
+        corners: Option<[V3; 4]>,
+    },
+    /// [-1,1]^3 with outward normals.
+    Cube,
+    /// Unit disk at z = 0 facing +z (analytic, not tessellated).
+    Disk,
+    /// Inline triangle mesh.
+    Mesh {
+        positions: Vec<V3>,
+        /// Triangles as vertex index triples, counter-clockwise = front.
+        indices: Vec<[u32; 3]>,
+        #[serde(default)]
+        normals: Option<Vec<V3>>,
+    },
+    /// Wavefront OBJ file, relative to the scene file.
+    Obj { filename: String },
+    /// PLY file (ASCII or binary), relative to the scene file.
+    Ply { filename: String },
+}
+
+/// Lights that are not shapes.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LightDesc {
+    /// Isotropic point light; `intensity` in W/sr per channel.
+    Point { position: V3, intensity: V3 },
+    /// Spot light with Mitsuba's falloff: full intensity inside `beam_width`, falling
+    /// linearly in angle to zero at `cutoff_angle` (degrees, half-angles).
+    Spot {
+        position: V3,
+        target: V3,
+        intensity: V3,
+        #[serde(default = "default_cutoff")]
+        cutoff_angle: f32,
+        /// Defaults to 3/4 of the cutoff angle.
+        #[serde(default)]
+        beam_width: Option<f32>,
+    },
+    /// Distant light: photons travel along `direction`; `irradiance` on a surface
+    /// facing it.
+    Directional { direction: V3, irradiance: V3 },
+    /// Uniform radiance from every direction at infinity.
+    Constant { radiance: V3 },
+    /// Lat-long environment map from an EXR file, importance sampled. With the identity
+    /// transform, +y is up and the image centre looks along -z.
+    Envmap {
+        filename: String,
+        #[serde(default = "one")]
+        scale: f32,
+        #[serde(default)]
+        transform: Option<TransformDesc>,
+    },
+}
+
+fn default_cutoff() -> f32 {
+    20.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_round_trip_through_json() {
+        let text = r#"{"type":"sphere","center":[1,2,3],"radius":0.5,"material":"m",
+            "emission":{"radiance":[1,1,1]},"interior":"fog"}"#;
+        let s: ShapeDesc = serde_json::from_str(text).unwrap();
+        let back: ShapeDesc = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        assert_eq!(s, back);
+    }
+}

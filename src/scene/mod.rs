@@ -1,0 +1,175 @@
+//! Scenes: the file format, loading and validation, and the compiled [`Scene`] that
+//! integrators render (BVH, materials, lights, camera).
+
+pub mod error;
+pub mod format;
+pub mod load;
+mod shapes;
+pub mod validate;
+
+pub use error::SceneError;
+pub use format::SceneFile;
+
+use crate::camera::Camera;
+use crate::geometry::{Accel, Interaction, Ray};
+use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
+use crate::material::Material;
+use crate::math::{Rgb, Vec3};
+use error::Result;
+use std::path::Path;
+use std::time::Duration;
+
+/// Per-shape data the integrators need after a hit.
+#[derive(Clone, Debug)]
+pub struct ShapeInfo {
+    pub name: String,
+    pub material: u32,
+    /// Index into `Scene::lights` when the shape emits.
+    pub light: Option<u32>,
+    /// Normals reversed by `flip_normals`.
+    pub flip: bool,
+    /// World-space vertex normals, for smooth shading of meshes.
+    pub shading: Option<shapes::ShadingNormals>,
+}
+
+/// Figures about the compiled scene, printed in render statistics.
+#[derive(Clone, Debug, Default)]
+pub struct SceneStats {
+    pub triangles: usize,
+    pub spheres: usize,
+    pub disks: usize,
+    pub degenerate_dropped: usize,
+    pub bvh_build: Duration,
+    pub bvh_bytes: usize,
+}
+
+pub struct Scene {
+    pub accel: Accel,
+    pub shapes: Vec<ShapeInfo>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    /// Lights seen by rays that leave the scene (constant and map environments).
+    pub env_lights: Vec<u32>,
+    pub light_sampler: LightSampler,
+    pub camera: Camera,
+    pub sphere: SceneSphere,
+    /// Default integrator settings from the scene file.
+    pub integrator: Option<serde_json::Value>,
+    pub stats: SceneStats,
+    /// Any shape has the `null` material (shadow rays must look through it).
+    pub has_null: bool,
+}
+
+impl Scene {
+    /// Loads, validates and compiles a scene file; assets resolve next to it.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let file = load::read_scene_file(path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Scene::compile(&file, Some(base))
+    }
+
+    /// Compiles a parsed scene. Without `base`, file references are refused.
+    pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
+        validate::validate(file)?;
+        shapes::compile(file, base)
+    }
+
+    /// Closest surface along the ray, with normals on the shape's front side.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Interaction> {
+        let hit = self.accel.intersect(ray)?;
+        let mut it = self.accel.interaction(ray, &hit);
+        let shape = &self.shapes[it.shape as usize];
+        if shape.flip {
+            it.ng = -it.ng;
+        }
+        it.ns = match &shape.shading {
+            Some(s) => s.normal(it.local, hit.uv, it.ng),
+            None => it.ng,
+        };
+        Some(it)
+    }
+
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray)
+    }
+
+    /// True when nothing opaque blocks the shadow ray. Index-matched (`null`) surfaces
+    /// let light through; scenes without them take the plain any-hit query.
+    #[inline]
+    pub fn visible(&self, ray: &Ray) -> bool {
+        if !self.has_null {
+            return !self.accel.occluded(ray);
+        }
+        let mut r = *ray;
+        for _ in 0..256 {
+            let Some(hit) = self.accel.intersect(&r) else {
+                return true;
+            };
+            let it = self.accel.interaction(&r, &hit);
+            if !matches!(self.material(&it), Material::Null) {
+                return false;
+            }
+            // Continue from the boundary towards the same end point.
+            let end = r.at(r.tmax);
+            let o = crate::geometry::offset_ray_origin(it.p, it.p_err, it.ng, r.d);
+            r = if r.tmax.is_finite() {
+                let d = end - o;
+                Ray {
+                    o,
+                    d,
+                    tmax: 1.0 - crate::geometry::offset::SHADOW_EPSILON,
+                }
+            } else {
+                Ray::new(o, r.d)
+            };
+        }
+        false
+    }
+
+    /// Solid-angle density with which next-event estimation picks an escaping
+    /// direction `d` (all environment lights, selection included).
+    #[inline]
+    pub fn env_pdf(&self, d: Vec3) -> f32 {
+        self.env_lights
+            .iter()
+            .map(|&l| {
+                self.light_sampler.pmf(l as usize)
+                    * self.lights[l as usize].pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO)
+            })
+            .sum()
+    }
+
+    #[inline]
+    pub fn material(&self, it: &Interaction) -> &Material {
+        &self.materials[self.shapes[it.shape as usize].material as usize]
+    }
+
+    /// The area light of the shape that was hit, with its index.
+    #[inline]
+    pub fn area_light(&self, it: &Interaction) -> Option<(usize, &AreaLight)> {
+        let l = self.shapes[it.shape as usize].light? as usize;
+        match &self.lights[l] {
+            Light::Area(a) => Some((l, a)),
+            _ => None,
+        }
+    }
+
+    /// Radiance from environment lights along an escaping direction.
+    #[inline]
+    pub fn env_radiance(&self, d: Vec3) -> Rgb {
+        self.env_lights
+            .iter()
+            .map(|&l| self.lights[l as usize].le_escaped(d))
+            .sum()
+    }
+
+    pub fn width(&self) -> u32 {
+        self.camera.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.camera.height
+    }
+}

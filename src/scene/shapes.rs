@@ -1,0 +1,486 @@
+//! Compiling a validated scene file: shapes to world-space primitives, materials and
+//! lights to their enums, and the camera.
+
+use super::error::{Result, SceneError};
+use super::format::*;
+use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
+use super::{Scene, SceneStats, ShapeInfo};
+use crate::camera::Camera;
+use crate::geometry::{Accel, Prim, PrimMeta};
+use crate::light::DirectionalLight;
+use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
+use crate::material::{Conductor, Dielectric, Diffuse, Material, Mirror, Phong};
+use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3, Vec3A};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// World-space vertex normals of a mesh shape, indexed like its triangles.
+#[derive(Clone, Debug)]
+pub struct ShadingNormals {
+    normals: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+}
+
+impl ShadingNormals {
+    /// Interpolated normal at barycentrics (b1, b2), turned to the side of `ng`.
+    #[inline]
+    pub fn normal(&self, tri: u32, b: Vec2, ng: Vec3) -> Vec3 {
+        let [i0, i1, i2] = self.indices[tri as usize];
+        let n = self.normals[i0 as usize] * (1.0 - b.x - b.y)
+            + self.normals[i1 as usize] * b.x
+            + self.normals[i2 as usize] * b.y;
+        let n = n.normalize_or_zero();
+        if n == Vec3::ZERO {
+            ng
+        } else if n.dot(ng) < 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
+}
+
+fn rgb(v: V3) -> Rgb {
+    Rgb::from(v)
+}
+
+fn material(m: &MaterialDesc) -> Material {
+    match m {
+        MaterialDesc::Diffuse {
+            reflectance,
+            two_sided,
+        } => Material::Diffuse(Diffuse {
+            reflectance: rgb(*reflectance),
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::Phong {
+            kd,
+            ks,
+            exponent,
+            two_sided,
+        } => Material::Phong(Phong {
+            kd: rgb(*kd),
+            ks: rgb(*ks),
+            exponent: *exponent,
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::Mirror {
+            reflectance,
+            two_sided,
+        } => Material::Mirror(Mirror {
+            reflectance: rgb(*reflectance),
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::Dielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => Material::Dielectric(Dielectric {
+            eta: int_ior / ext_ior,
+            specular_reflectance: rgb(*specular_reflectance),
+            specular_transmittance: rgb(*specular_transmittance),
+        }),
+        MaterialDesc::Conductor {
+            eta,
+            k,
+            roughness,
+            specular_reflectance,
+            two_sided,
+        } => Material::Conductor(Conductor {
+            eta: rgb(*eta),
+            k: rgb(*k),
+            alpha: *roughness,
+            specular_reflectance: rgb(*specular_reflectance),
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::Null => Material::Null,
+    }
+}
+
+const CUBE_POSITIONS: [[f32; 3]; 8] = [
+    [-1.0, -1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+];
+
+/// Counter-clockwise seen from outside.
+const CUBE_INDICES: [[u32; 3]; 12] = [
+    [0, 2, 1],
+    [0, 3, 2],
+    [4, 5, 6],
+    [4, 6, 7],
+    [0, 1, 5],
+    [0, 5, 4],
+    [3, 7, 6],
+    [3, 6, 2],
+    [0, 4, 7],
+    [0, 7, 3],
+    [1, 2, 6],
+    [1, 6, 5],
+];
+
+/// Builds the primitives of every shape; returns them with the per-shape info.
+struct Builder<'a> {
+    base: Option<&'a Path>,
+    prims: Vec<Prim>,
+    meta: Vec<PrimMeta>,
+    stats: SceneStats,
+}
+
+impl Builder<'_> {
+    fn mesh(&mut self, path: &str, g: &GeometryDesc) -> Result<MeshData> {
+        let v = |a: &[V3]| a.iter().map(|p| Vec3::from(*p)).collect::<Vec<_>>();
+        Ok(match g {
+            GeometryDesc::Rectangle { corners } => {
+                let c = corners.unwrap_or([
+                    [-1.0, -1.0, 0.0],
+                    [1.0, -1.0, 0.0],
+                    [1.0, 1.0, 0.0],
+                    [-1.0, 1.0, 0.0],
+                ]);
+                MeshData {
+                    positions: v(&c),
+                    normals: None,
+                    indices: vec![[0, 1, 2], [0, 2, 3]],
+                }
+            }
+            GeometryDesc::Cube => MeshData {
+                positions: v(&CUBE_POSITIONS),
+                normals: None,
+                indices: CUBE_INDICES.to_vec(),
+            },
+            GeometryDesc::Mesh {
+                positions,
+                indices,
+                normals,
+            } => MeshData {
+                positions: v(positions),
+                normals: normals.as_ref().map(|n| v(n)),
+                indices: indices.clone(),
+            },
+            GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } => {
+                let field = format!("{path}.filename");
+                let base = self.base.ok_or_else(|| {
+                    SceneError::new(&field, "file references need a scene folder")
+                })?;
+                let full = resolve(base, &field, filename)?;
+                if matches!(g, GeometryDesc::Obj { .. }) {
+                    load_obj(&full, &field)?
+                } else {
+                    load_ply(&full, &field)?
+                }
+            }
+            GeometryDesc::Sphere { .. } | GeometryDesc::Disk => unreachable!("analytic"),
+        })
+    }
+
+    /// Adds one shape's primitives; returns them (for an area light) and its normals.
+    fn shape(
+        &mut self,
+        index: u32,
+        path: &str,
+        s: &ShapeDesc,
+    ) -> Result<(Vec<Prim>, Option<ShadingNormals>)> {
+        let m = transform_matrix(s.common.transform.as_ref());
+        let mirrored = m.determinant() < 0.0;
+        let lin = Mat3::from_mat4(m);
+        let prims: Vec<Prim>;
+        let mut shading = None;
+        match &s.geometry {
+            GeometryDesc::Sphere { center, radius } => {
+                let scale = similarity_scale(lin).ok_or_else(|| {
+                    SceneError::new(
+                        format!("{path}.transform"),
+                        "a sphere may only be translated, rotated and scaled uniformly",
+                    )
+                })?;
+                let c = m.transform_point3(Vec3::from(*center));
+                prims = vec![Prim::Sphere {
+                    c: c.into(),
+                    r: radius * scale,
+                }];
+                self.stats.spheres += 1;
+            }
+            GeometryDesc::Disk => {
+                let (mut u, mut v) = (lin * Vec3::X, lin * Vec3::Y);
+                if mirrored {
+                    std::mem::swap(&mut u, &mut v);
+                }
+                prims = vec![Prim::Disk {
+                    c: m.transform_point3(Vec3::ZERO).into(),
+                    u: u.into(),
+                    v: v.into(),
+                }];
+                self.stats.disks += 1;
+            }
+            g => {
+                let mesh = self.mesh(path, g)?;
+                let (p, n) = self.triangles(&m, mirrored, mesh);
+                prims = p;
+                shading = n;
+            }
+        }
+        for (k, p) in prims.iter().enumerate() {
+            self.prims.push(*p);
+            self.meta.push(PrimMeta {
+                shape: index,
+                local: k as u32,
+            });
+        }
+        Ok((prims, shading))
+    }
+
+    /// World-space triangles; degenerate ones are dropped and counted.
+    fn triangles(
+        &mut self,
+        m: &Mat4,
+        mirrored: bool,
+        mesh: MeshData,
+    ) -> (Vec<Prim>, Option<ShadingNormals>) {
+        let pos: Vec<Vec3> = mesh
+            .positions
+            .iter()
+            .map(|p| m.transform_point3(*p))
+            .collect();
+        let normal_m = Mat3::from_mat4(*m).inverse().transpose();
+        let mut prims = Vec::with_capacity(mesh.indices.len());
+        let mut kept = Vec::with_capacity(mesh.indices.len());
+        for &[a, mut b, mut c] in &mesh.indices {
+            // A mirroring transform reverses the winding; restore the front side.
+            if mirrored {
+                std::mem::swap(&mut b, &mut c);
+            }
+            let (p0, p1, p2) = (pos[a as usize], pos[b as usize], pos[c as usize]);
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let n = e1.cross(e2);
+            if !(n.length_squared() > 0.0) || !n.is_finite() {
+                self.stats.degenerate_dropped += 1;
+                continue;
+            }
+            prims.push(Prim::Tri {
+                p0: Vec3A::from(p0),
+                e1: e1.into(),
+                e2: e2.into(),
+            });
+            kept.push([a, b, c]);
+        }
+        self.stats.triangles += prims.len();
+        let shading = mesh.normals.map(|ns| ShadingNormals {
+            normals: ns
+                .iter()
+                .map(|n| (normal_m * *n).normalize_or_zero())
+                .collect(),
+            indices: kept,
+        });
+        (prims, shading)
+    }
+}
+
+/// The uniform scale of a similarity transform's linear part, if it is one.
+fn similarity_scale(l: Mat3) -> Option<f32> {
+    let (a, b, c) = (l.x_axis, l.y_axis, l.z_axis);
+    let s = a.length();
+    let tol = 1e-4 * s;
+    let ok = (b.length() - s).abs() <= tol
+        && (c.length() - s).abs() <= tol
+        && a.dot(b).abs() <= tol * s
+        && a.dot(c).abs() <= tol * s
+        && b.dot(c).abs() <= tol * s;
+    (ok && s > 0.0).then_some(s)
+}
+
+fn camera(file: &SceneFile) -> Camera {
+    let c = &file.camera;
+    Camera::new(
+        c.look_at.origin.into(),
+        c.look_at.target.into(),
+        c.look_at.up.into(),
+        c.fov,
+        c.fov_axis == FovAxis::X,
+        file.film.width,
+        file.film.height,
+        c.aperture_radius,
+        c.focus_distance,
+    )
+}
+
+fn light(path: &str, l: &LightDesc, base: Option<&Path>) -> Result<Light> {
+    Ok(match l {
+        LightDesc::Point {
+            position,
+            intensity,
+        } => Light::Point(PointLight {
+            position: (*position).into(),
+            intensity: rgb(*intensity),
+        }),
+        LightDesc::Spot {
+            position,
+            target,
+            intensity,
+            cutoff_angle,
+            beam_width,
+        } => {
+            let p = Vec3::from(*position);
+            Light::Spot(SpotLight::new(
+                p,
+                Vec3::from(*target) - p,
+                rgb(*intensity),
+                cutoff_angle.to_radians(),
+                beam_width.unwrap_or(cutoff_angle * 0.75).to_radians(),
+            ))
+        }
+        LightDesc::Directional {
+            direction,
+            irradiance,
+        } => Light::Directional(DirectionalLight {
+            direction: Vec3::from(*direction).normalize(),
+            irradiance: rgb(*irradiance),
+        }),
+        LightDesc::Constant { radiance } => Light::Constant {
+            radiance: rgb(*radiance),
+        },
+        LightDesc::Envmap {
+            filename,
+            scale,
+            transform,
+        } => {
+            let field = format!("{path}.filename");
+            let base =
+                base.ok_or_else(|| SceneError::new(&field, "file references need a scene folder"))?;
+            let full = resolve(base, &field, filename)?;
+            let img =
+                crate::film::read_exr(&full).map_err(|e| SceneError::new(&field, e.to_string()))?;
+            let texels: Vec<Rgb> = img.pixels().iter().map(|p| *p * *scale).collect();
+            if texels.iter().any(|t| !crate::math::is_valid_radiance(*t)) {
+                return Err(SceneError::new(
+                    &field,
+                    "the map holds NaN, infinite or negative values",
+                ));
+            }
+            let rot = Mat3::from_mat4(transform_matrix(transform.as_ref()));
+            if similarity_scale(rot).is_none_or(|s| (s - 1.0).abs() > 1e-3) {
+                return Err(SceneError::new(
+                    format!("{path}.transform"),
+                    "an environment map may only be rotated",
+                ));
+            }
+            Light::EnvMap(EnvMap::new(
+                img.width() as usize,
+                img.height() as usize,
+                texels,
+                rot,
+            ))
+        }
+    })
+}
+
+pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
+    let names: BTreeMap<&str, u32> = file
+        .materials
+        .keys()
+        .enumerate()
+        .map(|(i, k)| (k.as_str(), i as u32))
+        .collect();
+    let materials: Vec<Material> = file.materials.values().map(material).collect();
+    if let Some(i) = file
+        .shapes
+        .iter()
+        .position(|s| s.common.interior.is_some() || s.common.exterior.is_some())
+    {
+        return Err(SceneError::new(
+            format!("shapes[{i}]"),
+            "participating media are not rendered yet by this build",
+        ));
+    }
+    if file.camera.medium.is_some() {
+        return Err(SceneError::new(
+            "camera.medium",
+            "participating media are not rendered yet by this build",
+        ));
+    }
+    let mut b = Builder {
+        base,
+        prims: Vec::new(),
+        meta: Vec::new(),
+        stats: SceneStats::default(),
+    };
+    let mut shapes = Vec::with_capacity(file.shapes.len());
+    let mut lights = Vec::new();
+    for (i, s) in file.shapes.iter().enumerate() {
+        let path = format!("shapes[{i}]");
+        let (prims, shading) = b.shape(i as u32, &path, s)?;
+        let mut light_index = None;
+        if let Some(e) = &s.common.emission {
+            if e.radiance.iter().any(|&x| x > 0.0) && !prims.is_empty() {
+                light_index = Some(lights.len() as u32);
+                lights.push(Light::Area(AreaLight::new(
+                    i as u32,
+                    prims,
+                    s.common.flip_normals,
+                    rgb(e.radiance),
+                    e.two_sided,
+                )));
+            }
+        }
+        shapes.push(ShapeInfo {
+            name: s.common.name.clone().unwrap_or_else(|| path.clone()),
+            material: names[s.common.material.as_str()],
+            light: light_index,
+            flip: s.common.flip_normals,
+            shading,
+        });
+    }
+    for (i, l) in file.lights.iter().enumerate() {
+        lights.push(light(&format!("lights[{i}]"), l, base)?);
+    }
+    if b.stats.degenerate_dropped > 0 {
+        tracing::warn!(
+            dropped = b.stats.degenerate_dropped,
+            "degenerate triangles dropped"
+        );
+    }
+    let accel = Accel::build(b.prims, b.meta);
+    b.stats.bvh_build = accel.build_time;
+    b.stats.bvh_bytes = accel.memory_bytes();
+    let camera = camera(file);
+    let sphere = if accel.prim_count() > 0 {
+        let (lo, hi) = (Vec3::from(accel.bounds.min), Vec3::from(accel.bounds.max));
+        SceneSphere {
+            center: 0.5 * (lo + hi),
+            radius: (0.5 * (hi - lo).length()).max(1e-6),
+        }
+    } else {
+        SceneSphere {
+            center: camera.origin,
+            radius: 1.0,
+        }
+    };
+    let light_sampler = LightSampler::new(&lights, file.light_selection, &sphere);
+    let env_lights = lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| matches!(l, Light::Constant { .. } | Light::EnvMap(_)))
+        .map(|(i, _)| i as u32)
+        .collect();
+    Ok(Scene {
+        has_null: shapes
+            .iter()
+            .any(|s| matches!(materials[s.material as usize], Material::Null)),
+        accel,
+        shapes,
+        materials,
+        lights,
+        env_lights,
+        light_sampler,
+        camera,
+        sphere,
+        integrator: file.integrator.clone(),
+        stats: b.stats,
+    })
+}

@@ -1,0 +1,421 @@
+//! Value checks that serde cannot express: finiteness, ranges, references by name.
+//! Every error names the JSON path of the offending field.
+
+use super::error::{Result, SceneError};
+use super::format::*;
+
+fn finite3(path: &str, v: V3) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("{v:?} is not finite")))
+    }
+}
+
+fn non_negative3(path: &str, v: V3) -> Result<()> {
+    finite3(path, v)?;
+    if v.iter().all(|&x| x >= 0.0) {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("{v:?} has a negative value")))
+    }
+}
+
+fn unit3(path: &str, v: V3) -> Result<()> {
+    non_negative3(path, v)?;
+    if v.iter().all(|&x| x <= 1.0) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("{v:?} exceeds 1 (albedo above 1 creates energy)"),
+        ))
+    }
+}
+
+fn in_range(path: &str, x: f32, lo: f32, hi: f32, what: &str) -> Result<()> {
+    if x.is_finite() && x >= lo && x <= hi {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("{x} is out of range: {what}"),
+        ))
+    }
+}
+
+fn positive(path: &str, x: f32) -> Result<()> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("{x} must be positive and finite"),
+        ))
+    }
+}
+
+fn nonzero3(path: &str, v: V3) -> Result<()> {
+    finite3(path, v)?;
+    if v.iter().any(|&x| x != 0.0) {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, "must not be the zero vector"))
+    }
+}
+
+pub fn validate(scene: &SceneFile) -> Result<()> {
+    if scene.format != 1 {
+        return Err(SceneError::new(
+            "format",
+            format!(
+                "unsupported format version {} (this build reads 1)",
+                scene.format
+            ),
+        ));
+    }
+    validate_camera(scene)?;
+    validate_film(&scene.film)?;
+    for (name, m) in &scene.materials {
+        validate_material(&format!("materials.{name}"), m)?;
+    }
+    for (name, m) in &scene.media {
+        validate_medium(&format!("media.{name}"), m)?;
+    }
+    for (i, s) in scene.shapes.iter().enumerate() {
+        validate_shape(scene, &format!("shapes[{i}]"), s)?;
+    }
+    for (i, l) in scene.lights.iter().enumerate() {
+        validate_light(&format!("lights[{i}]"), l)?;
+    }
+    Ok(())
+}
+
+/// Largest image side a scene may ask for; servers may cap further.
+pub const MAX_RESOLUTION: u32 = 16384;
+
+fn validate_film(f: &FilmDesc) -> Result<()> {
+    for (field, v) in [("film.width", f.width), ("film.height", f.height)] {
+        if v == 0 || v > MAX_RESOLUTION {
+            return Err(SceneError::new(
+                field,
+                format!("{v} is out of range: 1..={MAX_RESOLUTION}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn validate_camera(scene: &SceneFile) -> Result<()> {
+    let c = &scene.camera;
+    if c.kind != "pinhole" && c.kind != "thinlens" {
+        return Err(SceneError::new(
+            "camera.type",
+            format!("unknown camera \"{}\" (pinhole or thinlens)", c.kind),
+        ));
+    }
+    finite3("camera.look_at.origin", c.look_at.origin)?;
+    finite3("camera.look_at.target", c.look_at.target)?;
+    nonzero3("camera.look_at.up", c.look_at.up)?;
+    let o = glam::Vec3::from(c.look_at.origin);
+    let f = glam::Vec3::from(c.look_at.target) - o;
+    if f.length_squared() == 0.0 {
+        return Err(SceneError::new(
+            "camera.look_at.target",
+            "equals the origin: no viewing direction",
+        ));
+    }
+    let up = glam::Vec3::from(c.look_at.up);
+    if f.normalize().cross(up.normalize()).length() < 1e-6 {
+        return Err(SceneError::new(
+            "camera.look_at.up",
+            "is parallel to the viewing direction",
+        ));
+    }
+    in_range("camera.fov", c.fov, 1e-3, 179.0, "degrees in (0, 179]")?;
+    in_range(
+        "camera.aperture_radius",
+        c.aperture_radius,
+        0.0,
+        f32::MAX,
+        "non-negative",
+    )?;
+    if let Some(d) = c.focus_distance {
+        positive("camera.focus_distance", d)?;
+    }
+    if let Some(m) = &c.medium {
+        medium_ref(scene, "camera.medium", m)?;
+    }
+    Ok(())
+}
+
+fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
+    match m {
+        MaterialDesc::Diffuse { reflectance, .. } => {
+            unit3(&format!("{path}.reflectance"), *reflectance)
+        }
+        MaterialDesc::Phong {
+            kd, ks, exponent, ..
+        } => {
+            unit3(&format!("{path}.kd"), *kd)?;
+            unit3(&format!("{path}.ks"), *ks)?;
+            let sum = [kd[0] + ks[0], kd[1] + ks[1], kd[2] + ks[2]];
+            if sum.iter().any(|&s| s > 1.0 + 1e-6) {
+                return Err(SceneError::new(
+                    path,
+                    format!("kd + ks = {sum:?} exceeds 1 (not energy conserving)"),
+                ));
+            }
+            in_range(&format!("{path}.exponent"), *exponent, 0.0, 1e6, "0..=1e6")
+        }
+        MaterialDesc::Mirror { reflectance, .. } => {
+            unit3(&format!("{path}.reflectance"), *reflectance)
+        }
+        MaterialDesc::Dielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => {
+            positive(&format!("{path}.int_ior"), *int_ior)?;
+            positive(&format!("{path}.ext_ior"), *ext_ior)?;
+            unit3(
+                &format!("{path}.specular_reflectance"),
+                *specular_reflectance,
+            )?;
+            unit3(
+                &format!("{path}.specular_transmittance"),
+                *specular_transmittance,
+            )
+        }
+        MaterialDesc::Conductor {
+            eta,
+            k,
+            roughness,
+            specular_reflectance,
+            ..
+        } => {
+            non_negative3(&format!("{path}.eta"), *eta)?;
+            if eta.iter().any(|&e| e <= 0.0) {
+                return Err(SceneError::new(format!("{path}.eta"), "must be positive"));
+            }
+            non_negative3(&format!("{path}.k"), *k)?;
+            in_range(
+                &format!("{path}.roughness"),
+                *roughness,
+                0.0,
+                1.0,
+                "GGX alpha in [0, 1]",
+            )?;
+            unit3(
+                &format!("{path}.specular_reflectance"),
+                *specular_reflectance,
+            )
+        }
+        MaterialDesc::Null => Ok(()),
+    }
+}
+
+fn validate_medium(path: &str, m: &MediumDesc) -> Result<()> {
+    match m {
+        MediumDesc::Homogeneous {
+            sigma_a,
+            sigma_s,
+            scale,
+            g,
+        } => {
+            non_negative3(&format!("{path}.sigma_a"), *sigma_a)?;
+            non_negative3(&format!("{path}.sigma_s"), *sigma_s)?;
+            positive(&format!("{path}.scale"), *scale)?;
+            in_range(&format!("{path}.g"), *g, -0.999, 0.999, "(-1, 1)")
+        }
+    }
+}
+
+fn medium_ref(scene: &SceneFile, path: &str, name: &str) -> Result<()> {
+    if scene.media.contains_key(name) {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("unknown medium \"{name}\"")))
+    }
+}
+
+fn validate_shape(scene: &SceneFile, path: &str, s: &ShapeDesc) -> Result<()> {
+    let c = &s.common;
+    if !scene.materials.contains_key(&c.material) {
+        return Err(SceneError::new(
+            format!("{path}.material"),
+            format!("unknown material \"{}\"", c.material),
+        ));
+    }
+    if let Some(e) = &c.emission {
+        non_negative3(&format!("{path}.emission.radiance"), e.radiance)?;
+    }
+    if let Some(m) = &c.interior {
+        medium_ref(scene, &format!("{path}.interior"), m)?;
+    }
+    if let Some(m) = &c.exterior {
+        medium_ref(scene, &format!("{path}.exterior"), m)?;
+    }
+    if let Some(t) = &c.transform {
+        validate_transform(&format!("{path}.transform"), t)?;
+    }
+    validate_geometry(path, &s.geometry)
+}
+
+pub fn validate_transform(path: &str, t: &TransformDesc) -> Result<()> {
+    if t.matrix.is_some() && (t.translate.is_some() || !t.rotate.is_empty() || t.scale.is_some()) {
+        return Err(SceneError::new(
+            path,
+            "give either `matrix` or translate/rotate/scale, not both",
+        ));
+    }
+    if let Some(m) = &t.matrix {
+        if m.iter().any(|x| !x.is_finite()) {
+            return Err(SceneError::new(format!("{path}.matrix"), "is not finite"));
+        }
+    }
+    if let Some(v) = t.translate {
+        finite3(&format!("{path}.translate"), v)?;
+    }
+    for (i, r) in t.rotate.iter().enumerate() {
+        nonzero3(&format!("{path}.rotate[{i}].axis"), r.axis)?;
+        in_range(
+            &format!("{path}.rotate[{i}].angle"),
+            r.angle,
+            -1e6,
+            1e6,
+            "degrees",
+        )?;
+    }
+    match t.scale {
+        Some(Scale::Uniform(s)) if !(s.is_finite() && s != 0.0) => Err(SceneError::new(
+            format!("{path}.scale"),
+            "must be finite and non-zero",
+        )),
+        Some(Scale::PerAxis(v)) if !v.iter().all(|x| x.is_finite() && *x != 0.0) => Err(
+            SceneError::new(format!("{path}.scale"), "must be finite and non-zero"),
+        ),
+        _ => Ok(()),
+    }
+}
+
+fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
+    match g {
+        GeometryDesc::Sphere { center, radius } => {
+            finite3(&format!("{path}.center"), *center)?;
+            positive(&format!("{path}.radius"), *radius)
+        }
+        GeometryDesc::Rectangle { corners } => {
+            for (i, c) in corners.iter().flatten().enumerate() {
+                finite3(&format!("{path}.corners[{i}]"), *c)?;
+            }
+            Ok(())
+        }
+        GeometryDesc::Cube | GeometryDesc::Disk => Ok(()),
+        GeometryDesc::Mesh {
+            positions,
+            indices,
+            normals,
+        } => {
+            for (i, p) in positions.iter().enumerate() {
+                finite3(&format!("{path}.positions[{i}]"), *p)?;
+            }
+            for (i, tri) in indices.iter().enumerate() {
+                if let Some(&bad) = tri.iter().find(|&&k| k as usize >= positions.len()) {
+                    return Err(SceneError::new(
+                        format!("{path}.indices[{i}]"),
+                        format!("vertex {bad} out of range ({} positions)", positions.len()),
+                    ));
+                }
+            }
+            if let Some(n) = normals {
+                if n.len() != positions.len() {
+                    return Err(SceneError::new(
+                        format!("{path}.normals"),
+                        format!("{} normals for {} positions", n.len(), positions.len()),
+                    ));
+                }
+                for (i, v) in n.iter().enumerate() {
+                    nonzero3(&format!("{path}.normals[{i}]"), *v)?;
+                }
+            }
+            Ok(())
+        }
+        GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } => {
+            super::load::check_relative(&format!("{path}.filename"), filename).map(|_| ())
+        }
+    }
+}
+
+fn validate_light(path: &str, l: &LightDesc) -> Result<()> {
+    match l {
+        LightDesc::Point {
+            position,
+            intensity,
+        } => {
+            finite3(&format!("{path}.position"), *position)?;
+            non_negative3(&format!("{path}.intensity"), *intensity)
+        }
+        LightDesc::Spot {
+            position,
+            target,
+            intensity,
+            cutoff_angle,
+            beam_width,
+        } => {
+            finite3(&format!("{path}.position"), *position)?;
+            finite3(&format!("{path}.target"), *target)?;
+            if position == target {
+                return Err(SceneError::new(
+                    format!("{path}.target"),
+                    "equals the position: no axis",
+                ));
+            }
+            non_negative3(&format!("{path}.intensity"), *intensity)?;
+            in_range(
+                &format!("{path}.cutoff_angle"),
+                *cutoff_angle,
+                1e-3,
+                179.0,
+                "degrees in (0, 179]",
+            )?;
+            if let Some(b) = beam_width {
+                in_range(
+                    &format!("{path}.beam_width"),
+                    *b,
+                    0.0,
+                    *cutoff_angle,
+                    "degrees in [0, cutoff_angle]",
+                )?;
+            }
+            Ok(())
+        }
+        LightDesc::Directional {
+            direction,
+            irradiance,
+        } => {
+            nonzero3(&format!("{path}.direction"), *direction)?;
+            non_negative3(&format!("{path}.irradiance"), *irradiance)
+        }
+        LightDesc::Constant { radiance } => non_negative3(&format!("{path}.radiance"), *radiance),
+        LightDesc::Envmap {
+            filename,
+            scale,
+            transform,
+        } => {
+            super::load::check_relative(&format!("{path}.filename"), filename)?;
+            in_range(
+                &format!("{path}.scale"),
+                *scale,
+                0.0,
+                f32::MAX,
+                "non-negative",
+            )?;
+            if let Some(t) = transform {
+                validate_transform(&format!("{path}.transform"), t)?;
+            }
+            Ok(())
+        }
+    }
+}
