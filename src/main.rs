@@ -217,7 +217,7 @@ fn write_outputs(a: &RenderArgs, scene: &Scene, image: &Image) -> Result<()> {
             )
             .image()
         };
-        let (albedo, normal) = (aov(Settings::Albedo), aov(Settings::Normals));
+        let (albedo, normal) = (aov(Settings::Albedo {}), aov(Settings::Normals {}));
         film::write_exr_layers(
             &a.output,
             image,

@@ -22,7 +22,7 @@ fn scaled(mut f: SceneFile, k: f32) -> SceneFile {
     for shape in &mut f.shapes {
         match &mut shape.geometry {
             GeometryDesc::Rectangle { corners: Some(c) } => c.iter_mut().for_each(s3),
-            GeometryDesc::Cube => {
+            GeometryDesc::Cube {} => {
                 let t = shape
                     .common
                     .transform

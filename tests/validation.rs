@@ -224,3 +224,40 @@ fn obj_and_ply_files_load_relative_to_the_scene() {
     let scene = Scene::compile(&parse_scene(&v.to_string()).unwrap(), Some(dir.path())).unwrap();
     assert_eq!(scene.stats.triangles, 3);
 }
+
+#[test]
+fn unknown_fields_on_field_less_types_are_refused() {
+    let mut v = base();
+    v["shapes"][0] = json!({"type": "cube", "radius": 2, "material": "white"});
+    let e = error_of(&v);
+    assert!(e.message.contains("radius"), "{e}");
+    let mut v = base();
+    v["materials"]["white"] = json!({"type": "null", "reflectance": [1, 1, 1]});
+    let e = error_of(&v);
+    assert!(e.message.contains("reflectance"), "{e}");
+}
+
+#[test]
+fn camera_type_must_agree_with_the_aperture() {
+    let mut v = base();
+    v["camera"]["aperture_radius"] = json!(0.1);
+    expect(v, "camera.aperture_radius", "pinhole");
+    let mut v = base();
+    v["camera"]["type"] = json!("thinlens");
+    expect(v, "camera.aperture_radius", "positive");
+}
+
+#[test]
+fn scene_integrator_must_name_its_algorithm() {
+    let mut v = base();
+    v["integrator"] = json!({"max_depth": 8});
+    expect(v, "integrator", "algorithm");
+}
+
+#[test]
+fn media_references_are_refused_until_media_render() {
+    let mut v = base();
+    v["media"] = json!({"fog": {"type": "homogeneous", "sigma_a": [0.1, 0.1, 0.1], "sigma_s": [0.5, 0.5, 0.5]}});
+    v["shapes"][0]["exterior"] = json!("fog");
+    expect(v, "shapes[0].exterior", "not rendered yet");
+}

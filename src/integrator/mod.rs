@@ -71,9 +71,10 @@ pub enum Settings {
     /// Unidirectional path tracing with next-event estimation and MIS.
     Pt(pt::PtSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
-    Normals,
+    /// (Empty struct variants, so that serde refuses parameters they do not take.)
+    Normals {},
     /// Debug: the material's reflectance at the first hit.
-    Albedo,
+    Albedo {},
 }
 
 /// Names accepted for `algorithm`.
@@ -91,8 +92,8 @@ impl Settings {
     pub fn name(&self) -> &'static str {
         match self {
             Settings::Pt(_) => "pt",
-            Settings::Normals => "normals",
-            Settings::Albedo => "albedo",
+            Settings::Normals {} => "normals",
+            Settings::Albedo {} => "albedo",
         }
     }
 
@@ -107,6 +108,11 @@ impl Settings {
             .and_then(|v| v.get("algorithm"))
             .and_then(|a| a.as_str());
         let alg = algorithm.or(scene_alg).unwrap_or("pt");
+        if overrides.contains_key("algorithm") {
+            return Err(SettingsError::Invalid(
+                "`algorithm` is chosen by name, not as a parameter".into(),
+            ));
+        }
         if !ALGORITHMS.contains(&alg) {
             return Err(SettingsError::UnknownAlgorithm(alg.to_string()));
         }
@@ -134,8 +140,8 @@ impl Settings {
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
-            Settings::Normals => Box::new(debug::DebugIntegrator::Normals),
-            Settings::Albedo => Box::new(debug::DebugIntegrator::Albedo),
+            Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
+            Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }
     }
 }
@@ -171,6 +177,6 @@ mod tests {
             })
         );
         let s = Settings::resolve(Some("normals"), Some(&scene), &serde_json::Map::new()).unwrap();
-        assert_eq!(s, Settings::Normals);
+        assert_eq!(s, Settings::Normals {});
     }
 }

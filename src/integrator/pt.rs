@@ -53,6 +53,16 @@ impl PtSettings {
     }
 }
 
+/// A scattering point, as next-event estimation sees it.
+#[derive(Clone, Copy)]
+struct Vertex<'a> {
+    it: &'a Interaction,
+    frame: &'a Frame,
+    /// Towards the previous vertex, local frame.
+    wo: Vec3,
+    m: &'a Material,
+}
+
 pub struct PathTracer {
     s: PtSettings,
 }
@@ -72,16 +82,8 @@ impl PathTracer {
 
     /// Next-event estimation at a non-delta vertex: one light, one shadow ray.
     #[inline]
-    fn direct(
-        &self,
-        scene: &Scene,
-        it: &Interaction,
-        frame: &Frame,
-        wo: Vec3,
-        m: &Material,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> Rgb {
+    fn direct(&self, scene: &Scene, v: &Vertex, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
+        let Vertex { it, frame, wo, m } = *v;
         let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
         let u = rng.next_2d();
         let Some(ls) = scene.lights[li].sample_li(it.p, u) else {
@@ -165,7 +167,13 @@ impl PathTracer {
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() && !scene.lights.is_empty() {
-                l += beta * self.direct(scene, &it, &frame, wo, m, rng, stats);
+                let v = Vertex {
+                    it: &it,
+                    frame: &frame,
+                    wo,
+                    m,
+                };
+                l += beta * self.direct(scene, &v, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {

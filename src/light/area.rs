@@ -79,7 +79,7 @@ impl AreaLight {
                 (p0 + e1 * b.x + e2 * b.y, e1.cross(e2).normalize())
             }
             Prim::Sphere { c, r } => {
-                let d = Vec3::from(crate::math::warp::square_to_uniform_sphere(u));
+                let d = crate::math::warp::square_to_uniform_sphere(u);
                 (c + r * glam::Vec3A::from(d), d.into())
             }
             Prim::Disk { c, u: du, v: dv } => {

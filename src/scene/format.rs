@@ -155,7 +155,7 @@ pub enum MaterialDesc {
         two_sided: bool,
     },
     /// Index-matched boundary: rays pass straight through; only the medium changes.
-    Null,
+    Null {},
 }
 
 fn one3() -> V3 {
@@ -175,7 +175,8 @@ fn gold_k() -> V3 {
     [3.983, 2.385, 1.603]
 }
 
-/// Participating media are declared here; they are rendered from issue 5 on.
+/// Participating media. They can be declared and are validated, but this build does not
+/// render them yet: a scene whose shapes or camera reference a medium is refused.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MediumDesc {
@@ -184,6 +185,7 @@ pub enum MediumDesc {
         sigma_s: V3,
         #[serde(default = "one")]
         scale: f32,
+        /// Henyey-Greenstein asymmetry parameter in (-1, 1).
         #[serde(default)]
         g: f32,
     },
@@ -313,10 +315,11 @@ pub enum GeometryDesc {
         #[serde(default)]
         corners: Option<[V3; 4]>,
     },
-    /// [-1,1]^3 with outward normals.
-    Cube,
+    /// [-1,1]^3 with outward normals. (Struct variants with no fields, so that serde
+    /// refuses unknown fields on them too.)
+    Cube {},
     /// Unit disk at z = 0 facing +z (analytic, not tessellated).
-    Disk,
+    Disk {},
     /// Inline triangle mesh.
     Mesh {
         positions: Vec<V3>,

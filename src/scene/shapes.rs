@@ -94,7 +94,7 @@ fn material(m: &MaterialDesc) -> Material {
             specular_reflectance: rgb(*specular_reflectance),
             two_sided: *two_sided,
         }),
-        MaterialDesc::Null => Material::Null,
+        MaterialDesc::Null {} => Material::Null,
     }
 }
 
@@ -150,7 +150,7 @@ impl Builder<'_> {
                     indices: vec![[0, 1, 2], [0, 2, 3]],
                 }
             }
-            GeometryDesc::Cube => MeshData {
+            GeometryDesc::Cube {} => MeshData {
                 positions: v(&CUBE_POSITIONS),
                 normals: None,
                 indices: CUBE_INDICES.to_vec(),
@@ -176,7 +176,7 @@ impl Builder<'_> {
                     load_ply(&full, &field)?
                 }
             }
-            GeometryDesc::Sphere { .. } | GeometryDesc::Disk => unreachable!("analytic"),
+            GeometryDesc::Sphere { .. } | GeometryDesc::Disk {} => unreachable!("analytic"),
         })
     }
 
@@ -207,7 +207,7 @@ impl Builder<'_> {
                 }];
                 self.stats.spheres += 1;
             }
-            GeometryDesc::Disk => {
+            GeometryDesc::Disk {} => {
                 let (mut u, mut v) = (lin * Vec3::X, lin * Vec3::Y);
                 if mirrored {
                     std::mem::swap(&mut u, &mut v);
@@ -259,7 +259,7 @@ impl Builder<'_> {
             let (p0, p1, p2) = (pos[a as usize], pos[b as usize], pos[c as usize]);
             let (e1, e2) = (p1 - p0, p2 - p0);
             let n = e1.cross(e2);
-            if !(n.length_squared() > 0.0) || !n.is_finite() {
+            if n.length_squared() <= 0.0 || !n.is_finite() {
                 self.stats.degenerate_dropped += 1;
                 continue;
             }
@@ -388,13 +388,14 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         .map(|(i, k)| (k.as_str(), i as u32))
         .collect();
     let materials: Vec<Material> = file.materials.values().map(material).collect();
-    if let Some(i) = file
-        .shapes
-        .iter()
-        .position(|s| s.common.interior.is_some() || s.common.exterior.is_some())
-    {
+    for (i, s) in file.shapes.iter().enumerate() {
+        let side = match (&s.common.interior, &s.common.exterior) {
+            (Some(_), _) => "interior",
+            (None, Some(_)) => "exterior",
+            (None, None) => continue,
+        };
         return Err(SceneError::new(
-            format!("shapes[{i}]"),
+            format!("shapes[{i}].{side}"),
             "participating media are not rendered yet by this build",
         ));
     }

@@ -88,6 +88,14 @@ pub fn validate(scene: &SceneFile) -> Result<()> {
     for (i, l) in scene.lights.iter().enumerate() {
         validate_light(&format!("lights[{i}]"), l)?;
     }
+    if let Some(v) = &scene.integrator {
+        if v.get("algorithm").and_then(|a| a.as_str()).is_none() {
+            return Err(SceneError::new(
+                "integrator",
+                "must be an object naming its \"algorithm\"",
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -212,7 +220,7 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
                 *specular_reflectance,
             )
         }
-        MaterialDesc::Null => Ok(()),
+        MaterialDesc::Null {} => Ok(()),
     }
 }
 
@@ -312,7 +320,7 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
             }
             Ok(())
         }
-        GeometryDesc::Cube | GeometryDesc::Disk => Ok(()),
+        GeometryDesc::Cube {} | GeometryDesc::Disk {} => Ok(()),
         GeometryDesc::Mesh {
             positions,
             indices,
