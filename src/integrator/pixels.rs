@@ -29,18 +29,7 @@ where
         .into_par_iter()
         .map(|tile| {
             let mut buf = TileBuffer::new(tile);
-            let mut stats = RenderStats::default();
-            for y in tile.y0..tile.y1 {
-                for x in tile.x0..tile.x1 {
-                    let index = y as u64 * w as u64 + x as u64;
-                    let mut rng = Rng::new(seed, iteration, index);
-                    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
-                    let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
-                    stats.samples += 1;
-                    stats.rays += 1;
-                    buf.add(x, y, radiance(ray, &mut rng, &mut stats));
-                }
-            }
+            let stats = render_tile(scene, seed, iteration, &mut buf, &radiance);
             counters.add(&stats);
             buf
         })
@@ -49,4 +38,70 @@ where
         film.add_tile_buffer(b);
     }
     counters.get()
+}
+
+/// One tile, compiled twice: for AVX2 + FMA processors (chosen at run time) and for
+/// baseline x86-64, so one binary runs everywhere and uses wide instructions where
+/// they exist. The integrator's kernel is inlined into both.
+fn render_tile<F>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    buf: &mut TileBuffer,
+    radiance: &F,
+) -> RenderStats
+where
+    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+{
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: the features were detected on this processor just above.
+            return unsafe { render_tile_avx2(scene, seed, iteration, buf, radiance) };
+        }
+    }
+    tile_loop(scene, seed, iteration, buf, radiance)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+unsafe fn render_tile_avx2<F>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    buf: &mut TileBuffer,
+    radiance: &F,
+) -> RenderStats
+where
+    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+{
+    tile_loop(scene, seed, iteration, buf, radiance)
+}
+
+#[inline(always)]
+fn tile_loop<F>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    buf: &mut TileBuffer,
+    radiance: &F,
+) -> RenderStats
+where
+    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+{
+    let w = scene.width() as u64;
+    let tile = buf.tile;
+    let mut stats = RenderStats::default();
+    for y in tile.y0..tile.y1 {
+        for x in tile.x0..tile.x1 {
+            let index = y as u64 * w + x as u64;
+            let mut rng = Rng::new(seed, iteration, index);
+            let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+            let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
+            stats.samples += 1;
+            stats.rays += 1;
+            buf.add(x, y, radiance(ray, &mut rng, &mut stats));
+        }
+    }
+    stats
 }

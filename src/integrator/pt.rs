@@ -117,6 +117,7 @@ impl PathTracer {
     }
 
     /// Radiance along one camera ray.
+    #[inline(always)]
     fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let mut l = Rgb::ZERO;
         let mut beta = Rgb::ONE;

@@ -7,7 +7,10 @@ pub struct Distribution1D {
     func: Vec<f32>,
     /// cdf[0] = 0, cdf[n] = 1.
     cdf: Vec<f32>,
+    /// Mean of the weights as given (0 when they are all zero).
     integral: f32,
+    /// The mean of `func`, which sampling normalises by (1 for the uniform fallback).
+    norm: f32,
 }
 
 impl Distribution1D {
@@ -41,7 +44,8 @@ impl Distribution1D {
         Distribution1D {
             func,
             cdf,
-            integral: if integral > 0.0 { integral } else { 1.0 },
+            integral,
+            norm: if integral > 0.0 { integral } else { 1.0 },
         }
     }
 
@@ -53,7 +57,8 @@ impl Distribution1D {
         self.func.is_empty()
     }
 
-    /// Mean of the weights (the integral over [0, 1)).
+    /// Mean of the weights (the integral over [0, 1)); 0 when all weights are zero,
+    /// even though sampling then falls back to uniform.
     pub fn integral(&self) -> f32 {
         self.integral
     }
@@ -97,14 +102,14 @@ impl Distribution1D {
         };
         let n = self.func.len() as f32;
         let x = ((i as f32 + du) / n).min(1.0 - f32::EPSILON);
-        (x, self.func[i] / self.integral, i)
+        (x, self.func[i] / self.norm, i)
     }
 
     #[inline]
     pub fn pdf_continuous(&self, x: f32) -> f32 {
         let n = self.func.len();
         let i = ((x * n as f32) as usize).min(n - 1);
-        self.func[i] / self.integral
+        self.func[i] / self.norm
     }
 }
 
