@@ -36,6 +36,33 @@ enum Command {
     },
     /// Measure speed: time per iteration, samples/s and rays/s (median of repeats).
     Bench(BenchArgs),
+    /// Run the render server (REST and gRPC) on a local data directory.
+    Serve(ServeArgs),
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    /// REST address.
+    #[arg(long, default_value = "127.0.0.1:7878")]
+    addr: std::net::SocketAddr,
+    /// gRPC address.
+    #[arg(long, default_value = "127.0.0.1:7879")]
+    grpc_addr: std::net::SocketAddr,
+    /// Where scenes, jobs and images are kept.
+    #[arg(long, default_value = "caustic-data")]
+    data_dir: PathBuf,
+    /// Render threads (default: all cores).
+    #[arg(long, alias = "threads")]
+    workers: Option<usize>,
+    /// Require `Authorization: Bearer TOKEN` on every request (except /healthz).
+    #[arg(long, env = "CAUSTIC_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// Largest image side a job may render.
+    #[arg(long, default_value_t = 8192)]
+    max_resolution: u32,
+    /// Largest upload in MiB.
+    #[arg(long, default_value_t = 256)]
+    max_upload_mib: u64,
 }
 
 #[derive(Args)]
@@ -101,6 +128,7 @@ fn main() -> Result<()> {
         Command::Render(a) => with_threads(a.threads, || render(&a)),
         Command::Diff { a, b, png } => diff(&a, &b, png.as_deref()),
         Command::Bench(a) => with_threads(a.threads, || bench(&a)),
+        Command::Serve(a) => serve(a),
     }
 }
 
@@ -311,4 +339,42 @@ fn bench(a: &BenchArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+fn serve(a: ServeArgs) -> Result<()> {
+    let mut config = caustic::job::ServiceConfig::new(&a.data_dir);
+    config.workers = a.workers.unwrap_or(0);
+    config.max_resolution = a.max_resolution;
+    config.max_upload = a.max_upload_mib << 20;
+    let svc = caustic::job::Service::start(config)?;
+    let rt = tokio::runtime::Runtime::new()?;
+    let result = rt.block_on(async {
+        let http = tokio::net::TcpListener::bind(a.addr)
+            .await
+            .with_context(|| format!("binding {}", a.addr))?;
+        let grpc = tokio::net::TcpListener::bind(a.grpc_addr)
+            .await
+            .with_context(|| format!("binding {}", a.grpc_addr))?;
+        let url = format!("http://{}", http.local_addr()?);
+        eprintln!("caustic serving REST on {url} and gRPC on {}", grpc.local_addr()?);
+        eprintln!("data directory: {}", a.data_dir.display());
+        eprintln!(
+            "try: curl -X POST {url}/v1/jobs -H 'content-type: application/json' -d '{{\"scene\": \"cornell-box\", \"halt\": {{\"spp\": 64}}}}'"
+        );
+        let app = caustic::server::http::app(svc.clone(), a.token.clone());
+        // TODO(grpc): wire the gRPC server here once src/server/grpc.rs lands.
+        let _ = grpc;
+        let grpc_server = futures::future::pending::<Result<()>>();
+        tokio::select! {
+            r = axum::serve(http, app).with_graceful_shutdown(shutdown_signal()) => r.map_err(anyhow::Error::from),
+            r = grpc_server => r,
+        }
+    });
+    svc.shutdown();
+    result
+}
+
+async fn shutdown_signal() {
+    let _ = tokio::signal::ctrl_c().await;
+    eprintln!("shutting down: running jobs resume from their checkpoints on the next start");
 }

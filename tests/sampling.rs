@@ -24,7 +24,7 @@ use std::f64::consts::PI;
 /// Significance level of the file as a whole.
 const SIGNIFICANCE: f64 = 0.01;
 /// Number of chi-square tests in this file that are expected to pass (Sidak correction).
-const CHI2_TESTS: usize = 40;
+const CHI2_TESTS: usize = 42;
 /// Cells whose expected count is below this are pooled (the usual rule of five).
 const POOL_THRESHOLD: f64 = 5.0;
 
@@ -122,6 +122,9 @@ struct Chi2 {
     p_value: f64,
     /// Samples that landed in cells of expected count exactly zero.
     in_empty_cells: f64,
+    /// The unpooled cells that contribute most to the statistic: (index, observed,
+    /// expected), for the failure message.
+    worst: Vec<(usize, f64, f64)>,
 }
 
 /// Pearson's statistic after pooling: cells are sorted by expected count and those
@@ -164,6 +167,16 @@ fn pooled_chi2(obs: &[f64], exp: &[f64]) -> Chi2 {
         stat = f64::INFINITY;
     }
     let dof = cells.saturating_sub(1);
+    let mut worst: Vec<(usize, f64, f64)> = (0..obs.len())
+        .filter(|&i| exp[i] >= POOL_THRESHOLD)
+        .map(|i| (i, obs[i], exp[i]))
+        .collect();
+    worst.sort_by(|a, b| {
+        let ca = (a.1 - a.2).powi(2) / a.2;
+        let cb = (b.1 - b.2).powi(2) / b.2;
+        cb.partial_cmp(&ca).unwrap()
+    });
+    worst.truncate(6);
     let p_value = if dof == 0 || !stat.is_finite() {
         0.0
     } else {
@@ -174,11 +187,17 @@ fn pooled_chi2(obs: &[f64], exp: &[f64]) -> Chi2 {
         dof,
         p_value,
         in_empty_cells,
+        worst,
     }
 }
 
 fn assert_chi2(name: &str, r: &Chi2) {
     let alpha = sidak_alpha();
+    // Shown with --nocapture: how far each test is from its threshold.
+    eprintln!(
+        "chi2 {name}: {:.1} / {} dof, p = {:.4}",
+        r.stat, r.dof, r.p_value
+    );
     assert!(
         r.dof >= 10,
         "{name}: only {} degrees of freedom, the test has no power",
@@ -191,11 +210,13 @@ fn assert_chi2(name: &str, r: &Chi2) {
     );
     assert!(
         r.p_value >= alpha,
-        "{name}: chi2 = {:.1} with {} dof, p = {:.3e} < {:.3e} (Sidak-corrected 0.01)",
+        "{name}: chi2 = {:.1} with {} dof, p = {:.3e} < {:.3e} (Sidak-corrected 0.01); \
+         worst cells (index, observed, expected): {:?}",
         r.stat,
         r.dof,
         r.p_value,
-        alpha
+        alpha,
+        r.worst
     );
 }
 
@@ -206,20 +227,36 @@ enum Param {
     CosPhi(Frame),
     /// An environment map's lat-long (u, v), with its world-from-map rotation.
     LatLong(Mat3),
+    /// A narrow cap about a frame's normal: s = (1 - cos theta) / `one_minus_z0`,
+    /// computed from sin^2 so it keeps its precision for caps of 1e-3 rad. Directions
+    /// outside the cap have no bin.
+    Cap { frame: Frame, one_minus_z0: f64 },
 }
 
 impl Param {
-    fn coords(&self, d: Vec3) -> (f64, f64) {
+    fn coords(&self, d: Vec3) -> Option<(f64, f64)> {
         match *self {
             Param::CosPhi(frame) => {
                 let l = frame.to_local(d).as_dvec3();
                 let z = (l.z / l.length()).clamp(-1.0, 1.0);
                 let phi = l.y.atan2(l.x);
-                ((z + 1.0) / 2.0, (phi + PI) / (2.0 * PI))
+                Some(((z + 1.0) / 2.0, (phi + PI) / (2.0 * PI)))
             }
             Param::LatLong(rot) => {
                 let uv = LatLong::to_uv(rot.transpose() * d);
-                (uv.x as f64, uv.y as f64)
+                Some((uv.x as f64, uv.y as f64))
+            }
+            Param::Cap {
+                frame,
+                one_minus_z0,
+            } => {
+                let l = frame.to_local(d).as_dvec3() / d.as_dvec3().length();
+                if l.z <= 0.0 {
+                    return None;
+                }
+                let s = (l.x * l.x + l.y * l.y) / (1.0 + l.z) / one_minus_z0;
+                let phi = l.y.atan2(l.x);
+                (s < 1.0).then_some((s, (phi + PI) / (2.0 * PI)))
             }
         }
     }
@@ -234,6 +271,20 @@ impl Param {
                 frame.to_world(l)
             }
             Param::LatLong(rot) => rot * LatLong::to_dir(Vec2::new(s as f32, t as f32)),
+            Param::Cap {
+                frame,
+                one_minus_z0,
+            } => {
+                let omz = s * one_minus_z0;
+                let r = (omz * (2.0 - omz)).sqrt();
+                let phi = 2.0 * PI * t - PI;
+                let l = Vec3::new(
+                    (r * phi.cos()) as f32,
+                    (r * phi.sin()) as f32,
+                    (1.0 - omz) as f32,
+                );
+                frame.to_world(l)
+            }
         }
     }
 
@@ -242,15 +293,21 @@ impl Param {
         match *self {
             Param::CosPhi(_) => 4.0 * PI,
             Param::LatLong(_) => 2.0 * PI * PI * (PI * t).sin(),
+            Param::Cap { one_minus_z0, .. } => 2.0 * PI * one_minus_z0,
         }
     }
 }
 
 #[derive(Clone, Copy)]
 enum Quadrature {
-    /// Adaptive tensor Simpson with an absolute tolerance per unit (s, t) area, for
-    /// smooth or peaked densities with a few discontinuities.
-    Adaptive { tol: f64, max_depth: u32 },
+    /// Adaptive tensor Simpson, for smooth or peaked densities with a few
+    /// discontinuities: a cell is accepted when its error estimate is below `abs_tol`
+    /// times its (s, t) area or `rel_tol` times its mass.
+    Adaptive {
+        abs_tol: f64,
+        rel_tol: f64,
+        max_depth: u32,
+    },
     /// k x k midpoints per bin, for densities that are constant on each bin.
     Midpoint(usize),
 }
@@ -267,6 +324,18 @@ fn simpson(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> 
     sum * (x1 - x0) * (y1 - y0) / 36.0
 }
 
+fn midpoint(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64, k: usize) -> f64 {
+    let mut m = 0.0;
+    for a in 0..k {
+        for b in 0..k {
+            let x = x0 + (x1 - x0) * (a as f64 + 0.5) / k as f64;
+            let y = y0 + (y1 - y0) * (b as f64 + 0.5) / k as f64;
+            m += f(x, y);
+        }
+    }
+    m * (x1 - x0) * (y1 - y0) / (k * k) as f64
+}
+
 #[allow(clippy::too_many_arguments)]
 fn adaptive(
     f: &impl Fn(f64, f64) -> f64,
@@ -275,9 +344,14 @@ fn adaptive(
     y0: f64,
     y1: f64,
     whole: f64,
-    tol: f64,
+    tol: (f64, f64),
     depth: u32,
 ) -> f64 {
+    if depth == 0 {
+        // The cell still straddles a discontinuity (a silhouette): Simpson's nodes
+        // on the cell boundary bias such cells, a midpoint grid does not.
+        return midpoint(f, x0, x1, y0, y1, 6);
+    }
     let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
     let q = [
         simpson(f, x0, xm, y0, ym),
@@ -286,10 +360,8 @@ fn adaptive(
         simpson(f, xm, x1, ym, y1),
     ];
     let sum: f64 = q.iter().sum();
-    if depth == 0 {
-        return sum;
-    }
-    if (sum - whole).abs() <= 15.0 * tol * (x1 - x0) * (y1 - y0) {
+    let (abs_tol, rel_tol) = tol;
+    if (sum - whole).abs() <= 15.0 * (abs_tol * (x1 - x0) * (y1 - y0)).max(rel_tol * sum.abs()) {
         return sum + (sum - whole) / 15.0;
     }
     adaptive(f, x0, xm, y0, ym, q[0], tol, depth - 1)
@@ -314,7 +386,11 @@ fn bin_masses(
             let (s0, s1) = (i as f64 / ns as f64, (i + 1) as f64 / ns as f64);
             let (t0, t1) = (j as f64 / nt as f64, (j + 1) as f64 / nt as f64);
             let mass = match quad {
-                Quadrature::Adaptive { tol, max_depth } => {
+                Quadrature::Adaptive {
+                    abs_tol,
+                    rel_tol,
+                    max_depth,
+                } => {
                     // Start from 2 x 2 sub-cells so a narrow peak is less likely to
                     // slip between the first nine nodes.
                     let mut m = 0.0;
@@ -325,22 +401,12 @@ fn bin_masses(
                             let ya = t0 + (t1 - t0) * b as f64 / 2.0;
                             let yb = t0 + (t1 - t0) * (b + 1) as f64 / 2.0;
                             let whole = simpson(&f, xa, xb, ya, yb);
-                            m += adaptive(&f, xa, xb, ya, yb, whole, tol, max_depth);
+                            m += adaptive(&f, xa, xb, ya, yb, whole, (abs_tol, rel_tol), max_depth);
                         }
                     }
                     m
                 }
-                Quadrature::Midpoint(k) => {
-                    let mut m = 0.0;
-                    for a in 0..k {
-                        for b in 0..k {
-                            let s = s0 + (s1 - s0) * (a as f64 + 0.5) / k as f64;
-                            let t = t0 + (t1 - t0) * (b as f64 + 0.5) / k as f64;
-                            m += f(s, t);
-                        }
-                    }
-                    m * (s1 - s0) * (t1 - t0) / (k * k) as f64
-                }
+                Quadrature::Midpoint(k) => midpoint(&f, s0, s1, t0, t1, k),
             };
             out[i * nt + j] = mass.max(0.0);
         }
@@ -349,7 +415,8 @@ fn bin_masses(
 }
 
 /// Result of a direction-sampler test: the chi-square outcome, the integral of the
-/// density over the sphere and the number of failed draws.
+/// density over the binned domain and the number of failed draws (and of draws
+/// outside the domain, for a cap).
 struct DirTest {
     chi2: Chi2,
     integral: f64,
@@ -374,15 +441,20 @@ impl DirTest {
     }
 }
 
+/// Total quadrature error of at most ~1e-6 of the sphere's mass plus 1e-4 of each
+/// bin's: at 1e6 samples a bin of expected count E is off by at most 1 + 1e-4 E, far
+/// below its standard deviation sqrt(E).
 const DEFAULT_ADAPTIVE: Quadrature = Quadrature::Adaptive {
-    tol: 1e-7,
+    abs_tol: 1e-6,
+    rel_tol: 1e-4,
     max_depth: 8,
 };
 
 /// Chi-square test of a direction sampler against a solid-angle density: `n` draws
 /// are binned on an `ns` x `nt` grid over `param`; the expected count of each bin is
 /// `n` times the integral of `pdf` over it; failed draws form one more cell whose
-/// expected count is `n` (1 - integral of `pdf` over the sphere).
+/// expected count is `n` (1 - integral of `pdf` over the binned domain); with a cap,
+/// draws outside it join that cell.
 #[allow(clippy::too_many_arguments)]
 fn chi2_directions(
     param: Param,
@@ -397,14 +469,14 @@ fn chi2_directions(
     let mut failures = 0u64;
     for _ in 0..n {
         match sample() {
-            Some(d) => {
+            Some(d) if param.coords(d).is_some() => {
                 assert!(d.is_finite(), "non-finite direction {d}");
-                let (s, t) = param.coords(d);
+                let (s, t) = param.coords(d).unwrap();
                 let i = ((s * ns as f64) as usize).min(ns - 1);
                 let j = ((t * nt as f64) as usize).min(nt - 1);
                 obs[i * nt + j] += 1.0;
             }
-            None => {
+            _ => {
                 failures += 1;
                 obs[ns * nt] += 1.0;
             }
@@ -1287,8 +1359,15 @@ fn area_cases() -> Vec<AreaCase> {
 /// A binning frame whose pole is perpendicular to the direction of the light, so the
 /// light sits near the equator where (cos theta, phi) bins are well shaped.
 fn frame_perpendicular_to(d: Vec3) -> Frame {
+    // A generic helper, so that no straight edge of a light lies along a meridian of
+    // the bins (where a row of quadrature nodes could sit on the discontinuity).
     let d = d.normalize();
-    let helper = if d.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+    let helper = Vec3::new(0.31, 0.72, 0.55).normalize();
+    let helper = if d.dot(helper).abs() < 0.9 {
+        helper
+    } else {
+        Vec3::new(0.8, -0.1, 0.3)
+    };
     Frame::from_normal(d.cross(helper).normalize())
 }
 
@@ -1303,59 +1382,121 @@ fn light_centre(prims: &[Prim]) -> Vec3 {
     c / prims.len() as f32
 }
 
+/// Chi-square test of an area light's `sample_li` from the case's reference point,
+/// with per-sample checks: the returned pdf equals `pdf_li` at the returned point and
+/// normal, `wi` and `dist` point at that point, and `li` is the radiance.
+fn area_light_chi2(case: &AreaCase, rng: &mut Rng, n: u64) -> DirTest {
+    let light = case.light();
+    let axis = light_centre(&case.prims) - case.p;
+    let frame = if axis.length() < 1e-3 {
+        Frame::from_normal(Vec3::new(0.3, 0.5, 0.8).normalize())
+    } else {
+        frame_perpendicular_to(axis)
+    };
+    chi2_directions(
+        Param::CosPhi(frame),
+        32,
+        64,
+        n,
+        || {
+            let s = light.sample_li(case.p, rng.next_2d())?;
+            assert!(!s.delta);
+            let pdf = light.pdf_li(case.p, s.wi, s.p, s.n);
+            assert!(
+                rel_close(s.pdf as f64, pdf as f64, 1e-3),
+                "{}: sample pdf {} vs pdf_li {pdf}",
+                case.name,
+                s.pdf
+            );
+            let to = s.p - case.p;
+            assert!(
+                (to.length() - s.dist).abs() <= 1e-4 * s.dist
+                    && (to / s.dist - s.wi).length() < 1e-4,
+                "{}: wi/dist do not point at p",
+                case.name
+            );
+            assert_eq!(s.li, Rgb::new(2.0, 3.0, 4.0));
+            Some(s.wi)
+        },
+        |d| case.pdf(&light, d),
+        DEFAULT_ADAPTIVE,
+    )
+}
+
 /// Chi-square of the directions `sample_li` produces against `pdf_li` (called with
-/// the intersection of each direction with the emitter), and per sample: the returned
-/// pdf equals `pdf_li` at the returned point and normal, `wi` points at that point,
-/// and `li` is the radiance.
+/// the intersection of each direction with the emitter) for quads, disks and spheres
+/// seen from outside (solid-angle sampling) and inside (area sampling).
 #[test]
 fn area_light_sampling_matches_pdf_li_chi2() {
     for (k, case) in area_cases().into_iter().enumerate() {
-        let light = case.light();
-        let axis = light_centre(&case.prims) - case.p;
-        let frame = if axis.length() < 1e-3 {
-            Frame::from_normal(Vec3::new(0.3, 0.5, 0.8).normalize())
-        } else {
-            frame_perpendicular_to(axis)
-        };
         let mut rng = Rng::new(1100, k as u64, 0);
+        let t = area_light_chi2(&case, &mut rng, 1_000_000);
+        assert_chi2(case.name, &t.chi2);
+        // Every configuration here sees only the emitting side: nothing should fail
+        // and the density integrates to 1 over the directions that reach the light.
+        assert!(
+            (t.integral - 1.0).abs() < 1e-4,
+            "{}: pdf_li integrates to {}",
+            case.name,
+            t.integral
+        );
+        t.assert_failure_rate(case.name, 1e-4);
+    }
+}
+
+/// Distant spheres, whose cone is too narrow for whole-sphere bins: chi-square on a
+/// cap 1.5 times the cone's solid angle, for the small-angle series branch of
+/// `sample_sphere_cone` (sin^2 theta_max < sin^2 1.5 deg) and just above it.
+#[test]
+fn distant_sphere_light_sampling_chi2() {
+    for (k, (centre, r)) in [
+        (Vec3::new(60.0, -80.0, 0.0), 1.0f32),
+        (Vec3::new(0.0, 12.0, -16.0), 0.5),
+        (Vec3::new(-400.0, 300.0, 866.0), 1.0),
+        (Vec3::new(6.0, 0.0, 8.0), 0.3),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let case = AreaCase {
+            name: "distant sphere",
+            prims: sphere(centre, r),
+            flip: false,
+            two_sided: false,
+            p: Vec3::ZERO,
+        };
+        let light = case.light();
+        let sin2 = (r as f64 / centre.as_dvec3().length()).powi(2);
+        let one_minus_cos = sin2 / (1.0 + (1.0 - sin2).sqrt());
+        let mut rng = Rng::new(1250, k as u64, 0);
         let t = chi2_directions(
-            Param::CosPhi(frame),
+            Param::Cap {
+                frame: Frame::from_normal(centre.normalize()),
+                one_minus_z0: 1.5 * one_minus_cos,
+            },
             32,
             64,
             1_000_000,
             || {
                 let s = light.sample_li(case.p, rng.next_2d())?;
-                assert!(!s.delta);
                 let pdf = light.pdf_li(case.p, s.wi, s.p, s.n);
-                assert!(
-                    rel_close(s.pdf as f64, pdf as f64, 1e-3),
-                    "{}: sample pdf {} vs pdf_li {pdf}",
-                    case.name,
-                    s.pdf
-                );
-                let to = s.p - case.p;
-                assert!(
-                    (to.length() - s.dist).abs() <= 1e-4 * s.dist
-                        && (to / s.dist - s.wi).length() < 1e-4,
-                    "{}: wi/dist do not point at p",
-                    case.name
-                );
-                assert_eq!(s.li, Rgb::new(2.0, 3.0, 4.0));
+                assert!(rel_close(s.pdf as f64, pdf as f64, 1e-4));
                 Some(s.wi)
             },
             |d| case.pdf(&light, d),
             DEFAULT_ADAPTIVE,
         );
-        assert_chi2(case.name, &t.chi2);
-        // Every configuration here sees only the emitting side: nothing should fail
-        // and the density integrates to 1 over the directions that reach the light.
+        let name = format!("sphere r {r} at {centre} (sin^2 {sin2:.1e})");
+        assert_chi2(&name, &t.chi2);
+        // Below 1.5 degrees the pdf uses 1 - cos = sin^2 / 2, which is low by a factor
+        // 1 + sin^2 / 4 (pbrt-v4 makes the same approximation).
+        let tol = 1e-4 + sin2 / 4.0;
         assert!(
-            (t.integral - 1.0).abs() < 2e-3,
-            "{}: pdf_li integrates to {}",
-            case.name,
+            (t.integral - 1.0).abs() < tol,
+            "{name}: pdf_li integrates to {}",
             t.integral
         );
-        t.assert_failure_rate(case.name, 2e-3);
+        t.assert_failure_rate(&name, tol);
     }
 }
 
@@ -1581,9 +1722,10 @@ fn envmap_sampling_matches_pdf_li_chi2() {
 
 /// A sky over a black ground: rows of zero luminance must never be sampled (samples
 /// there carry li = 0 and are wasted; the density should follow luminance).
+/// Regression test: `Distribution1D::integral()` used to return 1 for all-zero
+/// weights, so `Distribution2D` gave every black row marginal weight 1 (61% of the
+/// samples of this map went to black texels).
 #[test]
-#[ignore = "bug: Distribution1D::integral() returns 1 for all-zero weights, so \
-            Distribution2D gives black rows of an environment map marginal weight 1"]
 fn envmap_never_samples_black_texels() {
     let (env, _, texels) = synthetic_envmap(true);
     let light = Light::EnvMap(env);
@@ -1597,7 +1739,7 @@ fn envmap_never_samples_black_texels() {
             }
         }
     }
-    assert!(texels.iter().any(|c| *c == Rgb::ZERO));
+    assert!(texels.contains(&Rgb::ZERO));
     assert_eq!(black, 0, "{black} of {n} samples went to black texels");
 }
 
@@ -1861,11 +2003,9 @@ fn distribution2d_chi2() {
     assert_chi2("Distribution2D::sample", &pooled_chi2(&obs, &exp));
 }
 
-/// A row of zero weights must get zero marginal probability.
+/// A row of zero weights must get zero marginal probability, and the integral of
+/// all-zero weights is their mean, 0 (regression test, see above).
 #[test]
-#[ignore = "bug: Distribution1D::integral() returns 1.0 for all-zero weights (its doc \
-            says it is the mean of the weights), so Distribution2D's marginal gives an \
-            all-zero row weight 1"]
 fn distribution2d_zero_row_is_never_sampled() {
     let weights = [0.0f32, 0.0, 0.0, 0.1, 0.2, 0.3];
     let d = Distribution1D::new(&weights[..3]);

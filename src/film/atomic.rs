@@ -21,6 +21,16 @@ where
     result
 }
 
+/// Writes `bytes` to `path` atomically (see [`write_atomic`]).
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), FilmError> {
+    write_atomic(path, |out| {
+        out.write_all(bytes).map_err(|source| FilmError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
+}
+
 fn write_then_rename<F>(path: &Path, tmp: &Path, write: F) -> Result<(), FilmError>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<(), FilmError>,

@@ -13,6 +13,7 @@ mod metrics;
 mod png_io;
 
 pub use accum::{is_valid_sample, tiles, Film, Tile, TileBuffer};
+pub use atomic::write_bytes_atomic;
 pub use error::FilmError;
 pub use exr_io::{
     decode_exr, decode_exr_layer, encode_exr, encode_exr_layers, read_exr, read_exr_layer,

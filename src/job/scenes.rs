@@ -1,0 +1,380 @@
+//! Scene storage: uploads (one JSON document, or a tar / zip bundle with its meshes and
+//! maps) are validated, stored under `<data-dir>/scenes/<id>/` with id = content hash,
+//! and compiled once per id, shared by every job on that scene.
+
+use super::JobError;
+use crate::scene::{load::read_scene_file, Scene};
+use sha2::{Digest, Sha256};
+use std::collections::HashMap;
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Scenes shipped inside the binary, so a fresh server has something to render.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("cornell-box", include_str!("../../scenes/cornell-box.json")),
+    (
+        "smallvcm-gbs_s",
+        include_str!("../../scenes/smallvcm/gbs_s.json"),
+    ),
+    (
+        "smallvcm-glm_c",
+        include_str!("../../scenes/smallvcm/glm_c.json"),
+    ),
+    (
+        "smallvcm-gbs_p",
+        include_str!("../../scenes/smallvcm/gbs_p.json"),
+    ),
+    (
+        "smallvcm-gbs_b",
+        include_str!("../../scenes/smallvcm/gbs_b.json"),
+    ),
+];
+
+/// What the API shows about a scene.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct SceneInfo {
+    pub id: String,
+    pub builtin: bool,
+    pub width: u32,
+    pub height: u32,
+    pub shapes: usize,
+    pub lights: usize,
+    /// Bytes of the stored bundle (0 for built-ins).
+    pub size_bytes: u64,
+}
+
+pub struct SceneStore {
+    dir: PathBuf,
+    max_upload: u64,
+    cache: Mutex<HashMap<String, Arc<Scene>>>,
+    compilations: AtomicU64,
+}
+
+fn bad(msg: impl Into<String>) -> JobError {
+    JobError::BadRequest(msg.into())
+}
+
+impl SceneStore {
+    pub fn new(data_dir: &Path, max_upload: u64) -> Result<Self, JobError> {
+        let dir = data_dir.join("scenes");
+        std::fs::create_dir_all(&dir).map_err(|e| JobError::io(&dir, e))?;
+        Ok(SceneStore {
+            dir,
+            max_upload,
+            cache: Mutex::new(HashMap::new()),
+            compilations: AtomicU64::new(0),
+        })
+    }
+
+    /// How many times a scene was compiled (BVH built) since start.
+    pub fn compilations(&self) -> u64 {
+        self.compilations.load(Ordering::Relaxed)
+    }
+
+    fn builtin(id: &str) -> Option<&'static str> {
+        BUILTIN.iter().find(|(n, _)| *n == id).map(|(_, t)| *t)
+    }
+
+    /// A valid id names a built-in or is 16 lowercase hex digits.
+    fn check_id(id: &str) -> Result<(), JobError> {
+        let hex = id.len() == 16
+            && id
+                .bytes()
+                .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase());
+        if hex || Self::builtin(id).is_some() {
+            Ok(())
+        } else {
+            Err(JobError::NotFound(format!("scene {id}")))
+        }
+    }
+
+    fn scene_dir(&self, id: &str) -> PathBuf {
+        self.dir.join(id)
+    }
+
+    /// Validates and stores an upload; uploading the same bytes twice gives the same id.
+    pub fn upload(&self, bytes: &[u8]) -> Result<String, JobError> {
+        if bytes.len() as u64 > self.max_upload {
+            return Err(JobError::TooLarge(format!(
+                "upload of {} bytes exceeds the limit of {} bytes",
+                bytes.len(),
+                self.max_upload
+            )));
+        }
+        let id = hex16(&Sha256::digest(bytes));
+        if self.scene_dir(&id).join("scene.json").exists() {
+            return Ok(id);
+        }
+        let tmp = self.dir.join(format!(".upload-{}", uuid::Uuid::new_v4()));
+        let result = self.unpack_and_check(bytes, &tmp);
+        match result {
+            Ok(()) => {
+                let dest = self.scene_dir(&id);
+                match std::fs::rename(&tmp, &dest) {
+                    Ok(()) => Ok(id),
+                    // A concurrent upload of the same bytes won the race: same content.
+                    Err(_) if dest.join("scene.json").exists() => {
+                        let _ = std::fs::remove_dir_all(&tmp);
+                        Ok(id)
+                    }
+                    Err(e) => {
+                        let _ = std::fs::remove_dir_all(&tmp);
+                        Err(JobError::io(&dest, e))
+                    }
+                }
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&tmp);
+                Err(e)
+            }
+        }
+    }
+
+    fn unpack_and_check(&self, bytes: &[u8], tmp: &Path) -> Result<(), JobError> {
+        std::fs::create_dir_all(tmp).map_err(|e| JobError::io(tmp, e))?;
+        let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
+        if first == Some(b'{') {
+            std::fs::write(tmp.join("scene.json"), bytes).map_err(|e| JobError::io(tmp, e))?;
+        } else if bytes.starts_with(b"PK\x03\x04") {
+            unpack_zip(bytes, tmp, self.max_upload)?;
+        } else if bytes.len() > 262 && &bytes[257..262] == b"ustar" {
+            unpack_tar(bytes, tmp, self.max_upload)?;
+        } else {
+            return Err(bad(
+                "upload must be a scene JSON document, a tar archive or a zip archive",
+            ));
+        }
+        let main = find_scene_json(tmp)?;
+        if main != tmp.join("scene.json") {
+            std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
+        }
+        let path = tmp.join("scene.json");
+        Scene::load(&path).map_err(|e| JobError::InvalidScene(e.to_string()))?;
+        Ok(())
+    }
+
+    pub fn exists(&self, id: &str) -> bool {
+        Self::check_id(id).is_ok()
+            && (Self::builtin(id).is_some() || self.scene_dir(id).join("scene.json").exists())
+    }
+
+    /// The compiled scene, from the cache or compiled now (once per id).
+    pub fn compiled(&self, id: &str) -> Result<Arc<Scene>, JobError> {
+        Self::check_id(id)?;
+        let mut cache = self.cache.lock().expect("scene cache");
+        if let Some(s) = cache.get(id) {
+            return Ok(s.clone());
+        }
+        let scene = if let Some(text) = Self::builtin(id) {
+            let file = crate::scene::load::parse_scene(text)
+                .map_err(|e| JobError::Internal(format!("built-in {id}: {e}")))?;
+            Scene::compile(&file, None)
+        } else {
+            let path = self.scene_dir(id).join("scene.json");
+            if !path.exists() {
+                return Err(JobError::NotFound(format!("scene {id}")));
+            }
+            Scene::load(&path)
+        }
+        .map_err(|e| JobError::InvalidScene(e.to_string()))?;
+        self.compilations.fetch_add(1, Ordering::Relaxed);
+        tracing::info!(
+            scene = id,
+            bvh_ms = scene.stats.bvh_build.as_secs_f64() * 1e3,
+            "compiled scene"
+        );
+        let scene = Arc::new(scene);
+        cache.insert(id.to_string(), scene.clone());
+        Ok(scene)
+    }
+
+    pub fn info(&self, id: &str) -> Result<SceneInfo, JobError> {
+        let builtin = Self::builtin(id).is_some();
+        let file = if let Some(text) = Self::builtin(id) {
+            crate::scene::load::parse_scene(text).map_err(|e| JobError::Internal(e.to_string()))?
+        } else {
+            Self::check_id(id)?;
+            let path = self.scene_dir(id).join("scene.json");
+            if !path.exists() {
+                return Err(JobError::NotFound(format!("scene {id}")));
+            }
+            read_scene_file(&path).map_err(|e| JobError::Internal(e.to_string()))?
+        };
+        Ok(SceneInfo {
+            id: id.to_string(),
+            builtin,
+            width: file.film.width,
+            height: file.film.height,
+            shapes: file.shapes.len(),
+            lights: file.lights.len()
+                + file
+                    .shapes
+                    .iter()
+                    .filter(|s| s.common.emission.is_some())
+                    .count(),
+            size_bytes: if builtin {
+                0
+            } else {
+                dir_size(&self.scene_dir(id))
+            },
+        })
+    }
+
+    pub fn list(&self) -> Vec<SceneInfo> {
+        let mut ids: Vec<String> = BUILTIN.iter().map(|(n, _)| n.to_string()).collect();
+        let mut uploaded: Vec<String> = std::fs::read_dir(&self.dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|e| e.file_name().into_string().ok())
+            .filter(|n| !n.starts_with('.'))
+            .collect();
+        uploaded.sort();
+        ids.extend(uploaded);
+        ids.iter().filter_map(|id| self.info(id).ok()).collect()
+    }
+
+    /// Removes an uploaded scene (the caller checks no job uses it).
+    pub fn delete(&self, id: &str) -> Result<(), JobError> {
+        if Self::builtin(id).is_some() {
+            return Err(JobError::Conflict(format!("scene {id} is built in")));
+        }
+        Self::check_id(id)?;
+        let dir = self.scene_dir(id);
+        if !dir.exists() {
+            return Err(JobError::NotFound(format!("scene {id}")));
+        }
+        self.cache.lock().expect("scene cache").remove(id);
+        std::fs::remove_dir_all(&dir).map_err(|e| JobError::io(&dir, e))
+    }
+}
+
+fn hex16(digest: &[u8]) -> String {
+    digest[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn dir_size(dir: &Path) -> u64 {
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| match e.metadata() {
+            Ok(m) if m.is_dir() => dir_size(&e.path()),
+            Ok(m) => m.len(),
+            Err(_) => 0,
+        })
+        .sum()
+}
+
+/// `scene.json` at the top, else the only top-level `.json` file.
+fn find_scene_json(dir: &Path) -> Result<PathBuf, JobError> {
+    let direct = dir.join("scene.json");
+    if direct.exists() {
+        return Ok(direct);
+    }
+    let jsons: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| JobError::io(dir, e))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    match jsons.as_slice() {
+        [one] => Ok(one.clone()),
+        [] => Err(bad(
+            "bundle holds no scene: put scene.json at its top level",
+        )),
+        _ => Err(bad(
+            "bundle holds several top-level .json files: name the scene scene.json",
+        )),
+    }
+}
+
+/// A bundle entry's path, refused when absolute or climbing out with `..`.
+fn safe_entry(name: &Path) -> Result<PathBuf, JobError> {
+    let mut out = PathBuf::new();
+    for c in name.components() {
+        match c {
+            Component::Normal(p) => out.push(p),
+            Component::CurDir => {}
+            _ => {
+                return Err(bad(format!(
+                    "bundle entry \"{}\" is not a relative path inside the bundle",
+                    name.display()
+                )))
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn write_entry(
+    dest: &Path,
+    rel: &Path,
+    mut r: impl Read,
+    budget: &mut u64,
+) -> Result<(), JobError> {
+    let path = dest.join(rel);
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| JobError::io(parent, e))?;
+    }
+    let mut f = std::fs::File::create(&path).map_err(|e| JobError::io(&path, e))?;
+    // Count what is really written: headers can lie about sizes (zip bombs).
+    let n = std::io::copy(&mut (&mut r).take(*budget + 1), &mut f)
+        .map_err(|e| JobError::io(&path, e))?;
+    if n > *budget {
+        return Err(JobError::TooLarge(
+            "bundle expands beyond the upload size limit".into(),
+        ));
+    }
+    *budget -= n;
+    Ok(())
+}
+
+fn unpack_tar(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
+    let mut ar = tar::Archive::new(bytes);
+    let mut budget = limit;
+    for entry in ar.entries().map_err(|e| bad(format!("tar: {e}")))? {
+        let entry = entry.map_err(|e| bad(format!("tar: {e}")))?;
+        let name = entry
+            .path()
+            .map_err(|e| bad(format!("tar: {e}")))?
+            .into_owned();
+        let rel = safe_entry(&name)?;
+        match entry.header().entry_type() {
+            tar::EntryType::Regular => write_entry(dest, &rel, entry, &mut budget)?,
+            tar::EntryType::Directory => {
+                std::fs::create_dir_all(dest.join(&rel)).map_err(|e| JobError::io(dest, e))?
+            }
+            t => return Err(bad(format!(
+                "bundle entry \"{}\" is a {t:?}: only files and folders are accepted (no links)",
+                name.display()
+            ))),
+        }
+    }
+    Ok(())
+}
+
+fn unpack_zip(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
+    let mut ar =
+        zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(|e| bad(format!("zip: {e}")))?;
+    let mut budget = limit;
+    for i in 0..ar.len() {
+        let file = ar.by_index(i).map_err(|e| bad(format!("zip: {e}")))?;
+        let name = PathBuf::from(file.name());
+        let rel = safe_entry(&name)?;
+        if file.is_symlink() {
+            return Err(bad(format!(
+                "bundle entry \"{}\" is a symbolic link: only files and folders are accepted",
+                name.display()
+            )));
+        }
+        if file.is_dir() {
+            std::fs::create_dir_all(dest.join(&rel)).map_err(|e| JobError::io(dest, e))?;
+        } else {
+            write_entry(dest, &rel, file, &mut budget)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,598 @@
+//! The transport-neutral service: every operation the REST and gRPC front ends offer,
+//! as plain methods that validate, act and return domain values or [`JobError`]s.
+
+use super::events::Event;
+use super::scenes::{SceneInfo, SceneStore};
+use super::scheduler::{self, Control, Entry, Metrics, Shared, Table};
+use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
+use super::store::{read_log, JobDir, LogRow};
+use super::sweep::{Sweep, SweepSpec};
+use super::JobError;
+use crate::integrator::Settings;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Condvar, Mutex};
+
+/// Server limits and paths; `for_tests()` gives a temp-friendly small configuration.
+#[derive(Clone, Debug)]
+pub struct ServiceConfig {
+    pub data_dir: PathBuf,
+    /// Worker threads for rendering (0 = all cores).
+    pub workers: usize,
+    /// Largest accepted upload (scene bundle or reference EXR), bytes.
+    pub max_upload: u64,
+    /// Largest image side a job may render.
+    pub max_resolution: u32,
+}
+
+impl ServiceConfig {
+    pub fn new(data_dir: impl Into<PathBuf>) -> Self {
+        ServiceConfig {
+            data_dir: data_dir.into(),
+            workers: 0,
+            max_upload: 256 << 20,
+            max_resolution: 8192,
+        }
+    }
+
+    pub fn for_tests(data_dir: &Path) -> Self {
+        ServiceConfig {
+            workers: 2,
+            max_upload: 8 << 20,
+            max_resolution: 1024,
+            ..ServiceConfig::new(data_dir)
+        }
+    }
+}
+
+/// Which jobs `list_jobs` returns.
+#[derive(Clone, Debug, Default, serde::Deserialize)]
+pub struct JobFilter {
+    pub state: Option<JobState>,
+    pub tag: Option<String>,
+    pub sweep: Option<String>,
+}
+
+pub struct Service {
+    shared: Arc<Shared>,
+    config: ServiceConfig,
+    scheduler: Mutex<Option<std::thread::JoinHandle<()>>>,
+    ids: std::sync::atomic::AtomicU64,
+}
+
+fn bad(m: impl Into<String>) -> JobError {
+    JobError::BadRequest(m.into())
+}
+
+impl Service {
+    /// Opens the data directory, recovers every job in it, and starts the scheduler.
+    pub fn start(config: ServiceConfig) -> Result<Arc<Service>, JobError> {
+        let dir = &config.data_dir;
+        for sub in ["jobs", "references", "sweeps"] {
+            std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
+        }
+        let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
+        let (events, _) = tokio::sync::broadcast::channel(1024);
+        let shared = Arc::new(Shared {
+            table: Mutex::new(recover(dir)),
+            wake: Condvar::new(),
+            events,
+            scenes,
+            data_dir: dir.clone(),
+            metrics: Metrics::default(),
+            shutdown: Default::default(),
+        });
+        let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
+        if config.workers > 0 {
+            pool = pool.num_threads(config.workers);
+        }
+        let pool = pool
+            .build()
+            .map_err(|e| JobError::Internal(e.to_string()))?;
+        let s = shared.clone();
+        let handle = std::thread::Builder::new()
+            .name("scheduler".into())
+            .spawn(move || scheduler::run(s, pool))
+            .map_err(|e| JobError::Internal(e.to_string()))?;
+        Ok(Arc::new(Service {
+            shared,
+            config,
+            scheduler: Mutex::new(Some(handle)),
+            ids: Default::default(),
+        }))
+    }
+
+    /// Stops the scheduler after its current batch (jobs resume on the next start).
+    pub fn shutdown(&self) {
+        self.shared.shutdown.store(true, Ordering::Relaxed);
+        self.shared.wake.notify_all();
+        if let Some(h) = self.scheduler.lock().expect("scheduler").take() {
+            let _ = h.join();
+        }
+    }
+
+    pub fn config(&self) -> &ServiceConfig {
+        &self.config
+    }
+
+    pub fn subscribe(&self) -> tokio::sync::broadcast::Receiver<Event> {
+        self.shared.events.subscribe()
+    }
+
+    // ---- scenes -------------------------------------------------------------
+
+    pub fn upload_scene(&self, bytes: &[u8]) -> Result<SceneInfo, JobError> {
+        let id = self.shared.scenes.upload(bytes)?;
+        self.shared.scenes.info(&id)
+    }
+
+    pub fn list_scenes(&self) -> Vec<SceneInfo> {
+        self.shared.scenes.list()
+    }
+
+    pub fn get_scene(&self, id: &str) -> Result<SceneInfo, JobError> {
+        self.shared.scenes.info(id)
+    }
+
+    pub fn delete_scene(&self, id: &str) -> Result<(), JobError> {
+        let t = self.shared.table.lock().expect("job table");
+        if let Some((jid, _)) = t
+            .jobs
+            .iter()
+            .find(|(_, e)| e.status.spec.scene == id && !e.status.state.is_terminal())
+        {
+            return Err(JobError::Conflict(format!(
+                "scene {id} is used by job {jid}"
+            )));
+        }
+        self.shared.scenes.delete(id)
+    }
+
+    pub fn upload_reference(&self, bytes: &[u8]) -> Result<String, JobError> {
+        if bytes.len() as u64 > self.config.max_upload {
+            return Err(JobError::TooLarge(
+                "reference exceeds the upload size limit".into(),
+            ));
+        }
+        crate::film::decode_exr(bytes).map_err(|e| bad(format!("reference: {e}")))?;
+        use sha2::Digest;
+        let id: String = sha2::Sha256::digest(bytes)[..8]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        let path = scheduler::reference_path(&self.config.data_dir, &id)?;
+        crate::film::write_bytes_atomic(&path, bytes)?;
+        Ok(id)
+    }
+
+    // ---- jobs ---------------------------------------------------------------
+
+    fn new_id(&self) -> String {
+        // Time-ordered, so listing by id lists by creation.
+        let n = self.ids.fetch_add(1, Ordering::Relaxed);
+        let ms = (unix_now() * 1e3) as u64;
+        format!(
+            "j{ms:013x}{:04x}{}",
+            n & 0xffff,
+            &uuid::Uuid::new_v4().simple().to_string()[..6]
+        )
+    }
+
+    /// Validates a spec and queues the job.
+    pub fn submit(&self, spec: JobSpec) -> Result<JobStatus, JobError> {
+        let status = self.prepare(spec)?;
+        let dir = JobDir::new(&self.config.data_dir, &status.id);
+        dir.create()?;
+        dir.write_status(&status)?;
+        let mut t = self.shared.table.lock().expect("job table");
+        let tick = t.tick;
+        t.jobs.insert(
+            status.id.clone(),
+            Entry {
+                status: status.clone(),
+                control: Control::None,
+                served: tick,
+                active: false,
+                runtime: None,
+            },
+        );
+        drop(t);
+        self.shared.wake.notify_all();
+        self.shared.emit(Event::State {
+            job: status.id.clone(),
+            state: JobState::Queued,
+        });
+        Ok(status)
+    }
+
+    fn prepare(&self, spec: JobSpec) -> Result<JobStatus, JobError> {
+        let scenes = &self.shared.scenes;
+        if !scenes.exists(&spec.scene) {
+            return Err(JobError::NotFound(format!("scene {}", spec.scene)));
+        }
+        let h = &spec.halt;
+        if h.max_iterations().is_none() && h.time_s.is_none() && h.target_rmse.is_none() {
+            return Err(bad(
+                "halt: give at least one of spp, iterations, time_s, target_rmse",
+            ));
+        }
+        if h.max_iterations() == Some(0) {
+            return Err(bad("halt: spp / iterations must be at least 1"));
+        }
+        if h.time_s.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
+            return Err(bad("halt.time_s must be a positive number"));
+        }
+        if h.target_rmse.is_some() && spec.reference.is_none() {
+            return Err(bad("halt.target_rmse needs a reference"));
+        }
+        match spec.snapshot_every {
+            SnapshotEvery::Iterations(0) => {
+                return Err(bad("snapshot_every.iterations must be at least 1"))
+            }
+            SnapshotEvery::Seconds(s) if !(s.is_finite() && s > 0.0) => {
+                return Err(bad("snapshot_every.seconds must be positive"))
+            }
+            _ => {}
+        }
+        let scene = scenes.compiled(&spec.scene)?;
+        let max = self.config.max_resolution;
+        if scene.width() > max || scene.height() > max {
+            return Err(bad(format!(
+                "scene renders {}x{}, above this server's limit of {max} per side",
+                scene.width(),
+                scene.height()
+            )));
+        }
+        if let Some(ReferenceSpec::Job(j)) = &spec.reference {
+            let done = self.get_job(j)?.state == JobState::Completed;
+            if !done {
+                return Err(JobError::Conflict(format!(
+                    "reference job {j} has not completed"
+                )));
+            }
+        }
+        scheduler::load_reference(&self.shared, &spec, &scene)?;
+        let settings = Settings::resolve(
+            spec.algorithm.as_deref(),
+            scene.integrator.as_ref(),
+            &spec.params,
+        )?;
+        Ok(JobStatus {
+            id: self.new_id(),
+            settings: serde_json::to_value(&settings).expect("settings serialise"),
+            state: JobState::Queued,
+            iteration: 0,
+            elapsed_s: 0.0,
+            samples_per_s: 0.0,
+            last_rmse: None,
+            eta_s: None,
+            dropped: 0,
+            width: scene.width(),
+            height: scene.height(),
+            created_at: unix_now(),
+            finished_at: None,
+            error: None,
+            spec,
+        })
+    }
+
+    pub fn get_job(&self, id: &str) -> Result<JobStatus, JobError> {
+        let t = self.shared.table.lock().expect("job table");
+        t.jobs
+            .get(id)
+            .map(|e| e.status.clone())
+            .ok_or_else(|| JobError::NotFound(format!("job {id}")))
+    }
+
+    pub fn list_jobs(&self, f: &JobFilter) -> Vec<JobStatus> {
+        let t = self.shared.table.lock().expect("job table");
+        t.jobs
+            .values()
+            .map(|e| &e.status)
+            .filter(|s| f.state.is_none_or(|st| s.state == st))
+            .filter(|s| f.tag.as_ref().is_none_or(|tag| s.spec.tags.contains(tag)))
+            .filter(|s| {
+                f.sweep
+                    .as_ref()
+                    .is_none_or(|w| s.spec.sweep.as_ref() == Some(w))
+            })
+            .cloned()
+            .collect()
+    }
+
+    /// Applies pause or cancel: at once for idle jobs, after the batch for running ones.
+    fn control(&self, id: &str, c: Control) -> Result<JobStatus, JobError> {
+        let mut t = self.shared.table.lock().expect("job table");
+        let e = t
+            .jobs
+            .get_mut(id)
+            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+        let state = e.status.state;
+        let allowed = match c {
+            Control::Pause => matches!(state, JobState::Queued | JobState::Running),
+            Control::Cancel => !state.is_terminal(),
+            Control::None => false,
+        };
+        if !allowed || e.control == Control::Cancel {
+            return Err(JobError::Conflict(format!(
+                "job {id} is {}",
+                state.as_str()
+            )));
+        }
+        if e.active {
+            e.control = c;
+            return Ok(e.status.clone());
+        }
+        e.status.state = if c == Control::Pause {
+            JobState::Paused
+        } else {
+            e.status.finished_at = Some(unix_now());
+            JobState::Cancelled
+        };
+        e.runtime = None;
+        let status = e.status.clone();
+        drop(t);
+        JobDir::new(&self.config.data_dir, id).write_status(&status)?;
+        self.shared.emit(Event::State {
+            job: id.into(),
+            state: status.state,
+        });
+        if status.state.is_terminal() {
+            self.shared.emit(Event::Done {
+                job: id.into(),
+                status: Box::new(status.clone()),
+            });
+        }
+        Ok(status)
+    }
+
+    pub fn cancel(&self, id: &str) -> Result<JobStatus, JobError> {
+        self.control(id, Control::Cancel)
+    }
+
+    pub fn pause(&self, id: &str) -> Result<JobStatus, JobError> {
+        self.control(id, Control::Pause)
+    }
+
+    pub fn resume(&self, id: &str) -> Result<JobStatus, JobError> {
+        let mut t = self.shared.table.lock().expect("job table");
+        let e = t
+            .jobs
+            .get_mut(id)
+            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+        if e.status.state != JobState::Paused || e.control != Control::None {
+            return Err(JobError::Conflict(format!(
+                "job {id} is {}, not paused",
+                e.status.state.as_str()
+            )));
+        }
+        e.status.state = JobState::Queued;
+        let status = e.status.clone();
+        drop(t);
+        JobDir::new(&self.config.data_dir, id).write_status(&status)?;
+        self.shared.wake.notify_all();
+        self.shared.emit(Event::State {
+            job: id.into(),
+            state: JobState::Queued,
+        });
+        Ok(status)
+    }
+
+    /// Removes a job and its directory; a running job must be cancelled first.
+    pub fn delete_job(&self, id: &str) -> Result<(), JobError> {
+        let mut t = self.shared.table.lock().expect("job table");
+        let e = t
+            .jobs
+            .get(id)
+            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+        if e.active || matches!(e.status.state, JobState::Running) {
+            return Err(JobError::Conflict(format!(
+                "job {id} is running: cancel it first"
+            )));
+        }
+        t.jobs.remove(id);
+        drop(t);
+        let dir = JobDir::new(&self.config.data_dir, id);
+        std::fs::remove_dir_all(&dir.root).map_err(|e| JobError::io(&dir.root, e))
+    }
+
+    pub fn job_dir(&self, id: &str) -> Result<JobDir, JobError> {
+        self.get_job(id)?;
+        Ok(JobDir::new(&self.config.data_dir, id))
+    }
+
+    /// Latest image as PNG, re-encoded when an exposure is asked for.
+    pub fn preview_png(&self, id: &str, exposure: Option<f32>) -> Result<Vec<u8>, JobError> {
+        let dir = self.job_dir(id)?;
+        match exposure {
+            None | Some(0.0) => read_file(&dir.latest("png")),
+            Some(e) if e.is_finite() => {
+                let img = crate::film::read_exr(dir.latest("exr"))
+                    .map_err(|_| JobError::NotFound(format!("job {id} has no image yet")))?;
+                Ok(crate::film::encode_png(&img, e)?)
+            }
+            Some(_) => Err(bad("exposure must be finite")),
+        }
+    }
+
+    pub fn image_exr(&self, id: &str) -> Result<Vec<u8>, JobError> {
+        read_file(&self.job_dir(id)?.latest("exr"))
+    }
+
+    pub fn snapshots(&self, id: &str) -> Result<Vec<u64>, JobError> {
+        Ok(self.job_dir(id)?.list_snapshots())
+    }
+
+    pub fn snapshot(&self, id: &str, iteration: u64, ext: &str) -> Result<Vec<u8>, JobError> {
+        if ext != "exr" && ext != "png" {
+            return Err(bad("snapshots are .exr or .png"));
+        }
+        read_file(&self.job_dir(id)?.snapshot(iteration, ext))
+    }
+
+    pub fn log(&self, id: &str) -> Result<Vec<LogRow>, JobError> {
+        Ok(read_log(&self.job_dir(id)?))
+    }
+
+    pub fn log_csv(&self, id: &str) -> Result<Vec<u8>, JobError> {
+        let dir = self.job_dir(id)?;
+        Ok(std::fs::read(dir.log_csv())
+            .unwrap_or_else(|_| format!("{}\n", super::store::LOG_HEADER).into_bytes()))
+    }
+
+    // ---- sweeps -------------------------------------------------------------
+
+    pub fn create_sweep(&self, spec: SweepSpec) -> Result<Sweep, JobError> {
+        let id = format!("s{}", &uuid::Uuid::new_v4().simple().to_string()[..12]);
+        let jobs = spec.expand(&id)?;
+        // Validate every job before queueing any, so a bad grid queues nothing.
+        for (_, j) in &jobs {
+            self.prepare(j.clone())?;
+        }
+        let mut ids = Vec::with_capacity(jobs.len());
+        for (point, j) in jobs {
+            ids.push((point, self.submit(j)?.id));
+        }
+        let sweep = Sweep {
+            id,
+            spec,
+            jobs: ids,
+        };
+        let path = self
+            .config
+            .data_dir
+            .join("sweeps")
+            .join(format!("{}.json", sweep.id));
+        crate::film::write_bytes_atomic(&path, &serde_json::to_vec_pretty(&sweep).expect("sweep"))?;
+        Ok(sweep)
+    }
+
+    pub fn get_sweep(&self, id: &str) -> Result<Sweep, JobError> {
+        if !id.starts_with('s') || !id[1..].bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(JobError::NotFound(format!("sweep {id}")));
+        }
+        let path = self
+            .config
+            .data_dir
+            .join("sweeps")
+            .join(format!("{id}.json"));
+        let bytes = std::fs::read(&path).map_err(|_| JobError::NotFound(format!("sweep {id}")))?;
+        serde_json::from_slice(&bytes).map_err(|e| JobError::Internal(e.to_string()))
+    }
+
+    // ---- health and metrics ------------------------------------------------
+
+    /// Prometheus text exposition.
+    pub fn metrics(&self) -> String {
+        let t = self.shared.table.lock().expect("job table");
+        let mut by_state = std::collections::BTreeMap::new();
+        for e in t.jobs.values() {
+            *by_state.entry(e.status.state.as_str()).or_insert(0u64) += 1;
+        }
+        drop(t);
+        let m = &self.shared.metrics;
+        let mut out = String::new();
+        out.push_str("# HELP caustic_jobs Jobs by state.\n# TYPE caustic_jobs gauge\n");
+        for st in JobState::ALL {
+            let n = by_state.get(st.as_str()).copied().unwrap_or(0);
+            out.push_str(&format!("caustic_jobs{{state=\"{}\"}} {n}\n", st.as_str()));
+        }
+        let queue = by_state.get("queued").copied().unwrap_or(0);
+        let counters = [
+            (
+                "caustic_queue_length",
+                "gauge",
+                "Jobs waiting to run.",
+                queue,
+            ),
+            (
+                "caustic_iterations_total",
+                "counter",
+                "Iterations rendered.",
+                m.iterations.load(Ordering::Relaxed),
+            ),
+            (
+                "caustic_samples_total",
+                "counter",
+                "Camera samples or light paths.",
+                m.samples.load(Ordering::Relaxed),
+            ),
+            (
+                "caustic_rays_total",
+                "counter",
+                "Rays traced.",
+                m.rays.load(Ordering::Relaxed),
+            ),
+            (
+                "caustic_dropped_samples_total",
+                "counter",
+                "Non-finite or negative samples dropped.",
+                m.dropped.load(Ordering::Relaxed),
+            ),
+            (
+                "caustic_scene_compilations_total",
+                "counter",
+                "Scenes compiled (BVH builds).",
+                self.shared.scenes.compilations(),
+            ),
+        ];
+        for (name, kind, help, v) in counters {
+            out.push_str(&format!(
+                "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {v}\n"
+            ));
+        }
+        let secs = m.render_ns.load(Ordering::Relaxed) as f64 / 1e9;
+        out.push_str(&format!(
+            "# HELP caustic_render_seconds_total Time spent rendering.\n# TYPE caustic_render_seconds_total counter\ncaustic_render_seconds_total {secs:.3}\n"
+        ));
+        out
+    }
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, JobError> {
+    std::fs::read(path).map_err(|_| {
+        JobError::NotFound(format!(
+            "{} (not written yet)",
+            path.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        ))
+    })
+}
+
+/// Reads every job.json under `<data-dir>/jobs`. Jobs that were running go back to
+/// the queue and resume from their checkpoints.
+fn recover(data_dir: &Path) -> Table {
+    let mut t = Table::default();
+    let entries = std::fs::read_dir(data_dir.join("jobs"))
+        .into_iter()
+        .flatten()
+        .flatten();
+    for e in entries {
+        let Some(id) = e.file_name().into_string().ok() else {
+            continue;
+        };
+        let dir = JobDir::new(data_dir, &id);
+        let mut status = match dir.read_status() {
+            Ok(s) => s,
+            Err(err) => {
+                tracing::warn!(job = %id, error = %err, "skipping unreadable job");
+                continue;
+            }
+        };
+        if status.state == JobState::Running {
+            status.state = JobState::Queued;
+        }
+        t.jobs.insert(
+            id,
+            Entry {
+                status,
+                control: Control::None,
+                served: 0,
+                active: false,
+                runtime: None,
+            },
+        );
+    }
+    t
+}

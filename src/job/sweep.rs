@@ -1,0 +1,134 @@
+//! Sweeps: a base job and a grid of parameter values expand into one job per grid
+//! point, tagged with the sweep's id; the sweep's table summarises their results.
+
+use super::spec::JobSpec;
+use super::JobError;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// `grid` keys: `algorithm`, `seed`, `priority`, `halt.spp`, `halt.iterations`,
+/// `halt.time_s`, `halt.target_rmse`, or `params.<name>` for an algorithm parameter.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    pub base: JobSpec,
+    pub grid: BTreeMap<String, Vec<serde_json::Value>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+}
+
+/// Largest number of jobs one sweep may create.
+pub const MAX_SWEEP_JOBS: usize = 1000;
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Sweep {
+    pub id: String,
+    pub spec: SweepSpec,
+    /// Each grid point (key -> value) with the job that renders it.
+    pub jobs: Vec<(BTreeMap<String, serde_json::Value>, String)>,
+}
+
+fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobError> {
+    let bad = |what: &str| JobError::BadRequest(format!("grid.{key}: {what}"));
+    let num = || v.as_f64().ok_or_else(|| bad("expected a number"));
+    let int = || {
+        v.as_u64()
+            .ok_or_else(|| bad("expected a non-negative integer"))
+    };
+    match key {
+        "algorithm" => {
+            spec.algorithm = Some(v.as_str().ok_or_else(|| bad("expected a name"))?.into())
+        }
+        "seed" => spec.seed = int()?,
+        "priority" => spec.priority = v.as_i64().ok_or_else(|| bad("expected an integer"))? as i32,
+        "halt.spp" => spec.halt.spp = Some(int()?),
+        "halt.iterations" => spec.halt.iterations = Some(int()?),
+        "halt.time_s" => spec.halt.time_s = Some(num()?),
+        "halt.target_rmse" => spec.halt.target_rmse = Some(num()?),
+        k => match k.strip_prefix("params.") {
+            Some(p) if !p.is_empty() => {
+                spec.params.insert(p.into(), v.clone());
+            }
+            _ => {
+                return Err(bad(
+                    "unknown key (algorithm, seed, priority, halt.*, params.<name>)",
+                ))
+            }
+        },
+    }
+    Ok(())
+}
+
+impl SweepSpec {
+    /// Every grid point as a job, in row-major order of the (sorted) keys.
+    pub fn expand(
+        &self,
+        sweep_id: &str,
+    ) -> Result<Vec<(BTreeMap<String, serde_json::Value>, JobSpec)>, JobError> {
+        if self.grid.is_empty() {
+            return Err(JobError::BadRequest("grid is empty".into()));
+        }
+        let mut total = 1usize;
+        for (k, vals) in &self.grid {
+            if vals.is_empty() {
+                return Err(JobError::BadRequest(format!("grid.{k} has no values")));
+            }
+            total = total.saturating_mul(vals.len());
+        }
+        if total > MAX_SWEEP_JOBS {
+            return Err(JobError::BadRequest(format!(
+                "grid expands to {total} jobs, above the limit of {MAX_SWEEP_JOBS}"
+            )));
+        }
+        let keys: Vec<&String> = self.grid.keys().collect();
+        let mut out = Vec::with_capacity(total);
+        for mut n in 0..total {
+            let mut spec = self.base.clone();
+            let mut point = BTreeMap::new();
+            for k in keys.iter().rev() {
+                let vals = &self.grid[*k];
+                let v = &vals[n % vals.len()];
+                n /= vals.len();
+                set(&mut spec, k, v)?;
+                point.insert((*k).clone(), v.clone());
+            }
+            spec.sweep = Some(sweep_id.into());
+            if !spec.tags.iter().any(|t| t == sweep_id) {
+                spec.tags.push(sweep_id.into());
+            }
+            out.push((point, spec));
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn grid_expands_to_the_cartesian_product() {
+        let spec: SweepSpec = serde_json::from_value(json!({
+            "base": {"scene": "cornell-box", "halt": {"spp": 4}},
+            "grid": {"algorithm": ["pt", "normals"], "halt.time_s": [1, 2, 3]}
+        }))
+        .unwrap();
+        let jobs = spec.expand("s1").unwrap();
+        assert_eq!(jobs.len(), 6);
+        assert!(jobs.iter().all(|(_, j)| j.sweep.as_deref() == Some("s1")));
+        let pts: Vec<_> = jobs
+            .iter()
+            .map(|(p, _)| (p["algorithm"].clone(), p["halt.time_s"].clone()))
+            .collect();
+        assert_eq!(
+            pts.iter().collect::<std::collections::HashSet<_>>().len(),
+            6
+        );
+        let bad: SweepSpec = serde_json::from_value(json!({
+            "base": {"scene": "x", "halt": {"spp": 1}}, "grid": {"radius": [1]}
+        }))
+        .unwrap();
+        assert!(bad.expand("s").is_err());
+    }
+}

@@ -1,0 +1,488 @@
+//! REST API under /v1 (axum). `app(service, token)` builds the router, so tests can
+//! serve it on an ephemeral port.
+
+use super::error::ApiError;
+use crate::job::events::Event;
+use crate::job::service::JobFilter;
+use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::{JobError, JobSpec, JobStatus, Service};
+use axum::body::Bytes;
+use axum::extract::rejection::JsonRejection;
+use axum::extract::{DefaultBodyLimit, FromRequest, Path, Query, Request, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::sse::{self, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use futures::{Stream, StreamExt};
+use serde::{Deserialize, Serialize};
+use std::convert::Infallible;
+use std::sync::Arc;
+
+type Svc = Arc<Service>;
+type ApiResult<T> = Result<T, ApiError>;
+
+/// JSON bodies whose rejections (malformed JSON, wrong types, unknown fields) become
+/// our JSON errors instead of axum's plain-text ones.
+pub struct JsonBody<T>(pub T);
+
+impl<S, T> FromRequest<S> for JsonBody<T>
+where
+    Json<T>: FromRequest<S, Rejection = JsonRejection>,
+    S: Send + Sync,
+{
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        match Json::<T>::from_request(req, state).await {
+            Ok(Json(v)) => Ok(JsonBody(v)),
+            Err(r) => Err(ApiError::new(r.status(), "bad_request", r.body_text())),
+        }
+    }
+}
+
+/// Runs a blocking service call off the async runtime.
+async fn blocking<T: Send + 'static>(
+    svc: &Svc,
+    f: impl FnOnce(&Service) -> Result<T, JobError> + Send + 'static,
+) -> ApiResult<T> {
+    let svc = svc.clone();
+    tokio::task::spawn_blocking(move || f(&svc))
+        .await
+        .map_err(|e| ApiError::from(JobError::Internal(e.to_string())))?
+        .map_err(ApiError::from)
+}
+
+/// A job with the URLs a client follows.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct JobView {
+    #[serde(flatten)]
+    pub job: JobStatus,
+    pub urls: JobUrls,
+}
+
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct JobUrls {
+    pub this: String,
+    pub preview: String,
+    pub image: String,
+    pub snapshots: String,
+    pub log: String,
+    pub events: String,
+}
+
+fn view(job: JobStatus) -> JobView {
+    let base = format!("/v1/jobs/{}", job.id);
+    JobView {
+        urls: JobUrls {
+            preview: format!("{base}/preview.png"),
+            image: format!("{base}/image.exr"),
+            snapshots: format!("{base}/snapshots"),
+            log: format!("{base}/log"),
+            events: format!("{base}/events"),
+            this: base,
+        },
+        job,
+    }
+}
+
+pub fn app(svc: Svc, token: Option<String>) -> Router {
+    let limit = svc.config().max_upload as usize;
+    let v1 = Router::new()
+        .route("/scenes", post(upload_scene).get(list_scenes))
+        .route("/scenes/{id}", get(get_scene).delete(delete_scene))
+        .route("/references", post(upload_reference))
+        .route("/jobs", post(submit).get(list_jobs))
+        .route("/jobs/{id}", get(get_job).delete(delete_job))
+        .route("/jobs/{id}/cancel", post(cancel))
+        .route("/jobs/{id}/pause", post(pause))
+        .route("/jobs/{id}/resume", post(resume))
+        .route("/jobs/{id}/preview.png", get(preview))
+        .route("/jobs/{id}/image.exr", get(image))
+        .route("/jobs/{id}/snapshots", get(snapshots))
+        .route("/jobs/{id}/snapshots/{file}", get(snapshot))
+        .route("/jobs/{id}/log", get(log))
+        .route("/jobs/{id}/events", get(events))
+        .route("/sweeps", post(create_sweep))
+        .route("/sweeps/{id}", get(get_sweep))
+        .route("/openapi.json", get(openapi));
+    let protected = Router::new()
+        .nest("/v1", v1)
+        .route("/metrics", get(metrics))
+        .layer(middleware::from_fn_with_state(token, auth));
+    Router::new()
+        .merge(protected)
+        .route(
+            "/healthz",
+            get(|| async { Json(serde_json::json!({"status": "ok"})) }),
+        )
+        .fallback(|| async {
+            ApiError::new(StatusCode::NOT_FOUND, "not_found", "no such endpoint")
+        })
+        .layer(DefaultBodyLimit::max(limit))
+        .with_state(svc)
+}
+
+/// Bearer-token check; a no-op when the server runs without a token.
+async fn auth(State(token): State<Option<String>>, req: Request, next: Next) -> Response {
+    if let Some(t) = token {
+        let ok = req
+            .headers()
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "))
+            .is_some_and(|given| constant_time_eq(given.as_bytes(), t.as_bytes()));
+        if !ok {
+            return ApiError::new(
+                StatusCode::UNAUTHORIZED,
+                "unauthorized",
+                "missing or wrong bearer token",
+            )
+            .into_response();
+        }
+    }
+    next.run(req).await
+}
+
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+async fn upload_scene(State(svc): State<Svc>, body: Bytes) -> ApiResult<impl IntoResponse> {
+    let info = blocking(&svc, move |s| s.upload_scene(&body)).await?;
+    Ok((StatusCode::CREATED, Json(info)))
+}
+
+async fn list_scenes(State(svc): State<Svc>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(blocking(&svc, |s| Ok(s.list_scenes())).await?))
+}
+
+async fn get_scene(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(blocking(&svc, move |s| s.get_scene(&id)).await?))
+}
+
+async fn delete_scene(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<StatusCode> {
+    blocking(&svc, move |s| s.delete_scene(&id)).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+async fn upload_reference(State(svc): State<Svc>, body: Bytes) -> ApiResult<impl IntoResponse> {
+    let id = blocking(&svc, move |s| s.upload_reference(&body)).await?;
+    Ok((StatusCode::CREATED, Json(serde_json::json!({"id": id}))))
+}
+
+async fn submit(
+    State(svc): State<Svc>,
+    JsonBody(spec): JsonBody<JobSpec>,
+) -> ApiResult<impl IntoResponse> {
+    let job = blocking(&svc, move |s| s.submit(spec)).await?;
+    Ok((StatusCode::CREATED, Json(view(job))))
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ListQuery {
+    state: Option<crate::job::JobState>,
+    tag: Option<String>,
+    sweep: Option<String>,
+}
+
+async fn list_jobs(
+    State(svc): State<Svc>,
+    q: Result<Query<ListQuery>, axum::extract::rejection::QueryRejection>,
+) -> ApiResult<impl IntoResponse> {
+    let Query(q) = q.map_err(|e| ApiError::bad_request(e.body_text()))?;
+    let f = JobFilter {
+        state: q.state,
+        tag: q.tag,
+        sweep: q.sweep,
+    };
+    let jobs = blocking(&svc, move |s| Ok(s.list_jobs(&f))).await?;
+    Ok(Json(jobs.into_iter().map(view).collect::<Vec<_>>()))
+}
+
+async fn get_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(view(blocking(&svc, move |s| s.get_job(&id)).await?)))
+}
+
+async fn delete_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<StatusCode> {
+    blocking(&svc, move |s| s.delete_job(&id)).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+async fn cancel(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(view(blocking(&svc, move |s| s.cancel(&id)).await?)))
+}
+
+async fn pause(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(view(blocking(&svc, move |s| s.pause(&id)).await?)))
+}
+
+async fn resume(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(view(blocking(&svc, move |s| s.resume(&id)).await?)))
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PreviewQuery {
+    exposure: Option<f32>,
+}
+
+fn bytes_response(content_type: &'static str, bytes: Vec<u8>) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, content_type),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        bytes,
+    )
+        .into_response()
+}
+
+async fn preview(
+    State(svc): State<Svc>,
+    Path(id): Path<String>,
+    q: Result<Query<PreviewQuery>, axum::extract::rejection::QueryRejection>,
+) -> ApiResult<Response> {
+    let Query(q) = q.map_err(|e| ApiError::bad_request(e.body_text()))?;
+    let png = blocking(&svc, move |s| s.preview_png(&id, q.exposure)).await?;
+    Ok(bytes_response("image/png", png))
+}
+
+async fn image(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<Response> {
+    let exr = blocking(&svc, move |s| s.image_exr(&id)).await?;
+    Ok(bytes_response("image/x-exr", exr))
+}
+
+async fn snapshots(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    let base = format!("/v1/jobs/{id}/snapshots");
+    let list = blocking(&svc, move |s| s.snapshots(&id)).await?;
+    let items: Vec<_> = list
+        .into_iter()
+        .map(|i| serde_json::json!({"iteration": i, "exr": format!("{base}/{i}.exr"), "png": format!("{base}/{i}.png")}))
+        .collect();
+    Ok(Json(items))
+}
+
+async fn snapshot(
+    State(svc): State<Svc>,
+    Path((id, file)): Path<(String, String)>,
+) -> ApiResult<Response> {
+    let (stem, ext) = file.rsplit_once('.').ok_or_else(|| {
+        ApiError::bad_request("snapshot file is <iteration>.exr or <iteration>.png")
+    })?;
+    let iteration: u64 = stem.parse().map_err(|_| {
+        ApiError::bad_request("snapshot file is <iteration>.exr or <iteration>.png")
+    })?;
+    let ext = ext.to_string();
+    let ct = if ext == "png" {
+        "image/png"
+    } else {
+        "image/x-exr"
+    };
+    let bytes = blocking(&svc, move |s| s.snapshot(&id, iteration, &ext)).await?;
+    Ok(bytes_response(ct, bytes))
+}
+
+fn wants(headers: &HeaderMap, mime: &str) -> bool {
+    headers
+        .get(header::ACCEPT)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.contains(mime))
+}
+
+async fn log(
+    State(svc): State<Svc>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    if wants(&headers, "application/json") {
+        let rows = blocking(&svc, move |s| s.log(&id)).await?;
+        return Ok(Json(rows).into_response());
+    }
+    let csv = blocking(&svc, move |s| s.log_csv(&id)).await?;
+    Ok(bytes_response("text/csv", csv))
+}
+
+/// Server-Sent Events for one job: its current state first, then progress, snapshot and
+/// state events, and a final `done`.
+async fn events(
+    State(svc): State<Svc>,
+    Path(id): Path<String>,
+) -> ApiResult<Sse<impl Stream<Item = Result<sse::Event, Infallible>>>> {
+    // Subscribe before reading the state, so no event falls between the two.
+    let rx = svc.subscribe();
+    let jid = id.clone();
+    let status = blocking(&svc, move |s| s.get_job(&jid)).await?;
+    let first = if status.state.is_terminal() {
+        Event::Done {
+            job: id.clone(),
+            status: Box::new(status),
+        }
+    } else {
+        Event::State {
+            job: id.clone(),
+            state: status.state,
+        }
+    };
+    let done_already = matches!(first, Event::Done { .. });
+    let live = tokio_stream::wrappers::BroadcastStream::new(rx)
+        .filter_map(move |r| {
+            let id = id.clone();
+            async move { r.ok().filter(|e| e.job() == id) }
+        })
+        .boxed();
+    let live = until_done(live, done_already);
+    let stream = futures::stream::once(async move { first })
+        .chain(live)
+        .map(|e| {
+            Ok(sse::Event::default()
+                .event(e.name())
+                .json_data(&e)
+                .expect("event serialises"))
+        });
+    Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+/// Passes events through up to and including the first `done`, then ends (at once,
+/// not when some later event arrives).
+fn until_done(
+    events: futures::stream::BoxStream<'static, Event>,
+    finished: bool,
+) -> impl Stream<Item = Event> {
+    futures::stream::unfold((events, finished), |(mut events, finished)| async move {
+        if finished {
+            return None;
+        }
+        let e = events.next().await?;
+        let finished = matches!(e, Event::Done { .. });
+        Some((e, (events, finished)))
+    })
+}
+
+async fn create_sweep(
+    State(svc): State<Svc>,
+    JsonBody(spec): JsonBody<SweepSpec>,
+) -> ApiResult<impl IntoResponse> {
+    let sweep = blocking(&svc, move |s| s.create_sweep(spec)).await?;
+    let table = blocking(&svc, move |s| sweep_table(s, sweep)).await?;
+    Ok((StatusCode::CREATED, Json(table)))
+}
+
+/// One row per job of a sweep.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct SweepRow {
+    pub job: String,
+    pub point: std::collections::BTreeMap<String, serde_json::Value>,
+    pub state: crate::job::JobState,
+    pub iterations: u64,
+    pub time_s: f64,
+    pub rmse: Option<f64>,
+}
+
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct SweepTable {
+    pub id: String,
+    pub name: Option<String>,
+    pub rows: Vec<SweepRow>,
+}
+
+fn sweep_table(s: &Service, sweep: Sweep) -> Result<SweepTable, JobError> {
+    let rows = sweep
+        .jobs
+        .iter()
+        .map(|(point, id)| {
+            let st = s.get_job(id);
+            SweepRow {
+                job: id.clone(),
+                point: point.clone(),
+                state: st
+                    .as_ref()
+                    .map(|j| j.state)
+                    .unwrap_or(crate::job::JobState::Failed),
+                iterations: st.as_ref().map(|j| j.iteration).unwrap_or(0),
+                time_s: st.as_ref().map(|j| j.elapsed_s).unwrap_or(0.0),
+                rmse: st.as_ref().ok().and_then(|j| j.last_rmse),
+            }
+        })
+        .collect();
+    Ok(SweepTable {
+        id: sweep.id,
+        name: sweep.spec.name,
+        rows,
+    })
+}
+
+impl SweepTable {
+    pub fn csv(&self) -> String {
+        let keys: Vec<&String> = self
+            .rows
+            .first()
+            .map(|r| r.point.keys().collect())
+            .unwrap_or_default();
+        let mut out = String::from("job");
+        for k in &keys {
+            out.push(',');
+            out.push_str(k);
+        }
+        out.push_str(",state,iterations,time_s,rmse\n");
+        for r in &self.rows {
+            out.push_str(&r.job);
+            for k in &keys {
+                out.push(',');
+                let v = &r.point[*k];
+                out.push_str(
+                    &v.as_str()
+                        .map(String::from)
+                        .unwrap_or_else(|| v.to_string()),
+                );
+            }
+            let rmse = r.rmse.map(|x| format!("{x:.6e}")).unwrap_or_default();
+            out.push_str(&format!(
+                ",{},{},{:.3},{rmse}\n",
+                r.state.as_str(),
+                r.iterations,
+                r.time_s
+            ));
+        }
+        out
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepQuery {
+    format: Option<String>,
+}
+
+async fn get_sweep(
+    State(svc): State<Svc>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    q: Result<Query<SweepQuery>, axum::extract::rejection::QueryRejection>,
+) -> ApiResult<Response> {
+    let Query(q) = q.map_err(|e| ApiError::bad_request(e.body_text()))?;
+    let table = blocking(&svc, move |s| {
+        let sweep = s.get_sweep(&id)?;
+        sweep_table(s, sweep)
+    })
+    .await?;
+    if q.format.as_deref() == Some("csv") || wants(&headers, "text/csv") {
+        return Ok(bytes_response("text/csv", table.csv().into_bytes()));
+    }
+    Ok(Json(table).into_response())
+}
+
+async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
+    let text = blocking(&svc, |s| Ok(s.metrics())).await?;
+    Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response())
+}
+
+async fn openapi() -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        super::openapi::DOCUMENT,
+    )
+        .into_response()
+}

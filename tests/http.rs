@@ -1,0 +1,380 @@
+//! The REST API end to end: uploads, jobs, SSE, images, logs, control, sweeps, auth and
+//! every class of bad input.
+
+mod server_common;
+use serde_json::{json, Value};
+use server_common::*;
+use std::io::{BufRead, BufReader};
+
+fn submit(s: &TestServer, spec: Value) -> String {
+    let (code, job) = s.post_json("/v1/jobs", &spec);
+    assert_eq!(code, 201, "{job}");
+    assert_eq!(job["state"], "queued");
+    job["id"].as_str().unwrap().to_string()
+}
+
+fn upload_tiny(s: &TestServer, size: u32) -> String {
+    let (code, info) = s.post_bytes("/v1/scenes", tiny_scene(size).to_string().as_bytes());
+    assert_eq!(code, 201, "{info}");
+    info["id"].as_str().unwrap().to_string()
+}
+
+#[test]
+fn upload_is_content_addressed_and_listed_with_builtins() {
+    let s = TestServer::start(None);
+    let a = upload_tiny(&s, 16);
+    let b = upload_tiny(&s, 16);
+    assert_eq!(a, b);
+    let (code, list) = s.get_json("/v1/scenes");
+    assert_eq!(code, 200);
+    let ids: Vec<&str> = list
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["id"].as_str().unwrap())
+        .collect();
+    assert!(
+        ids.contains(&"cornell-box") && ids.contains(&a.as_str()),
+        "{ids:?}"
+    );
+    let (code, info) = s.get_json(&format!("/v1/scenes/{a}"));
+    assert_eq!((code, info["width"].as_u64()), (200, Some(16)));
+    assert_eq!(s.delete(&format!("/v1/scenes/{a}")).0, 204);
+    assert_eq!(s.get_json(&format!("/v1/scenes/{a}")).0, 404);
+    assert_eq!(s.delete("/v1/scenes/cornell-box").0, 409);
+}
+
+#[test]
+fn job_runs_to_completion_with_events_images_and_log() {
+    let s = TestServer::start(None);
+    let scene = upload_tiny(&s, 32);
+    let id = submit(
+        &s,
+        json!({"scene": scene, "halt": {"spp": 6}, "snapshot_every": {"iterations": 2}, "seed": 3}),
+    );
+    // Follow the SSE stream to the end.
+    let resp = ureq::get(&format!("{}/v1/jobs/{id}/events", s.url))
+        .call()
+        .unwrap();
+    assert_eq!(resp.header("content-type"), Some("text/event-stream"));
+    let mut events = Vec::new();
+    for line in BufReader::new(resp.into_reader()).lines() {
+        let line = line.unwrap();
+        if let Some(e) = line.strip_prefix("event: ") {
+            events.push(e.to_string());
+        }
+    }
+    assert_eq!(
+        events.last().map(String::as_str),
+        Some("done"),
+        "{events:?}"
+    );
+    assert!(
+        events.iter().filter(|e| *e == "snapshot").count() >= 3,
+        "{events:?}"
+    );
+    let job = s.wait_job(&id);
+    assert_eq!(job["state"], "completed");
+    assert_eq!(job["iteration"], 6);
+    assert_eq!(job["dropped"], 0);
+
+    let (code, png) = s.get(&format!("/v1/jobs/{id}/preview.png?exposure=1"));
+    assert_eq!(code, 200);
+    assert_eq!(&png[1..4], b"PNG");
+    let (code, exr) = s.get(&format!("/v1/jobs/{id}/image.exr"));
+    assert_eq!(code, 200);
+    let img = caustic::film::decode_exr(&exr).unwrap();
+    assert_eq!(img.size(), (32, 32));
+    assert!(img.mean().x > 0.0);
+
+    let (_, snaps) = s.get_json(&format!("/v1/jobs/{id}/snapshots"));
+    let its: Vec<u64> = snaps
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["iteration"].as_u64().unwrap())
+        .collect();
+    assert_eq!(its, vec![2, 4, 6]);
+    assert_eq!(s.get(&format!("/v1/jobs/{id}/snapshots/4.png")).0, 200);
+    assert_eq!(s.get(&format!("/v1/jobs/{id}/snapshots/5.png")).0, 404);
+
+    let (_, csv) = s.get(&format!("/v1/jobs/{id}/log"));
+    let csv = String::from_utf8(csv).unwrap();
+    assert!(
+        csv.starts_with("iteration,elapsed_s,samples,rmse,rel_mse,dropped"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count(), 4);
+    let (code, b) = respond(
+        ureq::get(&format!("{}/v1/jobs/{id}/log", s.url))
+            .set("accept", "application/json")
+            .call(),
+    );
+    let rows: Value = serde_json::from_slice(&b).unwrap();
+    assert_eq!((code, rows.as_array().unwrap().len()), (200, 3));
+
+    // The image equals a direct render of the same settings: the server adds nothing.
+    let file = caustic::scene::load::parse_scene(&tiny_scene(32).to_string()).unwrap();
+    let scene = caustic::scene::Scene::compile(&file, None).unwrap();
+    let settings =
+        caustic::integrator::Settings::resolve(Some("pt"), None, &Default::default()).unwrap();
+    let out = caustic::integrator::driver::render(
+        &scene,
+        settings.build().as_ref(),
+        3,
+        caustic::integrator::driver::Halt {
+            iterations: Some(6),
+            time: None,
+        },
+        |_, _| {},
+    );
+    assert_eq!(out.image().pixels(), img.pixels());
+}
+
+#[test]
+fn pause_resume_cancel_and_delete() {
+    let s = TestServer::start(None);
+    let id = submit(&s, json!({"scene": "cornell-box", "halt": {"spp": 100000}}));
+    s.wait_state(&id, "running");
+    let (code, _) = s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({}));
+    assert_eq!(code, 200);
+    s.wait_state(&id, "paused");
+    assert_eq!(
+        s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({})).0,
+        409
+    );
+    let it = s.get_json(&format!("/v1/jobs/{id}")).1["iteration"]
+        .as_u64()
+        .unwrap();
+    assert_eq!(
+        s.post_json(&format!("/v1/jobs/{id}/resume"), &json!({})).0,
+        200
+    );
+    assert_eq!(
+        s.post_json(&format!("/v1/jobs/{id}/resume"), &json!({})).0,
+        409
+    );
+    s.wait_state(&id, "running");
+    let (code, _) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(code, 200);
+    let job = s.wait_job(&id);
+    assert_eq!(job["state"], "cancelled");
+    assert!(job["iteration"].as_u64().unwrap() >= it);
+    let (code, err) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(code, 409);
+    assert_eq!(err["error"]["code"], "conflict");
+    assert_eq!(s.delete(&format!("/v1/jobs/{id}")).0, 204);
+    assert_eq!(s.get_json(&format!("/v1/jobs/{id}")).0, 404);
+    assert!(!s.dir.path().join("jobs").join(&id).exists());
+}
+
+#[test]
+fn sweep_expands_runs_and_tabulates() {
+    let s = TestServer::start(None);
+    let scene = upload_tiny(&s, 16);
+    let (code, table) = s.post_json(
+        "/v1/sweeps",
+        &json!({"base": {"scene": scene, "halt": {"spp": 1}},
+                "grid": {"algorithm": ["pt", "albedo"], "halt.spp": [1, 2]}, "name": "t"}),
+    );
+    assert_eq!(code, 201, "{table}");
+    let sid = table["id"].as_str().unwrap().to_string();
+    let rows = table["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for r in rows {
+        s.wait_job(r["job"].as_str().unwrap());
+    }
+    let (_, table) = s.get_json(&format!("/v1/sweeps/{sid}"));
+    for r in table["rows"].as_array().unwrap() {
+        assert_eq!(r["state"], "completed");
+        assert_eq!(r["iterations"], r["point"]["halt.spp"]);
+    }
+    let (_, jobs) = s.get_json(&format!("/v1/jobs?sweep={sid}&state=completed"));
+    assert_eq!(jobs.as_array().unwrap().len(), 4);
+    let (code, csv) = s.get(&format!("/v1/sweeps/{sid}?format=csv"));
+    let csv = String::from_utf8(csv).unwrap();
+    assert_eq!(code, 200);
+    assert!(csv.starts_with("job,algorithm,halt.spp,state"), "{csv}");
+    assert_eq!(csv.lines().count(), 5);
+}
+
+#[test]
+fn bearer_token_guards_everything_but_health() {
+    let s = TestServer::start(Some("s3cret"));
+    let (code, err) = s.get_json("/v1/jobs");
+    assert_eq!(code, 401);
+    assert_eq!(err["error"]["code"], "unauthorized");
+    assert_eq!(s.get("/metrics").0, 401);
+    assert_eq!(s.get("/healthz").0, 200);
+    let (code, _) = respond(
+        ureq::get(&format!("{}/v1/jobs", s.url))
+            .set("authorization", "Bearer s3cret")
+            .call(),
+    );
+    assert_eq!(code, 200);
+    let (code, _) = respond(
+        ureq::get(&format!("{}/v1/jobs", s.url))
+            .set("authorization", "Bearer wrong")
+            .call(),
+    );
+    assert_eq!(code, 401);
+}
+
+fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut b = tar::Builder::new(Vec::new());
+    for (name, data) in entries {
+        let mut h = tar::Header::new_gnu();
+        h.set_size(data.len() as u64);
+        h.set_mode(0o644);
+        h.set_entry_type(tar::EntryType::Regular);
+        // Write the raw name so that unsafe paths reach the server as given.
+        let bytes = name.as_bytes();
+        h.as_old_mut().name[..bytes.len()].copy_from_slice(bytes);
+        h.set_cksum();
+        b.append(&h, *data).unwrap();
+    }
+    b.into_inner().unwrap()
+}
+
+#[test]
+fn bad_input_gets_clear_4xx_json_and_running_jobs_are_undisturbed() {
+    let s = TestServer::start(None);
+    let running = submit(
+        &s,
+        json!({"scene": "cornell-box", "halt": {"spp": 3}, "seed": 1}),
+    );
+    let check = |code: u16, body: &Value, want: u16, words: &str| {
+        assert_eq!(code, want, "{body}");
+        let msg = body["error"]["message"].as_str().unwrap_or_default();
+        assert!(msg.contains(words), "expected '{words}' in {body}");
+    };
+    // Malformed JSON, wrong types, unknown fields.
+    let (c, b) = respond(
+        ureq::post(&format!("{}/v1/jobs", s.url))
+            .set("content-type", "application/json")
+            .send_string("{\"scene\": "),
+    );
+    let b: Value = serde_json::from_slice(&b).unwrap();
+    assert_eq!(c, 400, "{b}");
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "halt": {"spp": "many"}}),
+    );
+    check(c, &b, 422, "spp");
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "halt": {"spp": 1}, "colour": 1}),
+    );
+    check(c, &b, 422, "colour");
+    // Unknown algorithm and parameter.
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "algorithm": "vcmm", "halt": {"spp": 1}}),
+    );
+    check(c, &b, 400, "vcmm");
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "params": {"max_dept": 3}, "halt": {"spp": 1}}),
+    );
+    check(c, &b, 400, "max_dept");
+    // No halting rule; target RMSE without a reference.
+    let (c, b) = s.post_json("/v1/jobs", &json!({"scene": "cornell-box", "halt": {}}));
+    check(c, &b, 400, "halt");
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "halt": {"target_rmse": 0.1}}),
+    );
+    check(c, &b, 400, "reference");
+    // Unknown ids.
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "0123456789abcdef", "halt": {"spp": 1}}),
+    );
+    check(c, &b, 404, "scene");
+    check(
+        s.get_json("/v1/jobs/jnope").0,
+        &s.get_json("/v1/jobs/jnope").1,
+        404,
+        "jnope",
+    );
+    assert_eq!(s.get_json("/v1/sweeps/s123").0, 404);
+    // A scene that does not validate names the field.
+    let mut bad = tiny_scene(16);
+    bad["shapes"][0]["material"] = json!("glas");
+    let (c, b) = s.post_bytes("/v1/scenes", bad.to_string().as_bytes());
+    check(c, &b, 422, "shapes[0].material");
+    // Huge resolution (the test server caps at 1024).
+    let (c, b) = s.post_bytes("/v1/scenes", tiny_scene(2000).to_string().as_bytes());
+    assert_eq!(c, 201, "{b}");
+    let big = b["id"].as_str().unwrap();
+    let (c, b) = s.post_json("/v1/jobs", &json!({"scene": big, "halt": {"spp": 1}}));
+    check(c, &b, 400, "limit");
+    // Bundles: `..`, absolute paths, symlinks, too large, not an archive.
+    let scene = tiny_scene(16).to_string();
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &tar_with(&[
+            ("scene.json", scene.as_bytes()),
+            ("../evil.obj", b"v 0 0 0"),
+        ]),
+    );
+    check(c, &b, 400, "../evil.obj");
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &tar_with(&[("scene.json", scene.as_bytes()), ("/etc/evil", b"x")]),
+    );
+    check(c, &b, 400, "/etc/evil");
+    let mut tb = tar::Builder::new(Vec::new());
+    let mut h = tar::Header::new_gnu();
+    h.set_entry_type(tar::EntryType::Symlink);
+    h.set_size(0);
+    tb.append_link(&mut h, "mesh.obj", "/etc/passwd").unwrap();
+    let mut h = tar::Header::new_gnu();
+    h.set_size(scene.len() as u64);
+    h.set_mode(0o644);
+    tb.append_data(&mut h, "scene.json", scene.as_bytes())
+        .unwrap();
+    let (c, b) = s.post_bytes("/v1/scenes", &tb.into_inner().unwrap());
+    check(c, &b, 400, "link");
+    let huge = vec![b' '; 9 << 20];
+    let (c, _) = s.post_bytes("/v1/scenes", &huge);
+    assert_eq!(c, 413);
+    let (c, b) = s.post_bytes("/v1/scenes", b"\x00\x01garbage");
+    check(c, &b, 400, "tar");
+    // A bundle with a mesh works.
+    let mut with_mesh = tiny_scene(16);
+    with_mesh["shapes"][1] = json!({"type": "obj", "filename": "m/quad.obj", "material": "m"});
+    let text = with_mesh.to_string();
+    let obj = b"v -2 -1 -2\nv 2 -1 -2\nv 2 -1 2\nv -2 -1 2\nf 4 3 2 1\n";
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &tar_with(&[("scene.json", text.as_bytes()), ("m/quad.obj", obj)]),
+    );
+    assert_eq!(c, 201, "{b}");
+
+    let job = s.wait_job(&running);
+    assert_eq!(job["state"], "completed", "{job}");
+    assert_eq!(job["iteration"], 3);
+}
+
+#[test]
+fn metrics_and_openapi_are_served() {
+    let s = TestServer::start(None);
+    let id = submit(&s, json!({"scene": "cornell-box", "halt": {"spp": 1}}));
+    s.wait_job(&id);
+    let (code, text) = s.get("/metrics");
+    let text = String::from_utf8(text).unwrap();
+    assert_eq!(code, 200);
+    assert!(
+        text.contains("caustic_jobs{state=\"completed\"} 1"),
+        "{text}"
+    );
+    assert!(text.contains("caustic_iterations_total 1"), "{text}");
+    assert!(
+        text.contains("caustic_scene_compilations_total 1"),
+        "{text}"
+    );
+    let (code, doc) = s.get_json("/v1/openapi.json");
+    assert_eq!(code, 200);
+    assert!(doc["openapi"].as_str().unwrap().starts_with("3."));
+}

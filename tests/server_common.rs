@@ -1,0 +1,127 @@
+//! A test server: the REST app on 127.0.0.1:0 with a temp data directory, and small
+//! blocking HTTP helpers.
+#![allow(dead_code)]
+
+use caustic::job::{Service, ServiceConfig};
+use serde_json::{json, Value};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+pub struct TestServer {
+    pub url: String,
+    pub svc: Arc<Service>,
+    pub dir: tempfile::TempDir,
+    rt: Option<tokio::runtime::Runtime>,
+}
+
+impl TestServer {
+    pub fn start(token: Option<&str>) -> TestServer {
+        let dir = tempfile::tempdir().unwrap();
+        let svc = Service::start(ServiceConfig::for_tests(dir.path())).unwrap();
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        let listener = rt
+            .block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))
+            .unwrap();
+        let url = format!("http://{}", listener.local_addr().unwrap());
+        let app = caustic::server::http::app(svc.clone(), token.map(String::from));
+        rt.spawn(async move { axum::serve(listener, app).await.unwrap() });
+        TestServer {
+            url,
+            svc,
+            dir,
+            rt: Some(rt),
+        }
+    }
+
+    pub fn get(&self, path: &str) -> (u16, Vec<u8>) {
+        respond(ureq::get(&format!("{}{path}", self.url)).call())
+    }
+
+    pub fn get_json(&self, path: &str) -> (u16, Value) {
+        let (code, body) = self.get(path);
+        (code, serde_json::from_slice(&body).unwrap_or(Value::Null))
+    }
+
+    pub fn post_json(&self, path: &str, body: &Value) -> (u16, Value) {
+        let (code, b) = respond(
+            ureq::post(&format!("{}{path}", self.url))
+                .set("content-type", "application/json")
+                .send_string(&body.to_string()),
+        );
+        (code, serde_json::from_slice(&b).unwrap_or(Value::Null))
+    }
+
+    pub fn post_bytes(&self, path: &str, body: &[u8]) -> (u16, Value) {
+        let (code, b) = respond(ureq::post(&format!("{}{path}", self.url)).send_bytes(body));
+        (code, serde_json::from_slice(&b).unwrap_or(Value::Null))
+    }
+
+    pub fn delete(&self, path: &str) -> (u16, Value) {
+        let (code, b) = respond(ureq::delete(&format!("{}{path}", self.url)).call());
+        (code, serde_json::from_slice(&b).unwrap_or(Value::Null))
+    }
+
+    /// Polls a job until it reaches a terminal state.
+    pub fn wait_job(&self, id: &str) -> Value {
+        let start = Instant::now();
+        loop {
+            let (code, job) = self.get_json(&format!("/v1/jobs/{id}"));
+            assert_eq!(code, 200, "{job}");
+            if ["completed", "cancelled", "failed"].contains(&job["state"].as_str().unwrap()) {
+                return job;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(120),
+                "job {id} did not finish: {job}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    pub fn wait_state(&self, id: &str, state: &str) {
+        let start = Instant::now();
+        while self.get_json(&format!("/v1/jobs/{id}")).1["state"] != state {
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "job {id} never {state}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for TestServer {
+    fn drop(&mut self) {
+        self.svc.shutdown();
+        if let Some(rt) = self.rt.take() {
+            rt.shutdown_background();
+        }
+    }
+}
+
+pub fn respond(r: Result<ureq::Response, ureq::Error>) -> (u16, Vec<u8>) {
+    let resp = match r {
+        Ok(r) => r,
+        Err(ureq::Error::Status(_, r)) => r,
+        Err(e) => panic!("transport error: {e}"),
+    };
+    let code = resp.status();
+    let mut body = Vec::new();
+    std::io::Read::read_to_end(&mut resp.into_reader(), &mut body).unwrap();
+    (code, body)
+}
+
+/// A small scene: a diffuse sphere on a plane under a point light.
+pub fn tiny_scene(size: u32) -> Value {
+    json!({
+        "format": 1,
+        "camera": {"look_at": {"origin": [0, 1, 4], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 45},
+        "film": {"width": size, "height": size},
+        "materials": {"m": {"type": "diffuse", "reflectance": [0.6, 0.5, 0.4]}},
+        "shapes": [
+            {"type": "sphere", "radius": 0.8, "material": "m"},
+            {"type": "rectangle", "material": "m", "transform": {"translate": [0, -0.8, 0], "rotate": [{"axis": [1, 0, 0], "angle": -90}], "scale": 5}}
+        ],
+        "lights": [{"type": "point", "position": [1, 3, 2], "intensity": [8, 8, 8]}]
+    })
+}
