@@ -377,4 +377,35 @@ fn metrics_and_openapi_are_served() {
     let (code, doc) = s.get_json("/v1/openapi.json");
     assert_eq!(code, 200);
     assert!(doc["openapi"].as_str().unwrap().starts_with("3."));
+    // Every route the server answers is documented, with its method.
+    let routes = [
+        ("post", "/v1/scenes"),
+        ("get", "/v1/scenes"),
+        ("get", "/v1/scenes/{id}"),
+        ("delete", "/v1/scenes/{id}"),
+        ("post", "/v1/references"),
+        ("post", "/v1/jobs"),
+        ("get", "/v1/jobs"),
+        ("get", "/v1/jobs/{id}"),
+        ("delete", "/v1/jobs/{id}"),
+        ("post", "/v1/jobs/{id}/cancel"),
+        ("post", "/v1/jobs/{id}/pause"),
+        ("post", "/v1/jobs/{id}/resume"),
+        ("get", "/v1/jobs/{id}/preview.png"),
+        ("get", "/v1/jobs/{id}/image.exr"),
+        ("get", "/v1/jobs/{id}/snapshots"),
+        ("get", "/v1/jobs/{id}/snapshots/{file}"),
+        ("get", "/v1/jobs/{id}/log"),
+        ("get", "/v1/jobs/{id}/events"),
+        ("post", "/v1/sweeps"),
+        ("get", "/v1/sweeps/{id}"),
+        ("get", "/metrics"),
+    ];
+    for (method, path) in routes {
+        assert!(
+            doc["paths"][path][method].is_object(),
+            "{method} {path} undocumented"
+        );
+    }
+    assert!(doc["components"]["schemas"]["JobSpec"]["properties"]["halt"].is_object());
 }

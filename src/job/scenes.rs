@@ -33,7 +33,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
 ];
 
 /// What the API shows about a scene.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq, utoipa::ToSchema)]
 pub struct SceneInfo {
     pub id: String,
     pub builtin: bool,
@@ -347,10 +347,12 @@ fn unpack_tar(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
             tar::EntryType::Directory => {
                 std::fs::create_dir_all(dest.join(&rel)).map_err(|e| JobError::io(dest, e))?
             }
-            t => return Err(bad(format!(
+            t => {
+                return Err(bad(format!(
                 "bundle entry \"{}\" is a {t:?}: only files and folders are accepted (no links)",
                 name.display()
-            ))),
+            )))
+            }
         }
     }
     Ok(())

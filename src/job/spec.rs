@@ -1,9 +1,10 @@
 //! What a client asks for (JobSpec) and what it gets back (JobStatus).
 
 use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
 
 /// When a job stops: whichever limit is reached first. At least one must be set.
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HaltSpec {
     /// Iterations (samples per pixel for pixel-driven algorithms).
@@ -32,7 +33,7 @@ impl HaltSpec {
 
 /// A reference image for error logs: an uploaded EXR (by scene-store id) or a previous
 /// job's final image.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, ToSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ReferenceSpec {
     /// Id returned by `POST /v1/references`.
@@ -42,7 +43,7 @@ pub enum ReferenceSpec {
 }
 
 /// How often snapshots (EXR, PNG, log row, checkpoint) are written.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, ToSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum SnapshotEvery {
     Iterations(u64),
@@ -56,7 +57,7 @@ impl Default for SnapshotEvery {
 }
 
 /// A render job request.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobSpec {
     /// Scene id (content hash of an upload, or a built-in scene's name).
@@ -66,6 +67,7 @@ pub struct JobSpec {
     pub algorithm: Option<String>,
     /// Algorithm parameters (e.g. `{"max_depth": 8}`).
     #[serde(default)]
+    #[schema(value_type = Object)]
     pub params: serde_json::Map<String, serde_json::Value>,
     #[serde(default)]
     pub seed: u64,
@@ -86,7 +88,7 @@ pub struct JobSpec {
     pub sweep: Option<String>,
 }
 
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum JobState {
     Queued,
@@ -127,11 +129,12 @@ impl JobState {
 }
 
 /// A job as stored in job.json and returned by the API.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, ToSchema)]
 pub struct JobStatus {
     pub id: String,
     pub spec: JobSpec,
     /// The resolved algorithm settings the job runs with.
+    #[schema(value_type = Object)]
     pub settings: serde_json::Value,
     pub state: JobState,
     /// Iterations completed (and checkpointed, for a job read back after a restart).

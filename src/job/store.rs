@@ -145,7 +145,9 @@ impl Checkpoint {
 }
 
 /// One row of log.csv.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize, utoipa::ToSchema,
+)]
 pub struct LogRow {
     pub iteration: u64,
     pub elapsed_s: f64,

@@ -8,10 +8,11 @@ use std::collections::BTreeMap;
 
 /// `grid` keys: `algorithm`, `seed`, `priority`, `halt.spp`, `halt.iterations`,
 /// `halt.time_s`, `halt.target_rmse`, or `params.<name>` for an algorithm parameter.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SweepSpec {
     pub base: JobSpec,
+    #[schema(value_type = Object)]
     pub grid: BTreeMap<String, Vec<serde_json::Value>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,

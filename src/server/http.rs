@@ -3,8 +3,11 @@
 
 use super::error::ApiError;
 use crate::job::events::Event;
+use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
+use crate::job::store::LogRow;
 use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::JobState;
 use crate::job::{JobError, JobSpec, JobStatus, Service};
 use axum::body::Bytes;
 use axum::extract::rejection::JsonRejection;
@@ -19,6 +22,7 @@ use futures::{Stream, StreamExt};
 use serde::{Deserialize, Serialize};
 use std::convert::Infallible;
 use std::sync::Arc;
+use utoipa::{OpenApi, ToSchema};
 
 type Svc = Arc<Service>;
 type ApiResult<T> = Result<T, ApiError>;
@@ -55,14 +59,14 @@ async fn blocking<T: Send + 'static>(
 }
 
 /// A job with the URLs a client follows.
-#[derive(Serialize, Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
 pub struct JobView {
     #[serde(flatten)]
     pub job: JobStatus,
     pub urls: JobUrls,
 }
 
-#[derive(Serialize, Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
 pub struct JobUrls {
     pub this: String,
     pub preview: String,
@@ -149,29 +153,35 @@ fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
+#[utoipa::path(post, path = "/v1/scenes", description = "Upload a scene: one JSON document, or a tar/zip bundle with scene.json and its assets. Validated; id = content hash.", request_body(content = Vec<u8>, content_type = "application/octet-stream"), responses((status = 201, body = SceneInfo), (status = 400, body = ErrorBody), (status = 413, body = ErrorBody), (status = 422, body = ErrorBody)))]
 async fn upload_scene(State(svc): State<Svc>, body: Bytes) -> ApiResult<impl IntoResponse> {
     let info = blocking(&svc, move |s| s.upload_scene(&body)).await?;
     Ok((StatusCode::CREATED, Json(info)))
 }
 
+#[utoipa::path(get, path = "/v1/scenes", description = "Built-in and uploaded scenes.", responses((status = 200, body = Vec<SceneInfo>)))]
 async fn list_scenes(State(svc): State<Svc>) -> ApiResult<impl IntoResponse> {
     Ok(Json(blocking(&svc, |s| Ok(s.list_scenes())).await?))
 }
 
+#[utoipa::path(get, path = "/v1/scenes/{id}", description = "One scene.", params(("id" = String, Path)), responses((status = 200, body = SceneInfo), (status = 404, body = ErrorBody)))]
 async fn get_scene(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(blocking(&svc, move |s| s.get_scene(&id)).await?))
 }
 
+#[utoipa::path(delete, path = "/v1/scenes/{id}", description = "Delete an uploaded scene (409 while a job uses it).", params(("id" = String, Path)), responses((status = 204), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
 async fn delete_scene(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<StatusCode> {
     blocking(&svc, move |s| s.delete_scene(&id)).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 
+#[utoipa::path(post, path = "/v1/references", description = "Upload a reference EXR for error logs; returns its id.", request_body(content = Vec<u8>, content_type = "image/x-exr"), responses((status = 201, body = Object), (status = 400, body = ErrorBody)))]
 async fn upload_reference(State(svc): State<Svc>, body: Bytes) -> ApiResult<impl IntoResponse> {
     let id = blocking(&svc, move |s| s.upload_reference(&body)).await?;
     Ok((StatusCode::CREATED, Json(serde_json::json!({"id": id}))))
 }
 
+#[utoipa::path(post, path = "/v1/jobs", description = "Submit a render job.", request_body = JobSpec, responses((status = 201, body = JobView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody), (status = 422, body = ErrorBody)))]
 async fn submit(
     State(svc): State<Svc>,
     JsonBody(spec): JsonBody<JobSpec>,
@@ -188,6 +198,7 @@ struct ListQuery {
     sweep: Option<String>,
 }
 
+#[utoipa::path(get, path = "/v1/jobs", description = "Jobs, optionally filtered by state, tag or sweep.", params(("state" = Option<JobState>, Query), ("tag" = Option<String>, Query), ("sweep" = Option<String>, Query)), responses((status = 200, body = Vec<JobView>)))]
 async fn list_jobs(
     State(svc): State<Svc>,
     q: Result<Query<ListQuery>, axum::extract::rejection::QueryRejection>,
@@ -202,23 +213,28 @@ async fn list_jobs(
     Ok(Json(jobs.into_iter().map(view).collect::<Vec<_>>()))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}", description = "One job: state, iteration, elapsed, samples/s, last RMSE, ETA, dropped samples.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody)))]
 async fn get_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(view(blocking(&svc, move |s| s.get_job(&id)).await?)))
 }
 
+#[utoipa::path(delete, path = "/v1/jobs/{id}", description = "Delete a job that is not running, with its directory.", params(("id" = String, Path)), responses((status = 204), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
 async fn delete_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<StatusCode> {
     blocking(&svc, move |s| s.delete_job(&id)).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 
+#[utoipa::path(post, path = "/v1/jobs/{id}/cancel", description = "Cancel a queued, running or paused job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn cancel(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(view(blocking(&svc, move |s| s.cancel(&id)).await?)))
 }
 
+#[utoipa::path(post, path = "/v1/jobs/{id}/pause", description = "Pause a queued or running job (after its current batch).", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn pause(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(view(blocking(&svc, move |s| s.pause(&id)).await?)))
 }
 
+#[utoipa::path(post, path = "/v1/jobs/{id}/resume", description = "Queue a paused job again.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn resume(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(view(blocking(&svc, move |s| s.resume(&id)).await?)))
 }
@@ -240,6 +256,7 @@ fn bytes_response(content_type: &'static str, bytes: Vec<u8>) -> Response {
         .into_response()
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/preview.png", description = "Latest image as sRGB PNG.", params(("id" = String, Path), ("exposure" = Option<f32>, Query)), responses((status = 200, content_type = "image/png", body = Vec<u8>), (status = 404, body = ErrorBody)))]
 async fn preview(
     State(svc): State<Svc>,
     Path(id): Path<String>,
@@ -250,11 +267,13 @@ async fn preview(
     Ok(bytes_response("image/png", png))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", description = "Latest image as linear float32 EXR.", params(("id" = String, Path)), responses((status = 200, content_type = "image/x-exr", body = Vec<u8>), (status = 404, body = ErrorBody)))]
 async fn image(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<Response> {
     let exr = blocking(&svc, move |s| s.image_exr(&id)).await?;
     Ok(bytes_response("image/x-exr", exr))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/snapshots", description = "Snapshot iterations with their URLs.", params(("id" = String, Path)), responses((status = 200, body = Vec<Object>)))]
 async fn snapshots(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     let base = format!("/v1/jobs/{id}/snapshots");
     let list = blocking(&svc, move |s| s.snapshots(&id)).await?;
@@ -265,6 +284,7 @@ async fn snapshots(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<
     Ok(Json(items))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/snapshots/{file}", description = "One snapshot, `<iteration>.exr` or `<iteration>.png`.", params(("id" = String, Path), ("file" = String, Path)), responses((status = 200, body = Vec<u8>), (status = 404, body = ErrorBody)))]
 async fn snapshot(
     State(svc): State<Svc>,
     Path((id, file)): Path<(String, String)>,
@@ -292,6 +312,7 @@ fn wants(headers: &HeaderMap, mime: &str) -> bool {
         .is_some_and(|v| v.contains(mime))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/log", description = "The log: CSV, or JSON rows with `Accept: application/json`.", params(("id" = String, Path)), responses((status = 200, body = Vec<LogRow>), (status = 404, body = ErrorBody)))]
 async fn log(
     State(svc): State<Svc>,
     Path(id): Path<String>,
@@ -307,6 +328,7 @@ async fn log(
 
 /// Server-Sent Events for one job: its current state first, then progress, snapshot and
 /// state events, and a final `done`.
+#[utoipa::path(get, path = "/v1/jobs/{id}/events", description = "Server-Sent Events: state first, then progress, snapshot and state events, ending with done.", params(("id" = String, Path)), responses((status = 200, content_type = "text/event-stream", body = String)))]
 async fn events(
     State(svc): State<Svc>,
     Path(id): Path<String>,
@@ -361,6 +383,7 @@ fn until_done(
     })
 }
 
+#[utoipa::path(post, path = "/v1/sweeps", description = "Expand a base job and a parameter grid into jobs tagged with the sweep.", request_body = SweepSpec, responses((status = 201, body = SweepTable), (status = 400, body = ErrorBody)))]
 async fn create_sweep(
     State(svc): State<Svc>,
     JsonBody(spec): JsonBody<SweepSpec>,
@@ -371,9 +394,10 @@ async fn create_sweep(
 }
 
 /// One row per job of a sweep.
-#[derive(Serialize, Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
 pub struct SweepRow {
     pub job: String,
+    #[schema(value_type = Object)]
     pub point: std::collections::BTreeMap<String, serde_json::Value>,
     pub state: crate::job::JobState,
     pub iterations: u64,
@@ -381,7 +405,7 @@ pub struct SweepRow {
     pub rmse: Option<f64>,
 }
 
-#[derive(Serialize, Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
 pub struct SweepTable {
     pub id: String,
     pub name: Option<String>,
@@ -456,6 +480,7 @@ struct SweepQuery {
     format: Option<String>,
 }
 
+#[utoipa::path(get, path = "/v1/sweeps/{id}", description = "The sweep table (JSON, or CSV with ?format=csv or Accept: text/csv).", params(("id" = String, Path), ("format" = Option<String>, Query)), responses((status = 200, body = SweepTable), (status = 404, body = ErrorBody)))]
 async fn get_sweep(
     State(svc): State<Svc>,
     Path(id): Path<String>,
@@ -474,15 +499,75 @@ async fn get_sweep(
     Ok(Json(table).into_response())
 }
 
+#[utoipa::path(get, path = "/metrics", description = "Prometheus metrics.", responses((status = 200, content_type = "text/plain", body = String)))]
 async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
     let text = blocking(&svc, |s| Ok(s.metrics())).await?;
     Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response())
 }
 
+/// Error responses: what went wrong, in words a client can act on.
+#[derive(Serialize, ToSchema)]
+pub struct ErrorBody {
+    pub error: ErrorDetail,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct ErrorDetail {
+    /// bad_request, invalid_scene, not_found, conflict, too_large, unauthorized, internal
+    pub code: String,
+    pub message: String,
+}
+
+/// The OpenAPI document, generated from the handlers' annotations and the types.
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "caustic",
+        description = "Progressive physically based rendering server"
+    ),
+    paths(
+        upload_scene,
+        list_scenes,
+        get_scene,
+        delete_scene,
+        upload_reference,
+        submit,
+        list_jobs,
+        get_job,
+        delete_job,
+        cancel,
+        pause,
+        resume,
+        preview,
+        image,
+        snapshots,
+        snapshot,
+        log,
+        events,
+        create_sweep,
+        get_sweep,
+        metrics
+    ),
+    components(schemas(
+        JobSpec,
+        JobStatus,
+        JobView,
+        JobUrls,
+        SceneInfo,
+        LogRow,
+        SweepSpec,
+        SweepTable,
+        SweepRow,
+        ErrorBody,
+        ErrorDetail,
+        JobState
+    ))
+)]
+pub struct ApiDoc;
+
 async fn openapi() -> Response {
-    (
-        [(header::CONTENT_TYPE, "application/json")],
-        super::openapi::DOCUMENT,
-    )
-        .into_response()
+    let doc = ApiDoc::openapi()
+        .to_pretty_json()
+        .expect("openapi serialises");
+    ([(header::CONTENT_TYPE, "application/json")], doc).into_response()
 }

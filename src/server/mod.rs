@@ -3,4 +3,3 @@
 
 pub mod error;
 pub mod http;
-pub mod openapi;
