@@ -362,9 +362,11 @@ fn serve(a: ServeArgs) -> Result<()> {
             "try: curl -X POST {url}/v1/jobs -H 'content-type: application/json' -d '{{\"scene\": \"cornell-box\", \"halt\": {{\"spp\": 64}}}}'"
         );
         let app = caustic::server::http::app(svc.clone(), a.token.clone());
-        // TODO(grpc): wire the gRPC server here once src/server/grpc.rs lands.
-        let _ = grpc;
-        let grpc_server = futures::future::pending::<Result<()>>();
+        let grpc_server = async {
+            caustic::server::grpc::serve(grpc, svc.clone(), a.token.clone(), shutdown_signal())
+                .await
+                .map_err(anyhow::Error::from)
+        };
         tokio::select! {
             r = axum::serve(http, app).with_graceful_shutdown(shutdown_signal()) => r.map_err(anyhow::Error::from),
             r = grpc_server => r,

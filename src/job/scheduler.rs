@@ -124,7 +124,7 @@ pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
             e.active = true;
             (id, e.runtime.take(), e.status.clone())
         };
-        let result = pool.install(|| step(&shared, &id, runtime, status));
+        let result = pool.install(|| step(&shared, runtime, status));
         finish_step(&shared, &id, result);
     }
 }
@@ -147,12 +147,7 @@ fn fail(shared: &Shared, mut status: JobStatus, err: JobError) -> StepResult {
     }
 }
 
-fn step(
-    shared: &Shared,
-    id: &str,
-    runtime: Option<Box<Runtime>>,
-    mut status: JobStatus,
-) -> StepResult {
+fn step(shared: &Shared, runtime: Option<Box<Runtime>>, mut status: JobStatus) -> StepResult {
     let mut rt = match runtime {
         Some(rt) => rt,
         None => match start(shared, &mut status) {
@@ -160,12 +155,9 @@ fn step(
             Err(e) => return fail(shared, status, e),
         },
     };
+    // The state event goes out from `finish_step`, which sees the change.
     if status.state == JobState::Queued {
         status.state = JobState::Running;
-        shared.emit(Event::State {
-            job: id.to_string(),
-            state: JobState::Running,
-        });
     }
     match run_batch(shared, &mut status, &mut rt) {
         Ok(done) => StepResult {
@@ -293,7 +285,7 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     let by_count = max_it.is_some_and(|m| status.iteration >= m);
     let by_time = spec.halt.time_s.is_some_and(|t| status.elapsed_s >= t);
     let due = match spec.snapshot_every {
-        SnapshotEvery::Iterations(k) => status.iteration % k.max(1) == 0,
+        SnapshotEvery::Iterations(k) => status.iteration.is_multiple_of(k.max(1)),
         SnapshotEvery::Seconds(s) => status.elapsed_s - rt.last_snapshot.1 >= s,
     };
     let mut done = by_count || by_time;

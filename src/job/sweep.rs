@@ -18,6 +18,9 @@ pub struct SweepSpec {
     pub name: Option<String>,
 }
 
+/// A grid point: the value of every grid key.
+pub type Point = BTreeMap<String, serde_json::Value>;
+
 /// Largest number of jobs one sweep may create.
 pub const MAX_SWEEP_JOBS: usize = 1000;
 
@@ -26,7 +29,7 @@ pub struct Sweep {
     pub id: String,
     pub spec: SweepSpec,
     /// Each grid point (key -> value) with the job that renders it.
-    pub jobs: Vec<(BTreeMap<String, serde_json::Value>, String)>,
+    pub jobs: Vec<(Point, String)>,
 }
 
 fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobError> {
@@ -62,10 +65,7 @@ fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobEr
 
 impl SweepSpec {
     /// Every grid point as a job, in row-major order of the (sorted) keys.
-    pub fn expand(
-        &self,
-        sweep_id: &str,
-    ) -> Result<Vec<(BTreeMap<String, serde_json::Value>, JobSpec)>, JobError> {
+    pub fn expand(&self, sweep_id: &str) -> Result<Vec<(Point, JobSpec)>, JobError> {
         if self.grid.is_empty() {
             return Err(JobError::BadRequest("grid is empty".into()));
         }

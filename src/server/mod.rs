@@ -2,4 +2,5 @@
 //! and gRPC (tonic). Handlers only parse, call and map errors.
 
 pub mod error;
+pub mod grpc;
 pub mod http;
