@@ -2,6 +2,7 @@
 //! a render server.
 
 pub mod camera;
+pub mod client;
 pub mod film;
 pub mod geometry;
 pub mod integrator;

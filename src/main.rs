@@ -38,6 +38,159 @@ enum Command {
     Bench(BenchArgs),
     /// Run the render server (REST and gRPC) on a local data directory.
     Serve(ServeArgs),
+    /// Submit a render job to a server (uploading a local scene file first).
+    ///
+    /// Prints the job id. Exit status with --watch: 0 completed, 1 failed or
+    /// cancelled, 2 on errors.
+    Submit(SubmitArgs),
+    /// Follow a job on a server until it ends: progress bar, then a summary.
+    ///
+    /// Exit status: 0 completed, 1 failed or cancelled, 2 on errors.
+    Watch(WatchArgs),
+    /// List a server's jobs.
+    Jobs(JobsArgs),
+    /// Run a parameter sweep on a server and print its table.
+    ///
+    /// Exit status: 0 when every job completed, 1 when some did not, 2 on errors.
+    Sweep(SweepArgs),
+}
+
+/// Which server a client command talks to.
+#[derive(Args)]
+struct ServerArgs {
+    /// Server URL.
+    #[arg(long, env = "CAUSTIC_SERVER", default_value = caustic::client::DEFAULT_SERVER)]
+    server: String,
+    /// Bearer token, for a server started with --token.
+    #[arg(long, env = "CAUSTIC_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+}
+
+/// Job settings shared by `submit` and `sweep`.
+#[derive(Args)]
+struct JobArgs {
+    /// Algorithm (default: the scene's, else pt).
+    #[arg(long, short)]
+    algorithm: Option<String>,
+    /// Halt after this many samples per pixel.
+    #[arg(long, conflicts_with = "iterations")]
+    spp: Option<u64>,
+    /// Halt after this many seconds of rendering.
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f64>,
+    /// Halt after this many iterations (light-pass algorithms).
+    #[arg(long)]
+    iterations: Option<u64>,
+    /// Halt when the RMSE against the reference falls to this value.
+    #[arg(long, requires = "reference_job")]
+    target_rmse: Option<f64>,
+    /// A completed job whose image is the reference for RMSE logs.
+    #[arg(long, value_name = "JOB")]
+    reference_job: Option<String>,
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Algorithm parameter, repeatable: --param max_depth=8
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
+    /// Higher runs first.
+    #[arg(long, allow_negative_numbers = true)]
+    priority: Option<i32>,
+    /// Write a snapshot every N iterations.
+    #[arg(long, value_name = "N", conflicts_with = "snapshot_every_seconds")]
+    snapshot_every_iterations: Option<u64>,
+    /// Write a snapshot every S seconds (server default: 5).
+    #[arg(long, value_name = "S")]
+    snapshot_every_seconds: Option<f64>,
+}
+
+#[derive(Args)]
+struct SubmitArgs {
+    /// A built-in or uploaded scene id, or a local scene file (.json; the meshes and
+    /// maps it names are bundled) or bundle (.tar, .zip) to upload.
+    scene: String,
+    #[command(flatten)]
+    job: JobArgs,
+    #[arg(long)]
+    name: Option<String>,
+    /// Tag, repeatable.
+    #[arg(long = "tag", value_name = "TAG")]
+    tags: Vec<String>,
+    /// Follow the job to its end, as `caustic watch`.
+    #[arg(long)]
+    watch: bool,
+    /// Print the job as JSON (with --watch: one line, then one line per event).
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    server: ServerArgs,
+}
+
+#[derive(Args)]
+struct WatchArgs {
+    /// Job id.
+    job: String,
+    /// Print each event as one JSON line instead of the progress bar.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    server: ServerArgs,
+}
+
+#[derive(Args)]
+struct JobsArgs {
+    /// Only jobs in this state (queued, running, paused, completed, cancelled, failed).
+    #[arg(long)]
+    state: Option<String>,
+    /// Only jobs with this tag.
+    #[arg(long)]
+    tag: Option<String>,
+    /// Only the jobs of this sweep.
+    #[arg(long)]
+    sweep: Option<String>,
+    /// Print the jobs as JSON.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    server: ServerArgs,
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// Scene id or local scene file, as for `submit` (with --file: overrides its scene).
+    #[arg(required_unless_present = "file")]
+    scene: Option<String>,
+    /// Grid axis, repeatable: --grid algorithm=pt,albedo --grid params.max_depth=2,4.
+    /// Keys: algorithm, seed, priority, spp, iterations, time, target_rmse (or
+    /// halt.<key>), params.<name>. Values are JSON when they parse, else strings.
+    #[arg(
+        long = "grid",
+        value_name = "KEY=V1,V2,...",
+        required_unless_present = "file"
+    )]
+    grid: Vec<String>,
+    /// Read a full sweep spec ({"base": job, "grid": {...}, "name": ...}) from this
+    /// JSON file; other options override its values.
+    #[arg(long)]
+    file: Option<PathBuf>,
+    #[command(flatten)]
+    job: JobArgs,
+    /// The sweep's name.
+    #[arg(long)]
+    name: Option<String>,
+    /// Tag every job, repeatable.
+    #[arg(long = "tag", value_name = "TAG")]
+    tags: Vec<String>,
+    /// Print the sweep id and return at once.
+    #[arg(long)]
+    no_wait: bool,
+    /// Print the final table as CSV.
+    #[arg(long, conflicts_with = "json")]
+    csv: bool,
+    /// Print the final table as JSON.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    server: ServerArgs,
 }
 
 #[derive(Args)]
@@ -129,6 +282,10 @@ fn main() -> Result<()> {
         Command::Diff { a, b, png } => diff(&a, &b, png.as_deref()),
         Command::Bench(a) => with_threads(a.threads, || bench(&a)),
         Command::Serve(a) => serve(a),
+        Command::Submit(a) => submit(a),
+        Command::Watch(a) => watch(a),
+        Command::Jobs(a) => jobs(a),
+        Command::Sweep(a) => sweep(a),
     }
 }
 
@@ -379,4 +536,100 @@ fn serve(a: ServeArgs) -> Result<()> {
 async fn shutdown_signal() {
     let _ = tokio::signal::ctrl_c().await;
     eprintln!("shutting down: running jobs resume from their checkpoints on the next start");
+}
+
+// Client commands: thin wrappers over `caustic::client`.
+
+fn connect(s: &ServerArgs) -> caustic::client::Client {
+    caustic::client::Client::new(&s.server, s.token.clone())
+}
+
+fn job_options(j: JobArgs, name: Option<String>, tags: Vec<String>) -> caustic::client::JobOptions {
+    caustic::client::JobOptions {
+        algorithm: j.algorithm,
+        spp: j.spp,
+        time_s: j.time,
+        iterations: j.iterations,
+        target_rmse: j.target_rmse,
+        reference_job: j.reference_job,
+        seed: j.seed,
+        params: j.params,
+        priority: j.priority,
+        snapshot_every_iterations: j.snapshot_every_iterations,
+        snapshot_every_seconds: j.snapshot_every_seconds,
+        name,
+        tags,
+    }
+}
+
+/// Exit status of a client command: 0 when it succeeded, 1 when a job it waited for
+/// did not complete, 2 (after `error: ...`) when it failed.
+fn client_exit(r: Result<bool, caustic::client::ClientError>) -> Result<()> {
+    use std::io::Write;
+    let code = match r {
+        Ok(true) => return Ok(()),
+        Ok(false) => 1,
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    };
+    let _ = std::io::stdout().flush();
+    std::process::exit(code)
+}
+
+fn submit(a: SubmitArgs) -> Result<()> {
+    let o = caustic::client::SubmitOptions {
+        scene: a.scene,
+        job: job_options(a.job, a.name, a.tags),
+        watch: a.watch,
+        json: a.json,
+    };
+    client_exit(caustic::client::submit(
+        &connect(&a.server),
+        &o,
+        &mut std::io::stdout(),
+    ))
+}
+
+fn watch(a: WatchArgs) -> Result<()> {
+    let c = connect(&a.server);
+    client_exit(caustic::client::watch(
+        &c,
+        &a.job,
+        a.json,
+        &mut std::io::stdout(),
+    ))
+}
+
+fn jobs(a: JobsArgs) -> Result<()> {
+    let o = caustic::client::JobsOptions {
+        state: a.state,
+        tag: a.tag,
+        sweep: a.sweep,
+        json: a.json,
+    };
+    client_exit(caustic::client::jobs(
+        &connect(&a.server),
+        &o,
+        &mut std::io::stdout(),
+    ))
+}
+
+fn sweep(a: SweepArgs) -> Result<()> {
+    let o = caustic::client::SweepOptions {
+        scene: a.scene,
+        grid: a.grid,
+        file: a.file,
+        job: job_options(a.job, None, a.tags),
+        name: a.name,
+        no_wait: a.no_wait,
+        csv: a.csv,
+        json: a.json,
+    };
+    client_exit(caustic::client::sweep(
+        &connect(&a.server),
+        &o,
+        &mut std::io::stdout(),
+    ))
 }
