@@ -409,3 +409,80 @@ fn metrics_and_openapi_are_served() {
     }
     assert!(doc["components"]["schemas"]["JobSpec"]["properties"]["halt"].is_object());
 }
+
+#[test]
+fn zip_bundles_upload_and_unsafe_zip_entries_are_refused() {
+    use std::io::Write;
+    let s = TestServer::start(None);
+    let zip_with = |entries: &[(&str, &[u8])]| {
+        let mut w = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        for (name, data) in entries {
+            w.start_file(*name, zip::write::SimpleFileOptions::default())
+                .unwrap();
+            w.write_all(data).unwrap();
+        }
+        w.finish().unwrap().into_inner()
+    };
+    let mut scene = tiny_scene(16);
+    scene["shapes"][1] = json!({"type": "obj", "filename": "m/quad.obj", "material": "m"});
+    let text = scene.to_string();
+    let obj: &[u8] = b"v -2 -1 -2\nv 2 -1 -2\nv 2 -1 2\nv -2 -1 2\nf 4 3 2 1\n";
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &zip_with(&[("scene.json", text.as_bytes()), ("m/quad.obj", obj)]),
+    );
+    assert_eq!(c, 201, "{b}");
+    assert_eq!(b["shapes"], 2);
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &zip_with(&[("scene.json", text.as_bytes()), ("../m/quad.obj", obj)]),
+    );
+    assert_eq!(c, 400, "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("../m/quad.obj"),
+        "{b}"
+    );
+}
+
+#[test]
+fn target_rmse_halts_a_job_against_a_reference() {
+    let s = TestServer::start(None);
+    let scene = upload_tiny(&s, 24);
+    let reference = submit(&s, json!({"scene": scene, "halt": {"spp": 64}, "seed": 1}));
+    assert_eq!(s.wait_job(&reference)["state"], "completed");
+    // One iteration gives an RMSE near 0.011 here; 0.004 takes several, and the cap is
+    // far above that.
+    let id = submit(
+        &s,
+        json!({"scene": scene, "halt": {"spp": 100000, "target_rmse": 0.004},
+               "reference": {"job": reference}, "snapshot_every": {"iterations": 1}, "seed": 2}),
+    );
+    let job = s.wait_job(&id);
+    assert_eq!(job["state"], "completed", "{job}");
+    let rmse = job["last_rmse"].as_f64().unwrap();
+    assert!(rmse <= 0.004, "{job}");
+    assert!(job["iteration"].as_u64().unwrap() < 100000);
+    // The log carries the error at every snapshot, falling overall.
+    let (code, b) = respond(
+        ureq::get(&format!("{}/v1/jobs/{id}/log", s.url))
+            .set("accept", "application/json")
+            .call(),
+    );
+    let rows: Value = serde_json::from_slice(&b).unwrap();
+    assert_eq!(code, 200);
+    let first = rows[0]["rmse"].as_f64().unwrap();
+    assert!(
+        rows.as_array().unwrap().len() > 1 && first > 0.004,
+        "{rows}"
+    );
+    // A reference of the wrong size is refused up front.
+    let other = upload_tiny(&s, 16);
+    let (c, b) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": other, "halt": {"spp": 1}, "reference": {"job": reference}}),
+    );
+    assert_eq!(c, 400, "{b}");
+}
