@@ -148,6 +148,21 @@ fn validate_camera(scene: &SceneFile) -> Result<()> {
         f32::MAX,
         "non-negative",
     )?;
+    match (c.kind.as_str(), c.aperture_radius > 0.0) {
+        ("pinhole", true) => {
+            return Err(SceneError::new(
+                "camera.aperture_radius",
+                "a pinhole camera has no aperture (use \"type\": \"thinlens\")",
+            ))
+        }
+        ("thinlens", false) => {
+            return Err(SceneError::new(
+                "camera.aperture_radius",
+                "a thin lens needs a positive aperture radius",
+            ))
+        }
+        _ => {}
+    }
     if let Some(d) = c.focus_distance {
         positive("camera.focus_distance", d)?;
     }
