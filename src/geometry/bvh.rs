@@ -1,15 +1,19 @@
-//! One obvhs compressed wide BVH (CWBVH) over every primitive of the scene, with
-//! closest-hit and any-hit (shadow) queries.
+//! The scene BVH: a binary tree built by obvhs (PLOC with reinsertion optimisation;
+//! Meister and Bittner 2018), flattened into our own four-wide tree and traversed
+//! with SIMD slab and triangle tests (see `bvh4`). Closest-hit and any-hit (shadow)
+//! queries over triangles, spheres and disks.
 
+use super::bvh4::Bvh4;
 use super::primitive::{surface_point, Prim, PrimHit, PrimMeta};
 use super::{Interaction, Ray};
-use crate::math::{Vec2, Vec3A};
+use crate::math::Vec2;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
+use obvhs::bvh2::builder::build_bvh2;
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
-/// A closest hit: distance, primitive (in BVH order) and its surface parameters.
+/// A closest hit: distance, primitive (index into [`Accel::prim`]) and its surface
+/// parameters.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
     pub t: f32,
@@ -17,19 +21,23 @@ pub struct Hit {
     pub uv: Vec2,
 }
 
-/// The slower presets build trees that trace measurably faster (callgrind: 7% fewer
-/// instructions on the Cornell box); their build cost only shows on large meshes.
+/// The slower presets build trees that trace measurably faster; their build cost only
+/// shows on large meshes.
 fn build_params(prims: usize) -> BvhBuildParams {
-    if prims < 200_000 {
+    let mut p = if prims < 200_000 {
         BvhBuildParams::very_slow_build()
     } else {
         BvhBuildParams::medium_build()
-    }
+    };
+    // One primitive per binary leaf: our flattening forms the leaves, with the costs
+    // of our kernels (see bvh4/build.rs).
+    p.max_prims_per_leaf = 1;
+    p
 }
 
 pub struct Accel {
-    bvh: Option<CwBvh>,
-    /// Primitives reordered to the BVH's leaf order, so leaves index them directly.
+    tree: Bvh4,
+    /// Primitives in the tree's leaf order, so that leaves are runs of them.
     prims: Vec<Prim>,
     meta: Vec<PrimMeta>,
     pub build_time: Duration,
@@ -41,7 +49,7 @@ impl Accel {
         let start = Instant::now();
         if prims.is_empty() {
             return Accel {
-                bvh: None,
+                tree: Bvh4::empty(),
                 prims,
                 meta,
                 build_time: start.elapsed(),
@@ -49,25 +57,20 @@ impl Accel {
             };
         }
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-        let bvh = build_cwbvh(&aabbs, build_params(prims.len()), &mut Duration::default());
-        let order = &bvh.primitive_indices;
-        let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
-        let meta: Vec<PrimMeta> = order.iter().map(|&i| meta[i as usize]).collect();
+        let bvh2 = build_bvh2(&aabbs, build_params(prims.len()), &mut Duration::default());
+        let (tree, order) = Bvh4::from_bvh2(&bvh2, &prims);
         Accel {
-            bounds: bvh.total_aabb,
-            bvh: Some(bvh),
-            prims,
-            meta,
+            tree,
+            prims: order.iter().map(|&i| prims[i as usize]).collect(),
+            meta: order.iter().map(|&i| meta[i as usize]).collect(),
             build_time: start.elapsed(),
+            bounds: *bvh2.nodes[0].aabb(),
         }
     }
 
-    /// Bytes held by nodes and primitives.
+    /// Bytes held by nodes, leaves and primitives.
     pub fn memory_bytes(&self) -> usize {
-        let nodes = self.bvh.as_ref().map_or(0, |b| {
-            b.nodes.len() * std::mem::size_of_val(&b.nodes[0]) + b.primitive_indices.len() * 4
-        });
-        nodes
+        self.tree.memory_bytes()
             + self.prims.len() * std::mem::size_of::<Prim>()
             + self.meta.len() * std::mem::size_of::<PrimMeta>()
     }
@@ -76,50 +79,16 @@ impl Accel {
         self.prims.len()
     }
 
-    #[inline]
-    fn obvhs_ray(ray: &Ray) -> obvhs::ray::Ray {
-        obvhs::ray::Ray::new(ray.o.into(), ray.d.into(), 0.0, ray.tmax)
-    }
-
     /// Closest intersection along the ray, if any.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let mut best = Hit {
-            t: ray.tmax,
-            prim: u32::MAX,
-            uv: Vec2::ZERO,
-        };
-        let mut rh = obvhs::ray::RayHit::none();
-        let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
-        bvh.ray_traverse(Self::obvhs_ray(ray), &mut rh, |r, id| {
-            match self.prims[id].intersect(o, d, r.tmax) {
-                Some(PrimHit { t, uv }) => {
-                    best = Hit {
-                        t,
-                        prim: id as u32,
-                        uv,
-                    };
-                    t
-                }
-                None => f32::INFINITY,
-            }
-        });
-        (best.prim != u32::MAX).then_some(best)
+        self.tree.intersect(&self.prims, ray)
     }
 
     /// True when anything blocks the ray before `ray.tmax`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return false;
-        };
-        let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
-        !bvh.ray_traverse_miss(Self::obvhs_ray(ray), |r, id| {
-            self.prims[id]
-                .intersect(o, d, r.tmax)
-                .map_or(f32::INFINITY, |h| h.t)
-        })
+        self.tree.occluded(&self.prims, ray)
     }
 
     pub fn meta(&self, prim: u32) -> PrimMeta {
@@ -155,7 +124,7 @@ impl Accel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{Rng, Vec3};
+    use crate::math::{Rng, Vec3, Vec3A};
 
     #[test]
     fn closest_hit_and_occlusion_over_mixed_primitives() {
@@ -188,56 +157,267 @@ mod tests {
         short.tmax = 4.5;
         assert!(accel.occluded(&short));
     }
-    /// The BVH must agree with testing every primitive, on a cloud of random spheres
-    /// and triangles large enough to make a deep tree.
-    #[test]
-    fn agrees_with_brute_force() {
-        let mut rng = Rng::new(11, 0, 0);
-        let mut prims = Vec::new();
-        for i in 0..3000 {
-            let c = Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
-            if i % 3 == 0 {
-                prims.push(Prim::Sphere {
-                    c,
-                    r: 0.05 + 0.3 * rng.next_f32(),
-                });
-            } else {
-                let e = |r: &mut Rng| Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()) - 0.5;
-                prims.push(Prim::Tri {
-                    p0: c,
-                    e1: e(&mut rng),
-                    e2: e(&mut rng),
-                });
+    /// Closest hit and occlusion by testing every primitive, as the reference.
+    fn brute_force(prims: &[Prim], ray: &Ray) -> Option<(f32, Vec<usize>)> {
+        let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
+        let hits: Vec<(f32, usize)> = prims
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| p.intersect(o, d, ray.tmax).map(|h| (h.t, i)))
+            .collect();
+        let t = hits.iter().map(|h| h.0).min_by(f32::total_cmp)?;
+        // Every primitive at exactly that distance (ties, e.g. on shared edges).
+        Some((t, hits.iter().filter(|h| h.0 == t).map(|h| h.1).collect()))
+    }
+
+    /// The BVH's closest hit must be bit-identical to the primitive's own test (the
+    /// four-lane triangle test repeats the scalar one's operations), and occlusion must
+    /// agree for limits just below, at and beyond that hit.
+    fn check(accel: &Accel, prims: &[Prim], ray: &Ray) {
+        let brute = brute_force(prims, ray);
+        let got = accel.intersect(ray);
+        match (&brute, got) {
+            (None, None) => {}
+            (Some((t, ids)), Some(h)) => {
+                assert_eq!(h.t.to_bits(), t.to_bits(), "ray {ray:?}");
+                let i = accel.meta(h.prim).shape as usize;
+                assert!(ids.contains(&i), "ray {ray:?}: prim {i}, expected {ids:?}");
+                let own = prims[i]
+                    .intersect(ray.o.into(), ray.d.into(), ray.tmax)
+                    .unwrap();
+                assert_eq!(h.uv, own.uv, "ray {ray:?}");
             }
+            (b, g) => panic!("ray {ray:?}: brute force {b:?} vs bvh {g:?}"),
         }
+        let mut limits = vec![ray.tmax, 5.0, 1e-3];
+        if let Some((t, _)) = brute {
+            limits.extend([t, t * 0.999, t * 1.001, t.next_up()]);
+        }
+        for tmax in limits {
+            let short = Ray { tmax, ..*ray };
+            let expect = prims
+                .iter()
+                .any(|p| p.intersect(ray.o.into(), ray.d.into(), tmax).is_some());
+            assert_eq!(accel.occluded(&short), expect, "ray {short:?}");
+        }
+    }
+
+    fn build(prims: &[Prim]) -> Accel {
         let meta = (0..prims.len() as u32)
             .map(|i| PrimMeta { shape: i, local: 0 })
             .collect();
-        let accel = Accel::build(prims.clone(), meta);
-        for _ in 0..2000 {
-            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
-            let d = crate::math::warp::square_to_uniform_sphere(rng.next_2d());
-            let ray = Ray::new(o, d);
-            let brute = prims
-                .iter()
-                .enumerate()
-                .filter_map(|(i, p)| {
-                    p.intersect(o.into(), d.into(), f32::INFINITY)
-                        .map(|h| (h.t, i))
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0));
-            let got = accel.intersect(&ray);
-            match (brute, got) {
-                (None, None) => {}
-                (Some((t, i)), Some(h)) => {
-                    assert!((t - h.t).abs() <= 1e-5 * t.max(1.0));
-                    assert_eq!(accel.meta(h.prim).shape as usize, i);
+        Accel::build(prims.to_vec(), meta)
+    }
+
+    /// The same tree traversed every way it can be: with AVX encodings where the
+    /// processor has them, with SSE only, and with the heap stack of deep trees.
+    fn variants(prims: &[Prim]) -> Vec<Accel> {
+        let mut sse = build(prims);
+        sse.tree.disable_avx();
+        let mut heap = build(prims);
+        heap.tree.force_heap_stack();
+        vec![build(prims), sse, heap]
+    }
+
+    fn random_dir(rng: &mut Rng) -> Vec3 {
+        crate::math::warp::square_to_uniform_sphere(rng.next_2d())
+    }
+
+    /// Directions along the axes, with both signs of zero in the other components.
+    fn axis_dirs() -> Vec<Vec3> {
+        let mut dirs = Vec::new();
+        for axis in 0..3 {
+            for s in [1.0f32, -1.0] {
+                for z in [0.0f32, -0.0] {
+                    let mut d = Vec3::splat(z);
+                    d[axis] = s;
+                    dirs.push(d);
                 }
-                (b, g) => panic!("brute force {b:?} vs bvh {g:?}"),
             }
-            let mut short = ray;
-            short.tmax = 5.0;
-            assert_eq!(accel.occluded(&short), brute.is_some_and(|(t, _)| t < 5.0));
         }
+        dirs
+    }
+
+    /// A point on the primitive's surface.
+    fn surface(p: &Prim, rng: &mut Rng) -> Vec3 {
+        use crate::math::warp::{square_to_disk, square_to_triangle};
+        match *p {
+            Prim::Tri { p0, e1, e2 } => {
+                let u = square_to_triangle(rng.next_2d());
+                (p0 + e1 * u.x + e2 * u.y).into()
+            }
+            Prim::Sphere { c, r } => (c + Vec3A::from(random_dir(rng)) * r).into(),
+            Prim::Disk { c, u: a, v: b } => {
+                let u = square_to_disk(rng.next_2d());
+                (c + a * u.x + b * u.y).into()
+            }
+        }
+    }
+
+    /// Random rays, rays along the axes from points on the boxes' slab planes (where
+    /// 0 * inf = NaN appears), and rays leaving primitives' surfaces.
+    fn check_many(accel: &Accel, prims: &[Prim], rng: &mut Rng, n: usize) {
+        let b = accel.bounds;
+        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+        let ext = (hi - lo).max(Vec3::splat(1e-3));
+        let dirs = axis_dirs();
+        for k in 0..n {
+            let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let o = lo - 0.25 * ext + u * 1.5 * ext;
+            check(accel, prims, &Ray::new(o, random_dir(rng)));
+            // Along an axis, with the other coordinates taken from a primitive's
+            // bounds, so the ray grazes slab planes exactly.
+            let p = &prims[rng.next_u32() as usize % prims.len()];
+            let pb = p.aabb();
+            let pick = |i: usize, rng: &mut Rng| match rng.next_u32() % 3 {
+                0 => pb.min[i],
+                1 => pb.max[i],
+                _ => o[i],
+            };
+            let mut q = Vec3::new(pick(0, rng), pick(1, rng), pick(2, rng));
+            let d = dirs[k % dirs.len()];
+            let axis = (k % dirs.len()) / 4;
+            q[axis] = o[axis];
+            check(accel, prims, &Ray::new(q, d));
+            // From the surface of a primitive, both ways.
+            let s = surface(p, rng);
+            let d = random_dir(rng);
+            check(accel, prims, &Ray::new(s, d));
+            check(accel, prims, &Ray::new(s, -d));
+        }
+    }
+
+    fn random_prims(rng: &mut Rng, n: usize, size: f32, spheres: bool) -> Vec<Prim> {
+        (0..n)
+            .map(|i| {
+                let c = Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
+                let e = |r: &mut Rng| {
+                    (Vec3A::new(r.next_f32(), r.next_f32(), r.next_f32()) - 0.5) * size
+                };
+                match i % 6 {
+                    0 if spheres => Prim::Sphere {
+                        c,
+                        r: size * (0.05 + 0.3 * rng.next_f32()),
+                    },
+                    3 if spheres => Prim::Disk {
+                        c,
+                        u: e(rng),
+                        v: e(rng),
+                    },
+                    _ => Prim::Tri {
+                        p0: c,
+                        e1: e(rng),
+                        e2: e(rng),
+                    },
+                }
+            })
+            .collect()
+    }
+
+    /// The BVH must agree with testing every primitive, on a cloud of random spheres,
+    /// disks and triangles large enough to make a deep tree.
+    #[test]
+    fn agrees_with_brute_force() {
+        let mut rng = Rng::new(11, 0, 0);
+        let prims = random_prims(&mut rng, 3000, 1.0, true);
+        for accel in variants(&prims) {
+            check_many(&accel, &prims, &mut rng, 1000);
+        }
+    }
+
+    /// Axis-aligned rectangles sharing edges, like a room: every slab plane is shared
+    /// by many boxes, and axis rays run along them.
+    #[test]
+    fn agrees_with_brute_force_on_axis_aligned_walls() {
+        let mut rng = Rng::new(12, 0, 0);
+        let mut prims = Vec::new();
+        for i in -4..4 {
+            for j in -4..4 {
+                let (x, y) = (i as f32 * 0.5, j as f32 * 0.5);
+                let quad = |p0: Vec3A, a: Vec3A, b: Vec3A| {
+                    [
+                        Prim::Tri { p0, e1: a, e2: b },
+                        Prim::Tri {
+                            p0: p0 + a + b,
+                            e1: -a,
+                            e2: -b,
+                        },
+                    ]
+                };
+                let (ex, ey, ez) = (Vec3A::X * 0.5, Vec3A::Y * 0.5, Vec3A::Z * 0.5);
+                prims.extend(quad(Vec3A::new(x, y, -2.0), ex, ey));
+                prims.extend(quad(Vec3A::new(x, -2.0, y), ez, ex));
+                prims.extend(quad(Vec3A::new(-2.0, x, y), ey, ez));
+            }
+        }
+        prims.push(Prim::Sphere {
+            c: Vec3A::ZERO,
+            r: 0.5,
+        });
+        for accel in variants(&prims) {
+            check_many(&accel, &prims, &mut rng, 1000);
+            // Aimed at vertices and edge midpoints, where the slab test decides by an
+            // ulp whether the box holding the hit is entered (hence Ize's widening).
+            for _ in 0..3000 {
+                let Prim::Tri { p0, e1, e2 } = prims[rng.next_u32() as usize % (prims.len() - 1)]
+                else {
+                    unreachable!()
+                };
+                let target = match rng.next_u32() % 4 {
+                    0 => p0,
+                    1 => p0 + e1,
+                    2 => p0 + 0.5 * e2,
+                    _ => p0 + 0.5 * (e1 + e2),
+                };
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+                let d = Vec3::from(target) - o;
+                check(&accel, &prims, &Ray::new(o, d.normalize()));
+                check(&accel, &prims, &Ray::new(o, d));
+            }
+        }
+    }
+
+    #[test]
+    fn single_primitive_and_empty_scenes() {
+        let mut rng = Rng::new(13, 0, 0);
+        for prims in [
+            random_prims(&mut rng, 1, 1.0, false),
+            vec![Prim::Sphere {
+                c: Vec3A::new(1.0, 2.0, 3.0),
+                r: 0.5,
+            }],
+            vec![Prim::Disk {
+                c: Vec3A::ZERO,
+                u: Vec3A::X,
+                v: Vec3A::Y,
+            }],
+        ] {
+            let accel = build(&prims);
+            assert_eq!(accel.prim_count(), 1);
+            check_many(&accel, &prims, &mut rng, 300);
+        }
+        let empty = build(&[]);
+        assert_eq!(empty.prim_count(), 0);
+        for _ in 0..100 {
+            let ray = Ray::new(Vec3::ZERO, random_dir(&mut rng));
+            assert!(empty.intersect(&ray).is_none());
+            assert!(!empty.occluded(&ray));
+        }
+    }
+
+    /// 100k tiny triangles: a deep tree whose leaves are far smaller than the scene.
+    #[test]
+    fn agrees_with_brute_force_on_many_tiny_triangles() {
+        let mut rng = Rng::new(14, 0, 0);
+        let prims = random_prims(&mut rng, 100_000, 0.05, false);
+        let accel = build(&prims);
+        // Aim at triangles so that rays hit something.
+        for _ in 0..300 {
+            let p = &prims[rng.next_u32() as usize % prims.len()];
+            let target = surface(p, &mut rng);
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 30.0 - 15.0;
+            check(&accel, &prims, &Ray::new(o, (target - o).normalize()));
+        }
+        check_many(&accel, &prims, &mut rng, 100);
     }
 }

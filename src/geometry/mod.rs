@@ -2,6 +2,8 @@
 //! them, ray offsets, and the surface interaction a hit resolves to.
 
 pub mod bvh;
+mod bvh4;
+mod lanes;
 pub mod offset;
 pub mod primitive;
 

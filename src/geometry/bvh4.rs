@@ -1,0 +1,514 @@
+//! A four-wide BVH flattened from obvhs's binary tree, traversed with four-lane slab
+//! tests (Embree's BVH4 layout: each node holds its children's boxes plane by plane, so
+//! one SIMD test decides all four) and four-lane Moeller-Trumbore on packs of two to
+//! four triangles. Other leaves (spheres, disks, mixed, single triangles) are runs of
+//! primitives tested one at a time through [`Prim::intersect`]; see `build` for how
+//! leaves and nodes are chosen.
+//!
+//! - Closest hit visits children nearest first and skips stack entries beyond the
+//!   closest hit so far; any hit (shadow rays) takes them in slot order and stops at
+//!   the first hit.
+//! - Robustness: the slab test keeps every box a ray touches, for axis-parallel rays
+//!   too (see [`RayLanes::slab`]), with Ize's widening of the exit distance; hit
+//!   distances are the primitives' own, bit for bit.
+//! - The stack lives on the machine stack, its bound taken from the tree's depth.
+//! - x86_64 needs nothing beyond SSE2; where the processor has AVX the same kernels
+//!   run compiled with its three-operand encodings (fewer register copies), chosen
+//!   once when the tree is built. Other targets use the portable lanes.
+
+use super::bvh::Hit;
+use super::lanes::{F4, M4};
+use super::primitive::Prim;
+use super::Ray;
+use crate::math::{Vec2, Vec3A};
+use obvhs::bvh2::Bvh2;
+use std::mem::MaybeUninit;
+
+mod build;
+
+// A child reference is one u32: an inner node index (top bit clear), or a leaf: a run
+// of triangle packs, or (with PRIMS set) a run of primitives tested one at a time.
+const LEAF: u32 = 1 << 31;
+const PRIMS: u32 = 1 << 30;
+const COUNT_SHIFT: u32 = 27;
+const INDEX_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+/// Most packs or primitives one leaf reference can hold.
+const MAX_RUN: usize = 7;
+/// An unused slot: its box is empty, so no ray reaches it, and should a NaN ray get
+/// through the slab test anyway it is a run of no primitives.
+const EMPTY: u32 = LEAF | PRIMS;
+
+/// Widening of the slab test's exit distance, 1 + 2 gamma(3), which makes it
+/// conservative under rounding (Ize, "Robust BVH Ray Traversal", JCGT 2013).
+const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Entries an on-stack traversal stack holds; deeper trees use a heap stack.
+const STACK: usize = 192;
+
+/// Four children: their boxes plane by plane (per axis lo, hi; an empty slot has
+/// lo = +inf, hi = -inf) and their references. Two cache lines.
+#[repr(C, align(64))]
+struct Node4 {
+    planes: [[F4; 2]; 3],
+    child: [u32; 4],
+}
+
+/// Up to four triangles, vertex and edges by coordinate, for the four-lane test, and
+/// their primitive indices. Unused lanes have zero edges, so their determinant is
+/// zero and they never hit.
+#[repr(C, align(16))]
+struct Tri4 {
+    p0: [F4; 3],
+    e1: [F4; 3],
+    e2: [F4; 3],
+    prim: [u32; 4],
+}
+
+pub struct Bvh4 {
+    nodes: Vec<Node4>,
+    tris: Vec<Tri4>,
+    root: u32,
+    /// Stack entries a traversal can need: at most three per inner level.
+    stack_len: usize,
+    /// Whether to run the kernels compiled for AVX (detected when built).
+    avx: bool,
+}
+
+/// Per-ray values shared by every slab and triangle test.
+struct RayLanes {
+    o: [F4; 3],
+    d: [F4; 3],
+    inv: [F4; 3],
+    /// Per axis, 1 when the direction is negative (then the near plane is `hi`).
+    neg: [usize; 3],
+    o3: Vec3A,
+    d3: Vec3A,
+}
+
+impl RayLanes {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let (o3, d3) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
+        // 1 / +-0 = +-inf is intended: the slab test below copes with it.
+        let d = F4::from_vec3a(d3);
+        let inv = F4::splat(1.0) / d;
+        // The signs of d and 1 / d agree (-0 gives -inf); taking them from d keeps the
+        // division off the path to the first node's loads.
+        let neg = d.sign_bits();
+        RayLanes {
+            o: F4::from_vec3a(o3).broadcast3(),
+            d: d.broadcast3(),
+            inv: inv.broadcast3(),
+            neg: [
+                neg as usize & 1,
+                neg as usize >> 1 & 1,
+                neg as usize >> 2 & 1,
+            ],
+            o3,
+            d3,
+        }
+    }
+
+    /// Bit mask of the children whose box the ray enters before `tmax`, and their
+    /// entry distances.
+    ///
+    /// Robust for axis-parallel rays: a zero direction component gives 1 / 0 = inf,
+    /// and 0 * inf = NaN when the origin lies on that slab's plane. `max` and `min`
+    /// return their second operand on NaN, and the last operation of each chain has a
+    /// second operand that is never NaN (`max(tnz, 0)`, `min(tfz, tmax)`), so a NaN
+    /// only drops its slab from the test: the box is kept, never lost. Boxes are
+    /// entered only through their near planes (chosen by the direction's signs), which
+    /// is what makes empty slots (lo = +inf, hi = -inf) miss. The exit distance, and
+    /// with it `tmax`, is widened by 1 + 2 gamma(3) against rounding (Ize 2013).
+    #[inline(always)]
+    fn slab(&self, n: &Node4, tmax: F4) -> (u32, F4) {
+        let [x, y, z] = &n.planes;
+        // `& 1` lets the compiler drop the bounds checks.
+        let [nx, ny, nz] = self.neg.map(|s| s & 1);
+        let tnx = (x[nx] - self.o[0]) * self.inv[0];
+        let tfx = (x[nx ^ 1] - self.o[0]) * self.inv[0];
+        let tny = (y[ny] - self.o[1]) * self.inv[1];
+        let tfy = (y[ny ^ 1] - self.o[1]) * self.inv[1];
+        let tnz = (z[nz] - self.o[2]) * self.inv[2];
+        let tfz = (z[nz ^ 1] - self.o[2]) * self.inv[2];
+        let tn = tnx.max(tny).max(tnz.max(F4::splat(0.0)));
+        let tf = tfx.min(tfy).min(tfz.min(tmax)) * F4::splat(ROBUST);
+        (tn.le(tf).bits(), tn)
+    }
+
+    /// Moeller-Trumbore on four triangles: the operations of the scalar test in
+    /// primitive.rs in the same order, so hits are bit-identical to it. Returns the
+    /// mask of lanes hit in (0, tmax), and t, u, v.
+    #[inline(always)]
+    fn tri4(&self, p: &Tri4, tmax: f32) -> (M4, F4, F4, F4) {
+        let [dx, dy, dz] = self.d;
+        let [e1x, e1y, e1z] = p.e1;
+        let [e2x, e2y, e2z] = p.e2;
+        let pvx = dy * e2z - dz * e2y;
+        let pvy = dz * e2x - dx * e2z;
+        let pvz = dx * e2y - dy * e2x;
+        let det = e1x * pvx + e1y * pvy + e1z * pvz;
+        let inv = F4::splat(1.0) / det;
+        let tvx = self.o[0] - p.p0[0];
+        let tvy = self.o[1] - p.p0[1];
+        let tvz = self.o[2] - p.p0[2];
+        let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
+        let qvx = tvy * e1z - tvz * e1y;
+        let qvy = tvz * e1x - tvx * e1z;
+        let qvz = tvx * e1y - tvy * e1x;
+        let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
+        let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
+        let (zero, one) = (F4::splat(0.0), F4::splat(1.0));
+        // Same acceptance as the scalar test, NaNs included: u in [0, 1], !(v < 0),
+        // !(u + v > 1), 0 < t < tmax.
+        let m = det.ne(zero)
+            & u.ge(zero)
+            & u.le(one)
+            & v.nlt(zero)
+            & (u + v).ngt(one)
+            & t.gt(zero)
+            & t.lt(F4::splat(tmax));
+        (m, t, u, v)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    t: f32,
+}
+
+/// A traversal stack; `Bvh4::stack_len` bounds how deep it gets.
+struct Stack<'a> {
+    items: &'a mut [MaybeUninit<Entry>],
+    len: usize,
+}
+
+impl<'a> Stack<'a> {
+    #[inline(always)]
+    fn new(items: &'a mut [MaybeUninit<Entry>]) -> Self {
+        Stack { items, len: 0 }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, child: u32, t: f32) {
+        self.items[self.len] = MaybeUninit::new(Entry { child, t });
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: every slot below `len` was written by `push`.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> Entry {
+        debug_assert!(i < self.len);
+        // SAFETY: callers only read below `len`, and those slots were pushed.
+        unsafe { self.items[i].assume_init() }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, i: usize, e: Entry) {
+        self.items[i] = MaybeUninit::new(e);
+    }
+}
+
+impl Bvh4 {
+    /// Closest hit in (0, ray.tmax), front to back: children nearest first, and stack
+    /// entries farther than the closest hit so far skipped.
+    #[inline(always)]
+    pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is only set when the processor supports AVX.
+            return unsafe { self.intersect_avx(prims, ray) };
+        }
+        self.intersect_base(prims, ray)
+    }
+
+    /// Whether anything lies in (0, ray.tmax); children in any order, first hit ends it.
+    #[inline(always)]
+    pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is only set when the processor supports AVX.
+            return unsafe { self.occluded_avx(prims, ray) };
+        }
+        self.occluded_base(prims, ray)
+    }
+
+    /// The kernels compiled for the baseline target (SSE2 on x86_64). Out of line, so
+    /// the dispatch above stays small enough to inline into callers.
+    #[inline(never)]
+    fn intersect_base(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        self.closest_on_stack(prims, ray)
+    }
+
+    #[inline(never)]
+    fn occluded_base(&self, prims: &[Prim], ray: &Ray) -> bool {
+        self.any_on_stack(prims, ray)
+    }
+
+    /// The kernels compiled with AVX's three-operand encodings: the same four-lane
+    /// operations with fewer register copies.
+    ///
+    /// # Safety
+    /// The processor must support AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn intersect_avx(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        self.closest_on_stack(prims, ray)
+    }
+
+    /// # Safety
+    /// The processor must support AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn occluded_avx(&self, prims: &[Prim], ray: &Ray) -> bool {
+        self.any_on_stack(prims, ray)
+    }
+
+    // The stack: uninitialised on the machine stack (zeroing it per ray shows in
+    // profiles), or on the heap for trees too deep for that (never seen in practice).
+
+    #[inline(always)]
+    fn closest_on_stack(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        if self.stack_len > STACK {
+            return self.closest_on_heap(prims, ray);
+        }
+        let mut items = [MaybeUninit::<Entry>::uninit(); STACK];
+        self.closest(prims, ray, Stack::new(&mut items))
+    }
+
+    #[inline(always)]
+    fn any_on_stack(&self, prims: &[Prim], ray: &Ray) -> bool {
+        if self.stack_len > STACK {
+            return self.any_on_heap(prims, ray);
+        }
+        let mut items = [MaybeUninit::<Entry>::uninit(); STACK];
+        self.any(prims, ray, Stack::new(&mut items))
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn closest_on_heap(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        let mut items = vec![MaybeUninit::<Entry>::uninit(); self.stack_len];
+        self.closest(prims, ray, Stack::new(&mut items))
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn any_on_heap(&self, prims: &[Prim], ray: &Ray) -> bool {
+        let mut items = vec![MaybeUninit::<Entry>::uninit(); self.stack_len];
+        self.any(prims, ray, Stack::new(&mut items))
+    }
+
+    #[inline(always)]
+    fn closest(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> Option<Hit> {
+        let r = RayLanes::new(ray);
+        let mut tmax = ray.tmax;
+        // The closest hit so far, in locals rather than an Option the compiler keeps
+        // in memory; `prim == u32::MAX` until something is hit.
+        let (mut prim, mut uv) = (u32::MAX, Vec2::ZERO);
+        let mut cur = self.root;
+        'visit: loop {
+            if cur & LEAF == 0 {
+                let n = &self.nodes[cur as usize];
+                let (mask, tn) = r.slab(n, F4::splat(tmax));
+                if mask != 0 {
+                    let tn = tn.to_array();
+                    let i0 = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest == 0 {
+                        cur = n.child[i0];
+                        continue 'visit;
+                    }
+                    let i1 = rest.trailing_zeros() as usize;
+                    let rest = rest & (rest - 1);
+                    if rest == 0 {
+                        let (near, far) = if tn[i1] < tn[i0] { (i1, i0) } else { (i0, i1) };
+                        stack.push(n.child[far], tn[far]);
+                        cur = n.child[near];
+                        continue 'visit;
+                    }
+                    // Three or four: push them all, sort those entries farthest first
+                    // (insertion sort), and continue with the nearest.
+                    let base = stack.len;
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        stack.push(n.child[i], tn[i]);
+                    }
+                    for i in base + 1..stack.len {
+                        let e = stack.get(i);
+                        let mut j = i;
+                        while j > base && stack.get(j - 1).t < e.t {
+                            stack.set(j, stack.get(j - 1));
+                            j -= 1;
+                        }
+                        stack.set(j, e);
+                    }
+                    cur = stack.pop().map_or(EMPTY, |e| e.child);
+                    continue 'visit;
+                }
+            } else {
+                let first = (cur & INDEX_MASK) as usize;
+                let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
+                if cur & PRIMS == 0 {
+                    for pack in &self.tris[first..first + count] {
+                        let (hit, t, u, v) = r.tri4(pack, tmax);
+                        let m = hit.bits();
+                        if m == 0 {
+                            continue;
+                        }
+                        // The nearest lane; the first of equals, as a scalar loop would.
+                        let lane = if m & (m - 1) == 0 {
+                            m.trailing_zeros()
+                        } else {
+                            let tm = F4::select(hit, t, F4::splat(f32::INFINITY));
+                            (tm.eq(tm.hmin()).bits() & m).trailing_zeros()
+                        } as usize;
+                        tmax = t.to_array()[lane];
+                        prim = pack.prim[lane];
+                        uv = Vec2::new(u.to_array()[lane], v.to_array()[lane]);
+                    }
+                } else if let Some(h) = run_closest(prims, first, count, r.o3, r.d3, tmax) {
+                    (tmax, prim, uv) = (h.t, h.prim, h.uv);
+                }
+            }
+            // Next entry still nearer than the closest hit; entry distances carry the
+            // slab test's widening so rounding never culls a box that holds the hit.
+            let cull = tmax * ROBUST;
+            loop {
+                let Some(e) = stack.pop() else {
+                    return (prim != u32::MAX).then_some(Hit { t: tmax, prim, uv });
+                };
+                if e.t <= cull {
+                    cur = e.child;
+                    continue 'visit;
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn any(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> bool {
+        let r = RayLanes::new(ray);
+        let tmax = ray.tmax;
+        let tmax4 = F4::splat(tmax);
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF == 0 {
+                let n = &self.nodes[cur as usize];
+                let (mask, _) = r.slab(n, tmax4);
+                if mask != 0 {
+                    let mut m = mask & (mask - 1);
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        stack.push(n.child[i], 0.0);
+                    }
+                    cur = n.child[mask.trailing_zeros() as usize];
+                    continue;
+                }
+            } else {
+                let first = (cur & INDEX_MASK) as usize;
+                let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
+                if cur & PRIMS == 0 {
+                    for pack in &self.tris[first..first + count] {
+                        if r.tri4(pack, tmax).0.bits() != 0 {
+                            return true;
+                        }
+                    }
+                } else if run_any(prims, first, count, r.o3, r.d3, tmax) {
+                    return true;
+                }
+            }
+            match stack.pop() {
+                Some(e) => cur = e.child,
+                None => return false,
+            }
+        }
+    }
+
+    /// Makes traversal take the heap stack meant for very deep trees.
+    #[cfg(test)]
+    pub fn force_heap_stack(&mut self) {
+        self.stack_len = self.stack_len.max(STACK + 1);
+    }
+
+    /// Chooses the baseline kernels even where AVX exists.
+    #[cfg(test)]
+    pub fn disable_avx(&mut self) {
+        self.avx = false;
+    }
+
+    /// A tree over nothing: every ray misses.
+    pub fn empty() -> Bvh4 {
+        Bvh4 {
+            nodes: Vec::new(),
+            tris: Vec::new(),
+            root: EMPTY,
+            stack_len: 0,
+            avx: avx_detected(),
+        }
+    }
+
+    /// Bytes held by nodes and triangle packs.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node4>()
+            + self.tris.len() * std::mem::size_of::<Tri4>()
+    }
+
+    /// Flattens a binary tree over `prims` (its leaves index them through
+    /// `primitive_indices`, each primitive once; see [`build`]). Returns the tree and
+    /// the order the primitives must be stored in for it: `order[i]` is the index in
+    /// `prims` of the primitive the tree's leaves and hits call `i`.
+    pub fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
+        build::from_bvh2(bvh, prims)
+    }
+}
+
+fn avx_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::is_x86_feature_detected!("avx");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// A leaf tested one primitive at a time (spheres, disks, mixed leaves, and leaves of
+/// one triangle, where a pack would waste three lanes). Out of line, so that its code
+/// does not take registers from the loop around the four-lane tests.
+#[inline(never)]
+fn run_closest(
+    prims: &[Prim],
+    first: usize,
+    count: usize,
+    o: Vec3A,
+    d: Vec3A,
+    mut tmax: f32,
+) -> Option<Hit> {
+    let mut best = None;
+    for (i, p) in prims[first..first + count].iter().enumerate() {
+        if let Some(h) = p.intersect(o, d, tmax) {
+            tmax = h.t;
+            best = Some(Hit {
+                t: h.t,
+                prim: (first + i) as u32,
+                uv: h.uv,
+            });
+        }
+    }
+    best
+}
+
+#[inline(never)]
+fn run_any(prims: &[Prim], first: usize, count: usize, o: Vec3A, d: Vec3A, tmax: f32) -> bool {
+    prims[first..first + count]
+        .iter()
+        .any(|p| p.intersect(o, d, tmax).is_some())
+}

@@ -1,0 +1,296 @@
+//! From obvhs's binary tree to our four-wide one: a dynamic program over the binary
+//! nodes picks, for each wide node, which descendants fill its four slots and which
+//! subtrees become leaves, minimising the surface area heuristic with the costs of our
+//! own kernels (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through
+//! Compressed Wide BVHs", HPG 2017, section 3, with four lanes and triangle packs).
+//!
+//! A leaf is a run of primitives, stored in leaf order so that runs are contiguous;
+//! a leaf of two to four triangles is also copied into a pack for the four-lane test.
+
+use super::{Bvh4, Node4, Tri4, COUNT_SHIFT, EMPTY, INDEX_MASK, LEAF, MAX_RUN, PRIMS};
+use crate::geometry::lanes::F4;
+use crate::geometry::primitive::Prim;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+
+/// Relative costs. The kernels' instruction counts (callgrind, Cornell box) are about
+/// 60 for a four-box slab test with its stack work, 100 for a four-triangle test and
+/// 85 for a triangle tested alone (the scalar test, out of line); spheres and disks
+/// were not measured apart and are put a little above triangles. A node is charged
+/// twice its count: it spans two cache lines behind a dependent load, and at 1.0 a
+/// million scattered triangles built trees of half-empty nodes that traced 15-20%
+/// slower (the Cornell box tree is the same either way).
+const COST_NODE: f32 = 2.0;
+const COST_PACK: f32 = 1.7;
+const COST_TRI: f32 = 1.4;
+const COST_OTHER: f32 = 1.5;
+/// Most primitives a leaf holds: one pack.
+const LEAF_SIZE: u32 = 4;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Choice {
+    /// The subtree is one leaf.
+    Leaf,
+    /// The subtree is one wide node.
+    Node,
+    /// The node is opened: this many slots to its first child, the rest to the second.
+    Split(u8),
+}
+
+/// For one binary node and k = 1..=4 slots: the least cost of covering its subtree
+/// with at most k children of a wide node, and how.
+#[derive(Clone, Copy)]
+struct Plan {
+    cost: [f32; 5],
+    choice: [Choice; 5],
+    tris: u32,
+    others: u32,
+}
+
+/// The tree, and the order to store the primitives in: `order[i]` is the index in
+/// `prims` of the primitive the tree calls `i`. The binary tree must reference each
+/// primitive once (obvhs does, without spatial splits).
+pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
+    let mut out = Bvh4::empty();
+    let mut order = Vec::with_capacity(prims.len());
+    if bvh.nodes.is_empty() || prims.is_empty() {
+        return (out, order);
+    }
+    let plans = plan(bvh, prims);
+    let mut nodes = vec![EMPTY_NODE];
+    // (binary node, our node, depth): our node covers that binary node's subtree.
+    let mut work = vec![(0usize, 0usize, 1usize)];
+    let mut depth = 1;
+    let mut items = Vec::new();
+    while let Some((src, dst, d)) = work.pop() {
+        depth = depth.max(d);
+        items.clear();
+        if bvh.nodes[src].is_leaf() {
+            // Only the root: a tree of one leaf still gets a node, so that traversal
+            // always starts with a slab test.
+            items.push((src, Choice::Leaf));
+        } else {
+            let (l, r) = children(bvh, src);
+            let j = best_split(&plans, l, r, 4).1 as usize;
+            expand(bvh, &plans, l, j, &mut items);
+            expand(bvh, &plans, r, 4 - j, &mut items);
+        }
+        let mut node = EMPTY_NODE;
+        for (slot, &(i, how)) in items.iter().enumerate() {
+            let r = if how == Choice::Leaf {
+                out.push_leaf(bvh, i, prims, &mut order)
+            } else {
+                nodes.push(EMPTY_NODE);
+                work.push((i, nodes.len() - 1, d + 1));
+                (nodes.len() - 1) as u32
+            };
+            set_slot(&mut node, slot, bvh.nodes[i].aabb(), r);
+        }
+        nodes[dst] = node;
+    }
+    assert!(nodes.len() < LEAF as usize, "too many BVH nodes");
+    assert_eq!(order.len(), prims.len(), "every primitive in one leaf");
+    out.nodes = nodes
+        .into_iter()
+        .map(|(p, child)| Node4 {
+            planes: std::array::from_fn(|a| [p[2 * a], p[2 * a + 1]].map(F4::from_array)),
+            child,
+        })
+        .collect();
+    out.root = 0;
+    out.stack_len = 3 * depth + 1;
+    (out, order)
+}
+
+fn children(bvh: &Bvh2, n: usize) -> (usize, usize) {
+    let f = bvh.nodes[n].first_index as usize;
+    (f, f + 1)
+}
+
+/// Best use of k slots by the two children of a node: (cost, slots of the first).
+fn best_split(plans: &[Plan], l: usize, r: usize, k: usize) -> (f32, u8) {
+    (1..k)
+        .map(|j| (plans[l].cost[j] + plans[r].cost[k - j], j as u8))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap_or((f32::INFINITY, 1))
+}
+
+/// The children that binary node `n` contributes to a wide node through `k` slots.
+fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<(usize, Choice)>) {
+    match plans[n].choice[k] {
+        Choice::Split(j) => {
+            let (l, r) = children(bvh, n);
+            let j = j as usize;
+            expand(bvh, plans, l, j, out);
+            expand(bvh, plans, r, k - j, out);
+        }
+        how => out.push((n, how)),
+    }
+}
+
+/// The dynamic program, children before parents.
+fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
+    // Looked up in leaf order, which is random in `prims`: a compact copy stays cached.
+    let is_tri: Vec<bool> = prims
+        .iter()
+        .map(|p| matches!(p, Prim::Tri { .. }))
+        .collect();
+    let unset = Plan {
+        cost: [f32::INFINITY; 5],
+        choice: [Choice::Leaf; 5],
+        tris: 0,
+        others: 0,
+    };
+    let mut plans = vec![unset; bvh.nodes.len()];
+    // Post-order without recursion: binary trees from PLOC can be deep.
+    let mut stack = vec![(0usize, false)];
+    while let Some((n, done)) = stack.pop() {
+        let node = &bvh.nodes[n];
+        let area = node.aabb().half_area();
+        if node.is_leaf() {
+            let (a, b) = (node.first_index as usize, node.prim_count as usize);
+            let ids = &bvh.primitive_indices[a..a + b];
+            let tris = ids.iter().filter(|&&i| is_tri[i as usize]).count() as u32;
+            let others = ids.len() as u32 - tris;
+            plans[n] = Plan {
+                cost: [area * leaf_cost(tris, others).0; 5],
+                tris,
+                others,
+                ..unset
+            };
+            continue;
+        }
+        let (l, r) = children(bvh, n);
+        if !done {
+            stack.extend([(n, true), (l, false), (r, false)]);
+            continue;
+        }
+        let (tris, others) = (
+            plans[l].tris + plans[r].tris,
+            plans[l].others + plans[r].others,
+        );
+        let leaf = if tris + others <= LEAF_SIZE {
+            area * leaf_cost(tris, others).0
+        } else {
+            f32::INFINITY
+        };
+        let inner = area * COST_NODE + best_split(&plans, l, r, 4).0;
+        let (one, how) = if leaf <= inner {
+            (leaf, Choice::Leaf)
+        } else {
+            (inner, Choice::Node)
+        };
+        let mut p = Plan {
+            tris,
+            others,
+            ..unset
+        };
+        for k in 1..=4 {
+            (p.cost[k], p.choice[k]) = (one, how);
+            let (split, j) = best_split(&plans, l, r, k);
+            if split < p.cost[k] {
+                (p.cost[k], p.choice[k]) = (split, Choice::Split(j));
+            }
+        }
+        plans[n] = p;
+    }
+    plans
+}
+
+/// Cost of a leaf, and whether it is tested as packs (triangles only) rather than
+/// one primitive at a time.
+fn leaf_cost(tris: u32, others: u32) -> (f32, bool) {
+    let single = tris as f32 * COST_TRI + others as f32 * COST_OTHER;
+    let packed = tris.div_ceil(4) as f32 * COST_PACK;
+    if others == 0 && packed < single {
+        (packed, true)
+    } else {
+        (single, false)
+    }
+}
+
+impl Bvh4 {
+    /// Stores the leaf made of a binary subtree: its primitives go next in `order`,
+    /// and triangles-only leaves worth it are also packed. Returns its reference.
+    fn push_leaf(&mut self, bvh: &Bvh2, n: usize, prims: &[Prim], order: &mut Vec<u32>) -> u32 {
+        let first = order.len();
+        let mut stack = vec![n];
+        while let Some(n) = stack.pop() {
+            let node = &bvh.nodes[n];
+            if node.is_leaf() {
+                let (a, b) = (node.first_index as usize, node.prim_count as usize);
+                order.extend_from_slice(&bvh.primitive_indices[a..a + b]);
+            } else {
+                let (l, r) = children(bvh, n);
+                stack.extend([r, l]);
+            }
+        }
+        let ids = &order[first..];
+        let tris = ids
+            .iter()
+            .filter(|&&i| matches!(prims[i as usize], Prim::Tri { .. }))
+            .count();
+        if !leaf_cost(tris as u32, (ids.len() - tris) as u32).1 {
+            return leaf_ref(PRIMS, first, ids.len());
+        }
+        let packs = self.tris.len();
+        for (k, chunk) in ids.chunks(4).enumerate() {
+            self.tris.push(pack(chunk, (first + 4 * k) as u32, prims));
+        }
+        leaf_ref(0, packs, self.tris.len() - packs)
+    }
+}
+
+/// A node while building: planes lo x, hi x, lo y, hi y, lo z, hi z, and children.
+type NodeBuild = ([[f32; 4]; 6], [u32; 4]);
+
+const EMPTY_NODE: NodeBuild = (
+    [
+        [f32::INFINITY; 4],
+        [f32::NEG_INFINITY; 4],
+        [f32::INFINITY; 4],
+        [f32::NEG_INFINITY; 4],
+        [f32::INFINITY; 4],
+        [f32::NEG_INFINITY; 4],
+    ],
+    [EMPTY; 4],
+);
+
+fn set_slot(node: &mut NodeBuild, slot: usize, b: &Aabb, r: u32) {
+    for axis in 0..3 {
+        node.0[2 * axis][slot] = b.min[axis];
+        node.0[2 * axis + 1][slot] = b.max[axis];
+    }
+    node.1[slot] = r;
+}
+
+fn leaf_ref(kind: u32, first: usize, count: usize) -> u32 {
+    assert!(first <= INDEX_MASK as usize, "too many BVH leaves");
+    assert!((1..=MAX_RUN).contains(&count), "BVH leaf too large");
+    LEAF | kind | (count as u32) << COUNT_SHIFT | first as u32
+}
+
+/// Up to four triangles, `ids` in the original order, `first` their position in leaf
+/// order (what hits report).
+fn pack(ids: &[u32], first: u32, prims: &[Prim]) -> Tri4 {
+    let mut c = [[[0.0f32; 4]; 3]; 3];
+    let mut prim = [u32::MAX; 4];
+    for (lane, &id) in ids.iter().enumerate() {
+        let Prim::Tri { p0, e1, e2 } = prims[id as usize] else {
+            unreachable!("only triangles are packed");
+        };
+        for (k, v) in [p0, e1, e2].into_iter().enumerate() {
+            for axis in 0..3 {
+                c[k][axis][lane] = v[axis];
+            }
+        }
+        prim[lane] = first + lane as u32;
+    }
+    let f = |k: usize| c[k].map(F4::from_array);
+    Tri4 {
+        p0: f(0),
+        e1: f(1),
+        e2: f(2),
+        prim,
+    }
+}
