@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Work counters of one or more iterations.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RenderStats {
     /// Closest-hit rays traced.
     pub rays: u64,
@@ -24,6 +24,16 @@ pub struct RenderStats {
     pub shadow_rays: u64,
     /// Camera samples (or light paths) taken.
     pub samples: u64,
+    /// Light-subpath vertices (or photons) stored for connection and merging.
+    pub light_vertices: u64,
+    /// Vertex connections evaluated (light sampling, light-vertex and camera connections).
+    pub connections: u64,
+    /// Merges: stored vertices found within the merge radius of a camera vertex.
+    pub merges: u64,
+    /// Merge radius of the latest iteration (0 for algorithms that do not merge).
+    pub merge_radius: f32,
+    /// Bytes of light-vertex storage the latest iteration used.
+    pub vertex_bytes: u64,
 }
 
 impl std::ops::AddAssign for RenderStats {
@@ -31,6 +41,14 @@ impl std::ops::AddAssign for RenderStats {
         self.rays += o.rays;
         self.shadow_rays += o.shadow_rays;
         self.samples += o.samples;
+        self.light_vertices += o.light_vertices;
+        self.connections += o.connections;
+        self.merges += o.merges;
+        // Per-iteration figures: the later iteration's value stands.
+        if o.merge_radius > 0.0 {
+            self.merge_radius = o.merge_radius;
+        }
+        self.vertex_bytes = self.vertex_bytes.max(o.vertex_bytes);
     }
 }
 
@@ -40,6 +58,8 @@ pub struct Counters {
     rays: AtomicU64,
     shadow_rays: AtomicU64,
     samples: AtomicU64,
+    connections: AtomicU64,
+    merges: AtomicU64,
 }
 
 impl Counters {
@@ -47,6 +67,8 @@ impl Counters {
         self.rays.fetch_add(s.rays, Ordering::Relaxed);
         self.shadow_rays.fetch_add(s.shadow_rays, Ordering::Relaxed);
         self.samples.fetch_add(s.samples, Ordering::Relaxed);
+        self.connections.fetch_add(s.connections, Ordering::Relaxed);
+        self.merges.fetch_add(s.merges, Ordering::Relaxed);
     }
 
     pub fn get(&self) -> RenderStats {
@@ -54,6 +76,9 @@ impl Counters {
             rays: self.rays.load(Ordering::Relaxed),
             shadow_rays: self.shadow_rays.load(Ordering::Relaxed),
             samples: self.samples.load(Ordering::Relaxed),
+            connections: self.connections.load(Ordering::Relaxed),
+            merges: self.merges.load(Ordering::Relaxed),
+            ..Default::default()
         }
     }
 }
@@ -62,6 +87,18 @@ impl Counters {
 pub trait Integrator: Send + Sync {
     /// Adds iteration `iteration` of a job with `seed` into `film`.
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats;
+
+    /// State carried from one iteration to the next, for algorithms whose iterations
+    /// are not independent (SPPM's per-pixel statistics). Saved with checkpoints so a
+    /// restarted job continues exactly; `None` for stateless algorithms.
+    fn save_state(&self) -> Option<Vec<u8>> {
+        None
+    }
+
+    /// Restores what `save_state` returned, before the next iteration runs.
+    fn load_state(&self, _bytes: &[u8]) -> Result<(), String> {
+        Ok(())
+    }
 }
 
 /// Every algorithm's settings, tagged by `algorithm`. Unknown fields are errors.
