@@ -7,6 +7,7 @@
 
 mod debug;
 pub mod driver;
+pub mod hashgrid;
 mod pixels;
 pub mod pt;
 

@@ -187,3 +187,52 @@ impl AreaLight {
         dist2 / (cos_l * self.area)
     }
 }
+
+impl AreaLight {
+    /// Emission sampling for light paths: a uniform point on the light, then a
+    /// cosine-distributed direction on its emitting side (either side with probability
+    /// 1/2 when two-sided).
+    #[inline]
+    pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<super::EmissionSample> {
+        let (i, _, ux) = self.by_area.sample_discrete(u_pos.x);
+        let (p, n) = self.point_on(i, Vec2::new(ux, u_pos.y));
+        let (mut u, mut side) = (u_dir, 1.0);
+        if self.two_sided {
+            // Reuse the first dimension to pick the side.
+            if u.x < 0.5 {
+                u.x *= 2.0;
+            } else {
+                u.x = 2.0 * u.x - 1.0;
+                side = -1.0;
+            }
+        }
+        let local = crate::math::warp::square_to_cosine_hemisphere(u);
+        if local.z <= 0.0 {
+            return None;
+        }
+        let d = Frame::from_normal(n * side).to_world(local);
+        let (pdf_pos, pdf_dir) = self.pdf_le(n, d);
+        Some(super::EmissionSample {
+            p,
+            n,
+            d,
+            le: self.radiance,
+            pdf_pos,
+            pdf_dir,
+            cos: local.z,
+        })
+    }
+
+    /// Densities of `sample_le` emitting from a point with front normal `n` in direction
+    /// `d`: (area density of the point, solid-angle density of the direction).
+    #[inline]
+    pub fn pdf_le(&self, n: Vec3, d: Vec3) -> (f32, f32) {
+        let cos = n.dot(d);
+        let pdf_dir = if self.two_sided {
+            0.5 * cos.abs() * crate::math::INV_PI
+        } else {
+            cos.max(0.0) * crate::math::INV_PI
+        };
+        (1.0 / self.area, pdf_dir)
+    }
+}

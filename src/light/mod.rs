@@ -3,6 +3,7 @@
 
 mod area;
 pub mod distribution;
+mod emission;
 mod environment;
 mod point;
 mod selection;
@@ -10,6 +11,7 @@ mod spot;
 
 pub use area::AreaLight;
 pub use distribution::{Distribution1D, Distribution2D};
+pub use emission::EmissionSample;
 pub use environment::{EnvMap, LatLong};
 pub use point::{DirectionalLight, PointLight};
 pub use selection::LightSampler;
