@@ -436,6 +436,11 @@ fn diff(a: &Path, b: &Path, png: Option<&Path>) -> Result<()> {
     let ib = film::read_exr(b)?;
     let m = film::compare(&ia, &ib)?;
     println!("rmse {:.6e}\nrel_mse {:.6e}", m.rmse, m.rel_mse);
+    let (ma, mb) = (ia.mean(), ib.mean());
+    println!(
+        "mean_a {:.6} {:.6} {:.6}\nmean_b {:.6} {:.6} {:.6}",
+        ma.x, ma.y, ma.z, mb.x, mb.y, mb.z
+    );
     if let Some(p) = png {
         let d = film::false_colour_diff(&ia, &ib)?;
         film::write_png(p, &d, 0.0).with_context(|| format!("writing {}", p.display()))?;

@@ -10,6 +10,7 @@ pub mod driver;
 pub mod hashgrid;
 mod pixels;
 pub mod pt;
+pub mod vcm;
 
 use crate::film::Film;
 use crate::scene::Scene;
@@ -108,6 +109,14 @@ pub trait Integrator: Send + Sync {
 pub enum Settings {
     /// Unidirectional path tracing with next-event estimation and MIS.
     Pt(pt::PtSettings),
+    /// Light tracing: light paths splatted to the camera.
+    Lt(vcm::VcmSettings),
+    /// Bidirectional path tracing with all (s, t) connections.
+    Bpt(vcm::VcmSettings),
+    /// Bidirectional photon mapping: merging at every non-specular camera vertex.
+    Bpm(vcm::VcmSettings),
+    /// Vertex connection and merging.
+    Vcm(vcm::VcmSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -116,7 +125,11 @@ pub enum Settings {
 }
 
 /// Names accepted for `algorithm`.
-pub const ALGORITHMS: &[&str] = &["pt", "normals", "albedo"];
+pub const ALGORITHMS: &[&str] = &["pt", "lt", "bpt", "bpm", "vcm", "normals", "albedo"];
+
+/// Scene-default parameters that carry over to another algorithm that takes them
+/// (a scene written for `pt` with max_depth 10 means the same paths for `vcm`).
+const SHARED_PARAMS: &[&str] = &["max_depth"];
 
 #[derive(Debug, thiserror::Error)]
 pub enum SettingsError {
@@ -130,6 +143,10 @@ impl Settings {
     pub fn name(&self) -> &'static str {
         match self {
             Settings::Pt(_) => "pt",
+            Settings::Lt(_) => "lt",
+            Settings::Bpt(_) => "bpt",
+            Settings::Bpm(_) => "bpm",
+            Settings::Vcm(_) => "vcm",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -155,14 +172,28 @@ impl Settings {
             return Err(SettingsError::UnknownAlgorithm(alg.to_string()));
         }
         let mut obj = serde_json::Map::new();
-        if scene_alg == Some(alg) {
-            if let Some(serde_json::Value::Object(m)) = scene_default {
+        let mut shared = serde_json::Map::new();
+        if let Some(serde_json::Value::Object(m)) = scene_default {
+            if scene_alg == Some(alg) {
                 obj.extend(m.clone());
+            } else {
+                shared.extend(
+                    m.iter()
+                        .filter(|(k, _)| SHARED_PARAMS.contains(&k.as_str()))
+                        .map(|(k, v)| (k.clone(), v.clone())),
+                );
             }
         }
         obj.extend(overrides.clone());
         obj.insert("algorithm".into(), alg.into());
-        let settings: Settings = serde_json::from_value(serde_json::Value::Object(obj))
+        let parse = |o: serde_json::Map<String, serde_json::Value>| {
+            serde_json::from_value::<Settings>(serde_json::Value::Object(o))
+        };
+        let mut with_shared = shared;
+        with_shared.extend(obj.clone());
+        // Shared defaults apply only where the algorithm has such a parameter.
+        let settings = parse(with_shared)
+            .or_else(|_| parse(obj))
             .map_err(|e| SettingsError::Invalid(e.to_string()))?;
         settings.validate()?;
         Ok(settings)
@@ -171,6 +202,18 @@ impl Settings {
     fn validate(&self) -> Result<(), SettingsError> {
         match self {
             Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Lt(s) => s
+                .validate(vcm::Technique::Lt)
+                .map_err(SettingsError::Invalid),
+            Settings::Bpt(s) => s
+                .validate(vcm::Technique::Bpt)
+                .map_err(SettingsError::Invalid),
+            Settings::Bpm(s) => s
+                .validate(vcm::Technique::Bpm)
+                .map_err(SettingsError::Invalid),
+            Settings::Vcm(s) => s
+                .validate(vcm::Technique::Vcm)
+                .map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -178,6 +221,10 @@ impl Settings {
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
+            Settings::Lt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Lt, s.clone())),
+            Settings::Bpt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpt, s.clone())),
+            Settings::Bpm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpm, s.clone())),
+            Settings::Vcm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Vcm, s.clone())),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

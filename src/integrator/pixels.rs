@@ -23,6 +23,23 @@ pub fn render_pixels<F>(
 where
     F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
+    render_pixels_indexed(scene, seed, iteration, film, |_, ray, rng, stats| {
+        radiance(ray, rng, stats)
+    })
+}
+
+/// Like [`render_pixels`], also passing the row-major pixel index (bidirectional
+/// methods pair each camera path with the light path of the same index).
+pub fn render_pixels_indexed<F>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    film: &mut Film,
+    radiance: F,
+) -> RenderStats
+where
+    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+{
     let (w, h) = (scene.width(), scene.height());
     let counters = Counters::default();
     let buffers: Vec<TileBuffer> = tiles(w, h, TILE)
@@ -51,7 +68,7 @@ fn render_tile<F>(
     radiance: &F,
 ) -> RenderStats
 where
-    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
     #[cfg(target_arch = "x86_64")]
     {
@@ -73,7 +90,7 @@ unsafe fn render_tile_avx2<F>(
     radiance: &F,
 ) -> RenderStats
 where
-    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
     tile_loop(scene, seed, iteration, buf, radiance)
 }
@@ -87,7 +104,7 @@ fn tile_loop<F>(
     radiance: &F,
 ) -> RenderStats
 where
-    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
     let w = scene.width() as u64;
     let tile = buf.tile;
@@ -100,7 +117,7 @@ where
             let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
             stats.samples += 1;
             stats.rays += 1;
-            buf.add(x, y, radiance(ray, &mut rng, &mut stats));
+            buf.add(x, y, radiance(index, ray, &mut rng, &mut stats));
         }
     }
     stats

@@ -69,17 +69,31 @@ impl Light {
     }
 
     /// Densities with which `sample_le` emits light travelling along `d` from a point
-    /// with front normal `n` (area lights) or from infinity: (position, direction).
-    /// Zero for delta lights, which no ray can hit.
+    /// with front normal `n` (area lights), from the light's position (point and spot
+    /// lights) or from infinity: (position, direction). Bidirectional MIS compares these
+    /// with the densities of the other techniques.
     #[inline]
     pub fn pdf_le(&self, sphere: &SceneSphere, n: Vec3, d: Vec3) -> (f32, f32) {
+        let disk = 1.0 / (PI * sphere.radius * sphere.radius);
         match self {
             Light::Area(l) => l.pdf_le(n, d),
-            Light::Constant { .. } | Light::EnvMap(_) => (
-                1.0 / (PI * sphere.radius * sphere.radius),
-                self.pdf_li(Vec3::ZERO, -d, Vec3::ZERO, Vec3::ZERO),
-            ),
-            Light::Point(_) | Light::Spot(_) | Light::Directional(_) => (0.0, 0.0),
+            Light::Constant { .. } | Light::EnvMap(_) => {
+                (disk, self.pdf_li(Vec3::ZERO, -d, Vec3::ZERO, Vec3::ZERO))
+            }
+            Light::Point(_) => (1.0, crate::math::INV_4PI),
+            Light::Spot(l) => {
+                let cos_max = l.cutoff.cos();
+                let inside = d.dot(l.frame.n) > cos_max;
+                (
+                    1.0,
+                    if inside {
+                        uniform_cone_pdf(cos_max)
+                    } else {
+                        0.0
+                    },
+                )
+            }
+            Light::Directional(_) => (disk, 1.0),
         }
     }
 }

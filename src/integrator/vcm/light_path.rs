@@ -1,0 +1,420 @@
+//! Light subpaths: emission, random walk with importance transport, storage of
+//! non-specular vertices, and connections to the camera (splats).
+
+use super::mis::Partial;
+use super::{Pass, Splat, Workspace};
+use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::integrator::RenderStats;
+use crate::light::Light;
+use crate::material::{Material, Mode};
+use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
+use rayon::prelude::*;
+
+/// Light paths per parallel chunk: fixed, so the split never depends on threads.
+const CHUNK: usize = 1024;
+
+/// Cosines below this end a path: the MIS quantities divide by them.
+pub(super) const MIN_COS: f32 = 1e-6;
+
+/// Seed offset that separates light-path streams from camera-path streams.
+const LIGHT_STREAM: u64 = 0x5DEE_CE66_D1CE_4E5B;
+
+/// A stored light-subpath vertex (where connections and merges attach).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightVertex {
+    pub p: Vec3,
+    pub p_err: Vec3,
+    pub ng: Vec3,
+    pub ns: Vec3,
+    /// Towards the previous vertex (where the light came from), world space.
+    pub wo: Vec3,
+    pub throughput: Rgb,
+    pub material: u32,
+    /// Segments from the light to this vertex.
+    pub len: u32,
+    pub q: Partial,
+}
+
+/// One chunk's output, kept between iterations to reuse its buffers.
+#[derive(Default)]
+pub(crate) struct Chunk {
+    vertices: Vec<LightVertex>,
+    /// Per light path of the chunk, the end of its vertices within `vertices`.
+    ends: Vec<u32>,
+    pub splats: Vec<Splat>,
+    stats: RenderStats,
+}
+
+/// The shading context of a non-specular vertex, for evaluating connections.
+pub(crate) struct Surface<'a> {
+    pub m: &'a Material,
+    pub frame: Frame,
+    pub ng: Vec3,
+    /// Towards the previous vertex, local frame.
+    pub wo: Vec3,
+    pub cont: f32,
+}
+
+/// f |cos| towards a direction, with both solid-angle densities (continuation
+/// probability not included).
+pub(crate) struct Eval {
+    pub f: Rgb,
+    pub cos: f32,
+    pub pdf_dir: f32,
+    pub pdf_rev: f32,
+}
+
+impl Surface<'_> {
+    #[inline]
+    pub fn eval(&self, wi_world: Vec3, mode: Mode) -> Option<Eval> {
+        let wi = self.frame.to_local(wi_world);
+        // A direction on different sides of the shading and geometric normals would
+        // leak light through the surface.
+        if (wi_world.dot(self.ng) > 0.0) != (wi.z > 0.0) {
+            return None;
+        }
+        let f = self.m.eval(self.wo, wi, mode);
+        if f == Rgb::ZERO {
+            return None;
+        }
+        Some(Eval {
+            f,
+            cos: wi.z.abs(),
+            pdf_dir: self.m.pdf(self.wo, wi),
+            pdf_rev: self.m.pdf(wi, self.wo),
+        })
+    }
+}
+
+/// State of a subpath between vertices.
+#[derive(Clone, Copy)]
+pub(crate) struct Walk {
+    /// The last scattering vertex (or the path's origin).
+    pub origin: Vec3,
+    pub throughput: Rgb,
+    /// Segments traced so far, including the one being traced.
+    pub len: u32,
+    pub q: Partial,
+    /// Every scattering event so far was specular.
+    pub specular: bool,
+}
+
+pub(super) fn trace_light_paths(
+    pass: &Pass,
+    seed: u64,
+    iteration: u64,
+    ws: &mut Workspace,
+) -> RenderStats {
+    let n = pass.light_paths;
+    let chunks = n.div_ceil(CHUNK);
+    ws.chunks.resize_with(chunks, Chunk::default);
+    ws.chunks.truncate(chunks);
+    let budget = (pass.s.max_vertex_mib as f64 * 1048576.0
+        / std::mem::size_of::<LightVertex>() as f64
+        / chunks as f64) as usize;
+    ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
+        chunk.vertices.clear();
+        chunk.ends.clear();
+        chunk.splats.clear();
+        chunk.stats = RenderStats::default();
+        for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
+            trace_one(pass, &mut rng, chunk, budget);
+            chunk.ends.push(chunk.vertices.len() as u32);
+        }
+    });
+    ws.vertices.clear();
+    ws.positions.clear();
+    ws.path_ends.clear();
+    let mut stats = RenderStats::default();
+    for chunk in &ws.chunks {
+        let base = ws.vertices.len() as u32;
+        ws.vertices.extend_from_slice(&chunk.vertices);
+        ws.path_ends.extend(chunk.ends.iter().map(|e| base + e));
+        stats += chunk.stats;
+    }
+    ws.positions.extend(ws.vertices.iter().map(|v| v.p));
+    stats.light_vertices = ws.vertices.len() as u64;
+    stats
+}
+
+/// Where a light subpath starts: the ray, its throughput and MIS state, and (for area
+/// lights) what is needed to finish the MIS state at the first hit.
+struct Start {
+    ray: Ray,
+    walk: Walk,
+    finite: bool,
+    /// (light, pick probability, emission density, origin, normal, cos) for area
+    /// lights, whose light-sampling density depends on the receiving point.
+    area: Option<(usize, f32, f32, Vec3, Vec3, f32)>,
+}
+
+fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSample, usize, f32)> {
+    let scene = pass.scene;
+    if scene.lights.is_empty() {
+        return None;
+    }
+    let (li, pick, _) = scene.light_sampler.sample(rng.next_f32());
+    let light = &scene.lights[li];
+    let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
+    let es = light.sample_le(&scene.sphere, u_pos, u_dir)?;
+    let emission = pick * es.pdf_pos * es.pdf_dir;
+    if !(emission > 0.0) {
+        return None;
+    }
+    let finite = !light.is_infinite();
+    let direct = match light {
+        // Filled in at the first hit.
+        Light::Area(_) => 1.0,
+        Light::Point(_) | Light::Spot(_) | Light::Directional(_) => pick,
+        Light::Constant { .. } | Light::EnvMap(_) => {
+            pick * light.pdf_li(Vec3::ZERO, -es.d, Vec3::ZERO, Vec3::ZERO)
+        }
+    };
+    let q = pass
+        .mis
+        .light_start(direct, emission, es.cos, light.is_delta(), finite);
+    let p_err = es.p.abs() * gamma(6);
+    let ray = if es.n == Vec3::ZERO {
+        Ray::new(es.p, es.d)
+    } else {
+        spawn_ray(es.p, p_err, es.n, es.d)
+    };
+    let area = matches!(light, Light::Area(_)).then_some((li, pick, emission, es.p, es.n, es.cos));
+    let walk = Walk {
+        origin: es.p,
+        throughput: es.le * (es.cos / emission),
+        len: 1,
+        q,
+        specular: true,
+    };
+    Some((
+        Start {
+            ray,
+            walk,
+            finite,
+            area,
+        },
+        es,
+        li,
+        pick,
+    ))
+}
+
+fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
+    let scene = pass.scene;
+    let Some((st, es, li, pick)) = start(pass, rng) else {
+        return;
+    };
+    chunk.stats.samples += 1;
+    if pass.technique == super::Technique::Lt {
+        splat_emitter(pass, rng, chunk, &es, li, pick);
+    }
+    let Start {
+        mut ray,
+        mut walk,
+        finite,
+        area,
+    } = st;
+    let store = pass.technique.connects() || pass.technique.merges();
+    let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
+    let mut crossings = 0;
+    loop {
+        chunk.stats.rays += 1;
+        let Some(it) = scene.intersect(&ray) else {
+            return;
+        };
+        let m = scene.material(&it);
+        if matches!(m, Material::Null) {
+            crossings += 1;
+            if crossings > 256 {
+                return;
+            }
+            ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+            continue;
+        }
+        let cos_in = it.ns.dot(ray.d).abs();
+        if cos_in < MIN_COS {
+            return;
+        }
+        let dist2 = (it.p - walk.origin).length_squared();
+        if walk.len == 1 {
+            if let Some((l, pick, emission, p0, n0, cos0)) = area {
+                // The density with which light sampling from this point picks the
+                // origin, in area measure ([TR] eq. 31).
+                let pdf_w = scene.lights[l].pdf_li(it.p, -ray.d, p0, n0);
+                walk.q.dvcm = pass.mis.f(pick * pdf_w * cos0 / dist2 / emission);
+            }
+        }
+        let d2 = (walk.len > 1 || finite).then_some(dist2);
+        walk.q = pass.mis.on_hit(walk.q, d2, cos_in);
+        let frame = Frame::from_normal(it.ns);
+        let surface = Surface {
+            m,
+            frame,
+            ng: it.ng,
+            wo: frame.to_local(-ray.d),
+            cont: pass.continuation(m),
+        };
+        if !m.is_delta() {
+            if store && chunk.vertices.len() < budget {
+                chunk.vertices.push(LightVertex {
+                    p: it.p,
+                    p_err: it.p_err,
+                    ng: it.ng,
+                    ns: it.ns,
+                    wo: -ray.d,
+                    throughput: walk.throughput,
+                    material: scene.shapes[it.shape as usize].material,
+                    len: walk.len,
+                    q: walk.q,
+                });
+            }
+            if to_camera {
+                connect_to_camera(pass, rng, chunk, &walk, &it, &surface);
+            }
+        }
+        if walk.len + 2 > pass.s.max_depth {
+            return;
+        }
+        let Some(next) = scatter(pass, rng, &mut walk, &it, &surface, Mode::Importance, None)
+        else {
+            return;
+        };
+        ray = next;
+    }
+}
+
+/// Samples the next direction and updates throughput and MIS state; None ends the
+/// path. `camera_len` is Some on camera subpaths.
+#[inline]
+pub(super) fn scatter(
+    pass: &Pass,
+    rng: &mut Rng,
+    walk: &mut Walk,
+    it: &Interaction,
+    surface: &Surface,
+    mode: Mode,
+    camera_len: Option<u32>,
+) -> Option<Ray> {
+    let u_lobe = rng.next_f32();
+    let s = surface.m.sample(surface.wo, u_lobe, rng.next_2d(), mode)?;
+    let wi = surface.frame.to_world(s.wi);
+    if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+        return None;
+    }
+    let cont = surface.cont;
+    if cont < 1.0 && rng.next_f32() >= cont {
+        return None;
+    }
+    let pdf_dir = s.pdf * cont;
+    let pdf_rev = if s.delta {
+        pdf_dir
+    } else {
+        surface.m.pdf(s.wi, surface.wo) * cont
+    };
+    if !(pdf_dir > 0.0) {
+        return None;
+    }
+    walk.q = pass
+        .mis
+        .on_scatter(walk.q, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta, camera_len);
+    walk.specular &= s.delta;
+    walk.throughput *= s.weight / cont;
+    if walk.throughput == Rgb::ZERO {
+        return None;
+    }
+    walk.origin = it.p;
+    walk.len += 1;
+    Some(spawn_ray(it.p, it.p_err, it.ng, wi))
+}
+
+/// Connects a light vertex to a point on the lens and splats the result
+/// ([TR] eqs. 46-47; SmallVCM's ConnectToCamera).
+fn connect_to_camera(
+    pass: &Pass,
+    rng: &mut Rng,
+    chunk: &mut Chunk,
+    walk: &Walk,
+    it: &Interaction,
+    surface: &Surface,
+) {
+    let cam = &pass.scene.camera;
+    let lens = cam.sample_lens(rng.next_2d());
+    let Some(raster) = cam.raster(it.p, lens) else {
+        return;
+    };
+    let to_cam = lens - it.p;
+    let dist2 = to_cam.length_squared();
+    let dir = to_cam / dist2.sqrt();
+    let Some(e) = surface.eval(dir, Mode::Importance) else {
+        return;
+    };
+    let camera_pdf = cam.pdf_dir(-dir);
+    let camera_a = camera_pdf * e.cos / dist2;
+    let w = if pass.technique == super::Technique::Lt {
+        1.0
+    } else {
+        pass.mis
+            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * surface.cont)
+    };
+    // The pixel integral is over unit pixel area: divide the area density by
+    // camera_a's conversion, i.e. multiply by camera_pdf / dist2.
+    let v = walk.throughput * e.f * (w * camera_pdf / dist2 / pass.light_paths as f32);
+    chunk.stats.connections += 1;
+    chunk.stats.shadow_rays += 1;
+    let ray = spawn_ray_to(it.p, it.p_err, it.ng, lens, Vec3::ZERO, Vec3::ZERO);
+    if !pass.scene.visible(&ray) {
+        return;
+    }
+    push_splat(pass, chunk, raster, v);
+}
+
+/// Light tracing alone sees emitters through their own emission: connect the light
+/// path's origin to the lens (other techniques see emitters from the camera side).
+fn splat_emitter(
+    pass: &Pass,
+    rng: &mut Rng,
+    chunk: &mut Chunk,
+    es: &crate::light::EmissionSample,
+    li: usize,
+    pick: f32,
+) {
+    let Light::Area(area) = &pass.scene.lights[li] else {
+        return;
+    };
+    let cam = &pass.scene.camera;
+    let lens = cam.sample_lens(rng.next_2d());
+    let Some(raster) = cam.raster(es.p, lens) else {
+        return;
+    };
+    let to_cam = lens - es.p;
+    let dist2 = to_cam.length_squared();
+    let dir = to_cam / dist2.sqrt();
+    let le = area.le(es.n, dir);
+    let cos = es.n.dot(dir).abs();
+    if le == Rgb::ZERO || cos <= 0.0 {
+        return;
+    }
+    let v = le * (cos * cam.pdf_dir(-dir) / (dist2 * pick * es.pdf_pos * pass.light_paths as f32));
+    chunk.stats.shadow_rays += 1;
+    let ray = spawn_ray_to(
+        lens,
+        Vec3::ZERO,
+        Vec3::ZERO,
+        es.p,
+        es.p.abs() * gamma(6),
+        es.n,
+    );
+    if pass.scene.visible(&ray) {
+        push_splat(pass, chunk, raster, v);
+    }
+}
+
+#[inline]
+fn push_splat(pass: &Pass, chunk: &mut Chunk, raster: crate::math::Vec2, v: Rgb) {
+    let w = pass.scene.width();
+    let x = (raster.x as u32).min(w - 1);
+    let y = (raster.y as u32).min(pass.scene.height() - 1);
+    chunk.splats.push((y * w + x, v));
+}

@@ -1,0 +1,252 @@
+//! The bidirectional family on one core (Georgiev et al. 2012, "Light Transport
+//! Simulation with Vertex Connection and Merging"): light tracing (`lt`),
+//! bidirectional path tracing (`bpt`), bidirectional photon mapping (`bpm`) and vertex
+//! connection and merging (`vcm`) differ only in which techniques they use; the MIS
+//! quantities of [`mis`] weight whatever set is on.
+//!
+//! One iteration: trace N light subpaths (N = `light_paths` x pixels), storing their
+//! non-specular vertices and splatting connections to the camera; build the hash grid
+//! over the stored vertices; then trace one camera subpath per pixel, connecting to
+//! light sampling, to the vertices of the light subpath with the pixel's index, and
+//! merging with every stored vertex within the radius.
+
+mod camera_path;
+mod light_path;
+pub mod mis;
+
+use super::hashgrid::HashGrid;
+use super::pixels::render_pixels_indexed;
+use super::pt::Heuristic;
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::material::Material;
+use crate::math::{max_component, Rgb, Vec3};
+use crate::scene::Scene;
+use light_path::{trace_light_paths, Chunk, LightVertex};
+use mis::Mis;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// Which techniques an iteration uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Technique {
+    /// Light tracing: light subpaths splatted to the camera, no MIS.
+    Lt,
+    /// Bidirectional path tracing: every (s, t) connection.
+    Bpt,
+    /// Bidirectional photon mapping: merging at every non-specular camera vertex.
+    Bpm,
+    /// Connections and merging, all weighted together.
+    Vcm,
+}
+
+impl Technique {
+    fn connects(self) -> bool {
+        matches!(self, Technique::Bpt | Technique::Vcm)
+    }
+
+    fn merges(self) -> bool {
+        matches!(self, Technique::Bpm | Technique::Vcm)
+    }
+}
+
+/// Settings shared by `lt`, `bpt`, `bpm` and `vcm` (merging parameters only matter to
+/// the last two).
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in segments, as Mitsuba's `max_depth` (SmallVCM's max path length) |
+/// | `light_paths` | 1 | light subpaths per iteration, as a multiple of the pixel count |
+/// | `radius` | none | initial merge radius in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.003 | initial merge radius as a fraction of the scene's bounding-sphere radius |
+/// | `alpha` | 0.75 | radius reduction: r_i = r_0 / i^((1 - alpha) / 2) |
+/// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
+/// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
+/// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
+/// | `max_vertex_mib` | 2048 | budget for stored light vertices per iteration |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VcmSettings {
+    pub max_depth: u32,
+    pub light_paths: f32,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: f32,
+    pub merge_first: bool,
+    pub russian_roulette: bool,
+    pub heuristic: Heuristic,
+    pub max_vertex_mib: f32,
+}
+
+impl Default for VcmSettings {
+    fn default() -> Self {
+        VcmSettings {
+            max_depth: 64,
+            light_paths: 1.0,
+            radius: None,
+            radius_factor: 0.003,
+            alpha: 0.75,
+            merge_first: true,
+            russian_roulette: true,
+            heuristic: Heuristic::Balance,
+            max_vertex_mib: 2048.0,
+        }
+    }
+}
+
+impl VcmSettings {
+    pub fn validate(&self, technique: Technique) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        if !(self.light_paths.is_finite() && self.light_paths > 0.0 && self.light_paths <= 64.0) {
+            return Err(format!(
+                "light_paths must be in (0, 64], got {}",
+                self.light_paths
+            ));
+        }
+        if let Some(r) = self.radius {
+            if !(r.is_finite() && r > 0.0) {
+                return Err(format!("radius must be positive and finite, got {r}"));
+            }
+        }
+        if !(self.radius_factor.is_finite() && self.radius_factor > 0.0) {
+            return Err(format!(
+                "radius_factor must be positive, got {}",
+                self.radius_factor
+            ));
+        }
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err(format!("alpha must be in (0, 1], got {}", self.alpha));
+        }
+        if !(self.max_vertex_mib.is_finite() && self.max_vertex_mib > 0.0) {
+            return Err(format!(
+                "max_vertex_mib must be positive, got {}",
+                self.max_vertex_mib
+            ));
+        }
+        if !self.merge_first && technique == Technique::Bpm {
+            return Err(
+                "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Per-iteration constants shared by both subpath tracers.
+pub(crate) struct Pass<'a> {
+    pub scene: &'a Scene,
+    pub s: &'a VcmSettings,
+    pub technique: Technique,
+    pub mis: Mis,
+    pub radius: f32,
+    /// 1 / (pi r^2 N): the merge kernel's normalisation.
+    pub vm_norm: f32,
+    pub light_paths: usize,
+}
+
+impl Pass<'_> {
+    /// Russian-roulette continuation probability at a vertex with material `m`.
+    #[inline]
+    pub fn continuation(&self, m: &Material) -> f32 {
+        if self.s.russian_roulette {
+            max_component(m.albedo()).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Buffers kept between iterations so that the light-vertex store and the grid do not
+/// reallocate once they have grown to the scene's needs.
+#[derive(Default)]
+struct Workspace {
+    chunks: Vec<Chunk>,
+    vertices: Vec<LightVertex>,
+    positions: Vec<Vec3>,
+    /// End (exclusive) of each light path's vertices in `vertices`.
+    path_ends: Vec<u32>,
+    grid: HashGrid,
+}
+
+pub struct Vcm {
+    s: VcmSettings,
+    technique: Technique,
+    ws: Mutex<Workspace>,
+}
+
+impl Vcm {
+    pub fn new(technique: Technique, s: VcmSettings) -> Self {
+        Vcm {
+            s,
+            technique,
+            ws: Mutex::new(Workspace::default()),
+        }
+    }
+
+    fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
+        let pixels = scene.width() as usize * scene.height() as usize;
+        let light_paths = ((pixels as f64 * self.s.light_paths as f64).round() as usize).max(1);
+        let r0 = self
+            .s
+            .radius
+            .unwrap_or(self.s.radius_factor * scene.sphere.radius);
+        // [TR] eq. 21 with the first iteration numbered 1; the floor only guards the
+        // arithmetic after astronomically many iterations.
+        let radius =
+            (r0 / ((iteration + 1) as f32).powf(0.5 * (1.0 - self.s.alpha))).max(1e-7 * r0);
+        let t = self.technique;
+        let mut mis = Mis::new(
+            self.s.heuristic,
+            radius,
+            light_paths as f32,
+            t.connects(),
+            t.merges(),
+        );
+        mis.merge_first = self.s.merge_first;
+        Pass {
+            scene,
+            s: &self.s,
+            technique: t,
+            mis,
+            radius,
+            vm_norm: 1.0 / (crate::math::PI * radius * radius * light_paths as f32),
+            light_paths,
+        }
+    }
+}
+
+impl Integrator for Vcm {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        let pass = self.pass(scene, iteration);
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = &mut *guard;
+        let mut stats = trace_light_paths(&pass, seed, iteration, ws);
+        if pass.technique.merges() {
+            ws.grid.build(&ws.positions, pass.radius);
+            stats.merge_radius = pass.radius;
+        }
+        stats.vertex_bytes = (ws.vertices.capacity() * std::mem::size_of::<LightVertex>()
+            + ws.positions.capacity() * std::mem::size_of::<Vec3>()
+            + ws.grid.bytes()) as u64;
+        if pass.technique != Technique::Lt {
+            let ws = &*ws;
+            stats += render_pixels_indexed(scene, seed, iteration, film, |index, ray, rng, st| {
+                camera_path::radiance(&pass, ws, index as usize, ray, rng, st)
+            });
+        }
+        // Splats go in after the camera pass, in chunk order: the sum never depends on
+        // which thread traced which chunk.
+        for c in &ws.chunks {
+            for &(pixel, v) in &c.splats {
+                film.add_index(pixel as usize, v);
+            }
+        }
+        stats
+    }
+}
+
+/// Light arriving at a camera vertex, for the splat list: (pixel, value).
+pub(crate) type Splat = (u32, Rgb);
