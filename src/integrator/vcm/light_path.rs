@@ -159,7 +159,7 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
     let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
     let es = light.sample_le(&scene.sphere, u_pos, u_dir)?;
     let emission = pick * es.pdf_pos * es.pdf_dir;
-    if !(emission > 0.0) {
+    if emission.is_nan() || emission <= 0.0 {
         return None;
     }
     let finite = !light.is_infinite();
@@ -313,7 +313,7 @@ pub(super) fn scatter(
     } else {
         surface.m.pdf(s.wi, surface.wo) * cont
     };
-    if !(pdf_dir > 0.0) {
+    if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
     walk.q = pass
