@@ -245,3 +245,220 @@ impl Mis {
         1.0 / (w_light + 1.0 + w_camera)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! Checks the recursive weights against the balance and power heuristics computed
+    //! from explicit path densities ([TR] sec. 2-3), on random all-diffuse paths with
+    //! an area light and a pinhole camera, for every technique set.
+    use super::*;
+    use crate::math::Rng;
+
+    /// A path x0 (light) .. xn (camera) described by its densities and cosines.
+    struct Path {
+        n: usize,
+        d2: Vec<f32>,
+        /// cos at x_i towards x_{i+1} (i < n) and towards x_{i-1} (i > 0).
+        cf: Vec<f32>,
+        cb: Vec<f32>,
+        /// Solid-angle densities at scattering vertex i of sampling x_{i+1} (light
+        /// direction) and x_{i-1} (camera direction).
+        pl: Vec<f32>,
+        pc: Vec<f32>,
+        pick: f32,
+        /// Area density of x0 for light sampling, emission position and direction.
+        a_direct: f32,
+        e_pos: f32,
+        e_dir: f32,
+        camera: f32,
+    }
+
+    fn random_path(rng: &mut Rng, n: usize) -> Path {
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        Path {
+            n,
+            d2: (0..n).map(|_| r(0.05, 4.0)).collect(),
+            cf: (0..=n).map(|_| r(0.05, 1.0)).collect(),
+            cb: (0..=n).map(|_| r(0.05, 1.0)).collect(),
+            pl: (0..=n).map(|_| r(0.05, 3.0)).collect(),
+            pc: (0..=n).map(|_| r(0.05, 3.0)).collect(),
+            pick: r(0.2, 1.0),
+            a_direct: r(0.5, 4.0),
+            e_pos: r(0.5, 4.0),
+            e_dir: r(0.05, 1.0),
+            camera: r(0.5, 3.0),
+        }
+    }
+
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Tech {
+        /// Connection with s light vertices.
+        Vc(usize),
+        /// Merge at vertex j.
+        Vm(usize),
+    }
+
+    impl Path {
+        /// Area density of x_i sampled from the light side.
+        fn fwd(&self, i: usize) -> f32 {
+            match i {
+                0 => self.pick * self.e_pos,
+                1 => self.e_dir * self.cb[1] / self.d2[0],
+                _ => self.pl[i - 1] * self.cb[i] / self.d2[i - 1],
+            }
+        }
+
+        /// Area density of x_i sampled from the camera side.
+        fn bwd(&self, i: usize) -> f32 {
+            if i == self.n - 1 {
+                self.camera * self.cf[i] / self.d2[i]
+            } else {
+                self.pc[i + 1] * self.cf[i] / self.d2[i]
+            }
+        }
+
+        /// The technique's density times its sample count.
+        fn density(&self, t: Tech, eta: f32, light_paths: f32) -> f32 {
+            let n = self.n;
+            let both = |s: usize| -> f32 {
+                (0..s).map(|i| self.fwd(i)).product::<f32>()
+                    * (s..n).map(|i| self.bwd(i)).product::<f32>()
+            };
+            match t {
+                Tech::Vc(1) => {
+                    self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>()
+                }
+                Tech::Vc(s) if s == n => light_paths * both(n),
+                Tech::Vc(s) => both(s),
+                Tech::Vm(j) => eta * both(j) * self.fwd(j),
+            }
+        }
+
+        /// The light subpath's partial weights at vertex `k` (after the hit).
+        fn light_q(&self, m: &Mis, k: usize) -> Partial {
+            let emission = self.pick * self.e_pos * self.e_dir;
+            let mut q = m.light_start(self.pick * self.a_direct, emission, self.cf[0], false, true);
+            q = m.on_hit(q, Some(self.d2[0]), self.cb[1]);
+            for i in 1..k {
+                q = m.on_scatter(q, self.cf[i], self.pl[i], self.pc[i], false, None);
+                q = m.on_hit(q, Some(self.d2[i]), self.cb[i + 1]);
+            }
+            q
+        }
+
+        /// The camera subpath's partial weights at vertex `k` (after the hit), with
+        /// its length in segments.
+        fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32) {
+            let n = self.n;
+            let mut q = m.camera_start(self.camera);
+            q = m.on_hit(q, Some(self.d2[n - 1]), self.cf[n - 1]);
+            let mut len = 1;
+            for i in (k + 1..n).rev() {
+                q = m.on_scatter(q, self.cb[i], self.pc[i], self.pl[i], false, Some(len));
+                q = m.on_hit(q, Some(self.d2[i - 1]), self.cf[i - 1]);
+                len += 1;
+            }
+            (q, len)
+        }
+
+        /// The weight the recursive quantities give technique `t`.
+        fn recursive_weight(&self, m: &Mis, t: Tech) -> f32 {
+            let n = self.n;
+            match t {
+                Tech::Vc(0) => {
+                    let (q, _) = self.camera_q(m, 0);
+                    let emission = self.pick * self.e_pos * self.e_dir;
+                    m.weight_emitter_hit(q, self.pick * self.a_direct, emission)
+                }
+                Tech::Vc(1) => {
+                    let (q, len) = self.camera_q(m, 1);
+                    let direct_w = self.a_direct * self.d2[0] / self.cf[0];
+                    m.weight_light_sample(
+                        q,
+                        len,
+                        self.pick,
+                        direct_w,
+                        self.e_pos * self.e_dir,
+                        self.cf[0],
+                        self.cb[1],
+                        self.pc[1],
+                        self.pl[1],
+                    )
+                }
+                Tech::Vc(s) if s == n => {
+                    let q = self.light_q(m, n - 1);
+                    let camera_a = self.camera * self.cf[n - 1] / self.d2[n - 1];
+                    m.weight_camera_connection(q, camera_a, self.pc[n - 1])
+                }
+                Tech::Vc(s) => {
+                    let ql = self.light_q(m, s - 1);
+                    let (qc, len) = self.camera_q(m, s);
+                    m.weight_connection(
+                        ql,
+                        qc,
+                        len,
+                        self.pc[s] * self.cf[s - 1] / self.d2[s - 1],
+                        self.pl[s - 1] * self.cb[s] / self.d2[s - 1],
+                        self.pc[s - 1],
+                        self.pl[s],
+                    )
+                }
+                Tech::Vm(j) => {
+                    let ql = self.light_q(m, j);
+                    let (qc, _) = self.camera_q(m, j);
+                    m.weight_merge(ql, qc, self.pc[j], self.pl[j])
+                }
+            }
+        }
+    }
+
+    fn check(heuristic: Heuristic, vc: bool, vm: bool, merge_first: bool) {
+        let mut rng = Rng::new(3, 1, 4);
+        let (radius, light_paths) = (0.01f32, 1000.0f32);
+        let eta = crate::math::PI * radius * radius * light_paths;
+        let mut m = Mis::new(heuristic, radius, light_paths, vc, vm);
+        m.merge_first = merge_first;
+        for n in 2..7 {
+            for _ in 0..20 {
+                let path = random_path(&mut rng, n);
+                let mut techs = Vec::new();
+                if vc {
+                    techs.extend((0..=n).map(Tech::Vc));
+                }
+                if vm {
+                    let last = if merge_first { n } else { n - 1 };
+                    techs.extend((1..last).map(Tech::Vm));
+                }
+                let p = |t: Tech| m.f(path.density(t, eta, light_paths));
+                let total: f32 = techs.iter().map(|&t| p(t)).sum();
+                let mut sum = 0.0;
+                for &t in &techs {
+                    let expect = p(t) / total;
+                    let got = path.recursive_weight(&m, t);
+                    assert!(
+                        (got - expect).abs() <= 1e-4 * expect.max(1e-3),
+                        "{heuristic:?} vc={vc} vm={vm} merge_first={merge_first} n={n} {t:?}: recursive {got}, explicit {expect}"
+                    );
+                    sum += got;
+                }
+                assert!((sum - 1.0).abs() < 1e-4, "weights sum to {sum}");
+            }
+        }
+    }
+
+    #[test]
+    fn vcm_weights_match_explicit_heuristics_and_sum_to_one() {
+        for h in [Heuristic::Balance, Heuristic::Power] {
+            check(h, true, true, true);
+            check(h, true, true, false);
+        }
+    }
+
+    #[test]
+    fn bpt_and_bpm_weights_sum_to_one() {
+        for h in [Heuristic::Balance, Heuristic::Power] {
+            check(h, true, false, true);
+            check(h, false, true, true);
+        }
+    }
+}
