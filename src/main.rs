@@ -364,7 +364,7 @@ fn render(a: &RenderArgs) -> Result<()> {
     });
     bar.finish_and_clear();
     let image = out.image();
-    write_outputs(a, &scene, &image)?;
+    write_outputs(a, &scene, &image, &out.film.layer_images())?;
     print_summary(
         settings.name(),
         out.iterations,
@@ -387,7 +387,16 @@ fn progress_bar(halt: Halt) -> ProgressBar {
     bar
 }
 
-fn write_outputs(a: &RenderArgs, scene: &Scene, image: &Image) -> Result<()> {
+/// Writes the image, with the integrator's own layers (technique or strategy parts)
+/// and, with `--exr-layers`, albedo and normal layers.
+fn write_outputs(
+    a: &RenderArgs,
+    scene: &Scene,
+    image: &Image,
+    own: &[(String, Image)],
+) -> Result<()> {
+    let mut layers: Vec<(&str, &Image)> = own.iter().map(|(n, i)| (n.as_str(), i)).collect();
+    let aovs;
     if a.exr_layers {
         let aov = |s: Settings| {
             driver::render(
@@ -402,14 +411,14 @@ fn write_outputs(a: &RenderArgs, scene: &Scene, image: &Image) -> Result<()> {
             )
             .image()
         };
-        let (albedo, normal) = (aov(Settings::Albedo {}), aov(Settings::Normals {}));
-        film::write_exr_layers(
-            &a.output,
-            image,
-            &[("albedo", &albedo), ("normal", &normal)],
-        )?;
-    } else {
+        aovs = [aov(Settings::Albedo {}), aov(Settings::Normals {})];
+        layers.push(("albedo", &aovs[0]));
+        layers.push(("normal", &aovs[1]));
+    }
+    if layers.is_empty() {
         film::write_exr(&a.output, image)?;
+    } else {
+        film::write_exr_layers(&a.output, image, &layers)?;
     }
     eprintln!("wrote {}", a.output.display());
     if let Some(p) = &a.png {

@@ -16,6 +16,17 @@ pub struct Film {
     height: u32,
     sums: Vec<[f64; 3]>,
     dropped: u64,
+    layers: Vec<Layer>,
+}
+
+/// An extra image an integrator splits its estimate into (e.g. the contributions of
+/// one technique). It counts its own iterations, so a layer that starts later (after a
+/// restart from a checkpoint, which keeps only the main sums) still averages right.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layer {
+    pub name: String,
+    pub iterations: u64,
+    sums: Vec<[f64; 3]>,
 }
 
 impl Film {
@@ -25,6 +36,7 @@ impl Film {
             height,
             sums: vec![[0.0; 3]; pixel_count(width, height)],
             dropped: 0,
+            layers: Vec::new(),
         }
     }
 
@@ -42,6 +54,7 @@ impl Film {
             height,
             sums,
             dropped,
+            layers: Vec::new(),
         }
     }
 
@@ -94,28 +107,69 @@ impl Film {
             add3(s, o);
         }
         self.dropped += other.dropped;
+        for l in &other.layers {
+            let k = self.begin_layer(&l.name);
+            let mine = &mut self.layers[k];
+            mine.iterations += l.iterations - 1;
+            for (s, o) in mine.sums.iter_mut().zip(&l.sums) {
+                add3(s, o);
+            }
+        }
+    }
+
+    /// Index of layer `name` (created empty on first use), counting one more
+    /// iteration for it: call once per iteration that adds to the layer.
+    pub fn begin_layer(&mut self, name: &str) -> usize {
+        let n = pixel_count(self.width, self.height);
+        let k = match self.layers.iter().position(|l| l.name == name) {
+            Some(k) => k,
+            None => {
+                self.layers.push(Layer {
+                    name: name.to_string(),
+                    iterations: 0,
+                    sums: vec![[0.0; 3]; n],
+                });
+                self.layers.len() - 1
+            }
+        };
+        self.layers[k].iterations += 1;
+        k
+    }
+
+    /// Adds to a layer; invalid values are skipped (the main image counts them).
+    pub fn add_layer_index(&mut self, layer: usize, i: usize, v: Rgb) {
+        if is_valid_sample(v) {
+            add3(
+                &mut self.layers[layer].sums[i],
+                &[v.x as f64, v.y as f64, v.z as f64],
+            );
+        }
+    }
+
+    /// Each layer's mean image.
+    pub fn layer_images(&self) -> Vec<(String, Image)> {
+        self.layers
+            .iter()
+            .map(|l| {
+                let scale = 1.0 / l.iterations.max(1) as f64;
+                (
+                    l.name.clone(),
+                    image_of(self.width, self.height, &l.sums, scale),
+                )
+            })
+            .collect()
     }
 
     pub fn clear(&mut self) {
         self.sums.fill([0.0; 3]);
+        self.layers.clear();
         self.dropped = 0;
     }
 
     /// The image `sum * scale`; with `scale = 1 / iterations` this is the mean
     /// over iterations, which is what a pixel's value means.
     pub fn to_image(&self, scale: f64) -> Image {
-        let pixels = self
-            .sums
-            .iter()
-            .map(|s| {
-                Rgb::new(
-                    (s[0] * scale) as f32,
-                    (s[1] * scale) as f32,
-                    (s[2] * scale) as f32,
-                )
-            })
-            .collect();
-        Image::from_pixels(self.width, self.height, pixels)
+        image_of(self.width, self.height, &self.sums, scale)
     }
 
     /// Adds a tile-local buffer (row-major within the tile) and its dropped count.
@@ -147,6 +201,20 @@ impl Film {
     pub fn add_tile_buffer(&mut self, buffer: &TileBuffer) {
         self.add_tile(&buffer.tile, &buffer.values, buffer.dropped);
     }
+}
+
+fn image_of(width: u32, height: u32, sums: &[[f64; 3]], scale: f64) -> Image {
+    let pixels = sums
+        .iter()
+        .map(|s| {
+            Rgb::new(
+                (s[0] * scale) as f32,
+                (s[1] * scale) as f32,
+                (s[2] * scale) as f32,
+            )
+        })
+        .collect();
+    Image::from_pixels(width, height, pixels)
 }
 
 /// A rectangle of pixels, `x0..x1` by `y0..y1` (ends exclusive).

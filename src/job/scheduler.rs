@@ -300,7 +300,9 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     let dir = shared.job_dir(&status.id);
     if done {
         let img = rt.film.to_image(1.0 / status.iteration as f64);
-        film::write_exr(dir.final_image("exr"), &img)?;
+        let layers = rt.film.layer_images();
+        let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
+        film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
         film::write_png(dir.final_image("png"), &img, 0.0)?;
         status.state = JobState::Completed;
         status.finished_at = Some(unix_now());

@@ -18,6 +18,7 @@ pub(super) fn radiance(
     mut ray: Ray,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    layers: &mut [Rgb],
 ) -> Rgb {
     let scene = pass.scene;
     let mut walk = Walk {
@@ -31,7 +32,9 @@ pub(super) fn radiance(
     let mut crossings = 0;
     loop {
         let Some(it) = scene.intersect(&ray) else {
-            l += walk.throughput * escaped(pass, &walk, ray.d);
+            let v = walk.throughput * escaped(pass, &walk, ray.d);
+            record(layers, pass.layers.connection(0, walk.len + 1), v);
+            l += v;
             break;
         };
         let m = scene.material(&it);
@@ -50,7 +53,9 @@ pub(super) fn radiance(
         }
         let dist2 = (it.p - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, Some(dist2), cos_in);
-        l += walk.throughput * emitter_hit(pass, &walk, &it, ray.d, dist2);
+        let v = walk.throughput * emitter_hit(pass, &walk, &it, ray.d, dist2);
+        record(layers, pass.layers.connection(0, walk.len + 1), v);
+        l += v;
         if walk.len >= pass.s.max_depth {
             break;
         }
@@ -64,11 +69,15 @@ pub(super) fn radiance(
         };
         if !m.is_delta() {
             if pass.technique.connects() {
-                l += walk.throughput * light_sample(pass, &walk, &it, &surface, rng, stats);
-                l += walk.throughput * connect(pass, ws, pixel, &walk, &it, &surface, stats);
+                let v = walk.throughput * light_sample(pass, &walk, &it, &surface, rng, stats);
+                record(layers, pass.layers.connection(1, walk.len + 1), v);
+                l += v;
+                l += connect(pass, ws, pixel, &walk, &it, &surface, stats, layers);
             }
             if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
-                l += walk.throughput * merge(pass, ws, &walk, &it, &surface, stats);
+                let v = walk.throughput * merge(pass, ws, &walk, &it, &surface, stats);
+                record(layers, pass.layers.merge(), v);
+                l += v;
             }
         }
         let len = walk.len;
@@ -87,6 +96,13 @@ pub(super) fn radiance(
         stats.rays += 1;
     }
     l
+}
+
+#[inline]
+fn record(layers: &mut [Rgb], layer: Option<usize>, v: Rgb) {
+    if let Some(l) = layer.and_then(|i| layers.get_mut(i)) {
+        *l += v;
+    }
 }
 
 /// Weight for radiance found by the camera subpath itself: always 1 for emitters
@@ -208,7 +224,8 @@ fn light_sample(
 }
 
 /// Connections to the vertices of the light subpath paired with this pixel
-/// ([TR] eqs. 40-41).
+/// ([TR] eqs. 40-41), throughput included.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn connect(
     pass: &Pass,
@@ -218,6 +235,7 @@ fn connect(
     it: &Interaction,
     surface: &Surface,
     stats: &mut RenderStats,
+    layers: &mut [Rgb],
 ) -> Rgb {
     let scene = pass.scene;
     let path = pixel % ws.path_ends.len().max(1);
@@ -267,7 +285,9 @@ fn connect(
         if !scene.visible(&ray) {
             continue;
         }
-        l += y.throughput * ec.f * el.f * (w / dist2);
+        let v = walk.throughput * y.throughput * ec.f * el.f * (w / dist2);
+        record(layers, pass.layers.connection(y.len + 1, walk.len + 1), v);
+        l += v;
     }
     l
 }

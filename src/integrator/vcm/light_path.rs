@@ -367,7 +367,8 @@ fn connect_to_camera(
     if !pass.scene.visible(&ray) {
         return;
     }
-    push_splat(pass, chunk, raster, v);
+    let layer = pass.layers.connection(walk.len + 1, 1);
+    push_splat(pass, chunk, raster, v, layer);
 }
 
 /// Light tracing alone sees emitters through their own emission: connect the light
@@ -407,14 +408,21 @@ fn splat_emitter(
         es.n,
     );
     if pass.scene.visible(&ray) {
-        push_splat(pass, chunk, raster, v);
+        push_splat(pass, chunk, raster, v, pass.layers.connection(1, 1));
     }
 }
 
 #[inline]
-fn push_splat(pass: &Pass, chunk: &mut Chunk, raster: crate::math::Vec2, v: Rgb) {
+fn push_splat(
+    pass: &Pass,
+    chunk: &mut Chunk,
+    raster: crate::math::Vec2,
+    v: Rgb,
+    layer: Option<usize>,
+) {
     let w = pass.scene.width();
     let x = (raster.x as u32).min(w - 1);
     let y = (raster.y as u32).min(pass.scene.height() - 1);
-    chunk.splats.push((y * w + x, v));
+    let layer = layer.map_or(u16::MAX, |l| l as u16);
+    chunk.splats.push((y * w + x, v, layer));
 }

@@ -25,6 +25,7 @@ use crate::scene::Scene;
 use light_path::{trace_light_paths, Chunk, LightVertex};
 use mis::Mis;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 /// Which techniques an iteration uses.
@@ -64,6 +65,8 @@ impl Technique {
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices per iteration |
+/// | `technique_layers` | false | `vcm`: add EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5) |
+/// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct VcmSettings {
@@ -76,6 +79,8 @@ pub struct VcmSettings {
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
     pub max_vertex_mib: f32,
+    pub technique_layers: bool,
+    pub strategy_images: u32,
 }
 
 impl Default for VcmSettings {
@@ -90,6 +95,8 @@ impl Default for VcmSettings {
             russian_roulette: true,
             heuristic: Heuristic::Balance,
             max_vertex_mib: 2048.0,
+            technique_layers: false,
+            strategy_images: 0,
         }
     }
 }
@@ -125,6 +132,15 @@ impl VcmSettings {
                 self.max_vertex_mib
             ));
         }
+        if self.strategy_images > MAX_STRATEGY_LENGTH {
+            return Err(format!(
+                "strategy_images covers path lengths up to {MAX_STRATEGY_LENGTH}, got {}",
+                self.strategy_images
+            ));
+        }
+        if self.technique_layers && technique != Technique::Vcm {
+            return Err("technique_layers (vc and vm parts) needs vcm".into());
+        }
         if !self.merge_first && technique == Technique::Bpm {
             return Err(
                 "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm"
@@ -132,6 +148,56 @@ impl VcmSettings {
             );
         }
         Ok(())
+    }
+}
+
+/// Longest path with per-strategy images (lengths 1..=8 give 44 layers).
+pub const MAX_STRATEGY_LENGTH: u32 = 8;
+
+/// Extra images a pass splits its estimate into.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Layers {
+    pub names: Vec<String>,
+    /// Split by connection strategy up to this path length (0: no).
+    strategies: u32,
+    /// Split into connection and merging parts.
+    techniques: bool,
+}
+
+impl Layers {
+    fn new(s: &VcmSettings) -> Self {
+        let mut names = Vec::new();
+        if s.technique_layers {
+            names = vec!["vc".to_string(), "vm".to_string()];
+        } else {
+            for k in 1..=s.strategy_images {
+                names.extend((0..=k).map(|light| format!("s{light}_t{}", k + 1 - light)));
+            }
+        }
+        Layers {
+            names,
+            strategies: if s.technique_layers {
+                0
+            } else {
+                s.strategy_images
+            },
+            techniques: s.technique_layers,
+        }
+    }
+
+    /// The layer of a connection with `s` light and `t` camera vertices.
+    #[inline]
+    pub fn connection(&self, s: u32, t: u32) -> Option<usize> {
+        if self.techniques {
+            return Some(0);
+        }
+        let k = s + t - 1;
+        (k >= 1 && k <= self.strategies).then(|| ((k - 1) * (k + 2) / 2 + s) as usize)
+    }
+
+    #[inline]
+    pub fn merge(&self) -> Option<usize> {
+        self.techniques.then_some(1)
     }
 }
 
@@ -145,6 +211,7 @@ pub(crate) struct Pass<'a> {
     /// 1 / (pi r^2 N): the merge kernel's normalisation.
     pub vm_norm: f32,
     pub light_paths: usize,
+    pub layers: &'a Layers,
 }
 
 impl Pass<'_> {
@@ -174,12 +241,14 @@ struct Workspace {
 pub struct Vcm {
     s: VcmSettings,
     technique: Technique,
+    layers: Layers,
     ws: Mutex<Workspace>,
 }
 
 impl Vcm {
     pub fn new(technique: Technique, s: VcmSettings) -> Self {
         Vcm {
+            layers: Layers::new(&s),
             s,
             technique,
             ws: Mutex::new(Workspace::default()),
@@ -214,6 +283,7 @@ impl Vcm {
             radius,
             vm_norm: 1.0 / (crate::math::PI * radius * radius * light_paths as f32),
             light_paths,
+            layers: &self.layers,
         }
     }
 }
@@ -231,22 +301,59 @@ impl Integrator for Vcm {
         stats.vertex_bytes = (ws.vertices.capacity() * std::mem::size_of::<LightVertex>()
             + ws.positions.capacity() * std::mem::size_of::<Vec3>()
             + ws.grid.bytes()) as u64;
+        let ids: Vec<usize> = self
+            .layers
+            .names
+            .iter()
+            .map(|n| film.begin_layer(n))
+            .collect();
+        let k = ids.len();
+        // Per-pixel layer values of the camera pass; each pixel's slots are written by
+        // the one path of that pixel.
+        let side: Vec<AtomicU32> = (0..k * 3 * scene.width() as usize * scene.height() as usize)
+            .map(|_| AtomicU32::new(0))
+            .collect();
         if pass.technique != Technique::Lt {
             let ws = &*ws;
             stats += render_pixels_indexed(scene, seed, iteration, film, |index, ray, rng, st| {
-                camera_path::radiance(&pass, ws, index as usize, ray, rng, st)
+                let mut acc = [Rgb::ZERO; MAX_LAYERS];
+                let l =
+                    camera_path::radiance(&pass, ws, index as usize, ray, rng, st, &mut acc[..k]);
+                for (j, v) in acc[..k].iter().enumerate() {
+                    let base = (index as usize * k + j) * 3;
+                    for c in 0..3 {
+                        side[base + c].store(v[c].to_bits(), Ordering::Relaxed);
+                    }
+                }
+                l
             });
+        }
+        for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
+            for (j, &id) in ids.iter().enumerate() {
+                let v = Rgb::new(
+                    f32::from_bits(slots[3 * j].load(Ordering::Relaxed)),
+                    f32::from_bits(slots[3 * j + 1].load(Ordering::Relaxed)),
+                    f32::from_bits(slots[3 * j + 2].load(Ordering::Relaxed)),
+                );
+                film.add_layer_index(id, pixel, v);
+            }
         }
         // Splats go in after the camera pass, in chunk order: the sum never depends on
         // which thread traced which chunk.
         for c in &ws.chunks {
-            for &(pixel, v) in &c.splats {
+            for &(pixel, v, layer) in &c.splats {
                 film.add_index(pixel as usize, v);
+                if let Some(&id) = ids.get(layer as usize) {
+                    film.add_layer_index(id, pixel as usize, v);
+                }
             }
         }
         stats
     }
 }
 
-/// Light arriving at a camera vertex, for the splat list: (pixel, value).
-pub(crate) type Splat = (u32, Rgb);
+/// Most layers a pass can have (strategies for lengths 1..=MAX_STRATEGY_LENGTH).
+const MAX_LAYERS: usize = ((MAX_STRATEGY_LENGTH * (MAX_STRATEGY_LENGTH + 3)) / 2) as usize;
+
+/// A light-tracing contribution: (pixel, value, layer or u16::MAX).
+pub(crate) type Splat = (u32, Rgb, u16);

@@ -1,0 +1,93 @@
+//! The integrators' own EXR layers: per-strategy images of `bpt` and the connection
+//! and merging parts of `vcm` add up to the image they split.
+
+mod common;
+use caustic::film::Image;
+use caustic::scene::{load::read_scene_file, Scene};
+use common::*;
+use serde_json::json;
+use std::path::Path;
+
+fn small_cornell() -> Scene {
+    let mut f = read_scene_file(Path::new("scenes/cornell-box.json")).unwrap();
+    f.film.width = 24;
+    f.film.height = 24;
+    Scene::compile(&f, Some(Path::new("scenes"))).unwrap()
+}
+
+/// Largest per-pixel difference between `image` and the sum of `parts`, relative to
+/// the image's brightest value.
+fn parts_mismatch(image: &Image, parts: &[(String, Image)]) -> f32 {
+    let peak = image
+        .pixels()
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0, f32::max);
+    let mut worst = 0.0f32;
+    for (i, p) in image.pixels().iter().enumerate() {
+        let sum = parts.iter().map(|(_, l)| l.pixels()[i]).sum::<glam::Vec3>();
+        worst = worst.max((sum - *p).abs().max_element() / peak);
+    }
+    worst
+}
+
+#[test]
+fn bpt_strategy_images_sum_to_the_image() {
+    let scene = small_cornell();
+    let s = settings("bpt", json!({"max_depth": 3, "strategy_images": 3}));
+    let (film, n) = render(&scene, &s, 5, 4);
+    let layers = film.layer_images();
+    let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        ["s0_t2", "s1_t1", "s0_t3", "s1_t2", "s2_t1", "s0_t4", "s1_t3", "s2_t2", "s3_t1"]
+    );
+    let image = film.to_image(1.0 / n as f64);
+    let worst = parts_mismatch(&image, &layers);
+    assert!(worst < 1e-4, "strategies differ from the image by {worst}");
+    // Every strategy that can carry light in the box does (s1_t1 is a light point seen
+    // by a pinhole: it only exists for light tracing of emitters).
+    for (name, l) in &layers {
+        let total: f32 = l.pixels().iter().map(|p| p.element_sum()).sum();
+        assert!(total > 0.0 || *name == "s1_t1", "{name} is black");
+    }
+}
+
+#[test]
+fn vcm_connection_and_merging_parts_sum_to_the_image() {
+    let scene = small_cornell();
+    let s = settings(
+        "vcm",
+        json!({"max_depth": 6, "technique_layers": true, "radius_factor": 0.02}),
+    );
+    let (film, n) = render(&scene, &s, 9, 4);
+    let layers = film.layer_images();
+    assert_eq!(layers.len(), 2);
+    assert_eq!((layers[0].0.as_str(), layers[1].0.as_str()), ("vc", "vm"));
+    let image = film.to_image(1.0 / n as f64);
+    let worst = parts_mismatch(&image, &layers);
+    assert!(worst < 1e-4, "vc + vm differ from the image by {worst}");
+    for (name, l) in &layers {
+        let total: f32 = l.pixels().iter().map(|p| p.element_sum()).sum();
+        assert!(total > 0.0, "{name} is black");
+    }
+}
+
+#[test]
+fn layer_options_are_checked() {
+    let map = |v: serde_json::Value| v.as_object().cloned().unwrap();
+    let err = caustic::integrator::Settings::resolve(
+        Some("bpt"),
+        None,
+        &map(json!({"technique_layers": true})),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("technique_layers"), "{err}");
+    let err = caustic::integrator::Settings::resolve(
+        Some("bpt"),
+        None,
+        &map(json!({"strategy_images": 99})),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("strategy_images"), "{err}");
+}
