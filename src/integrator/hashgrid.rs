@@ -18,6 +18,9 @@ pub struct HashGrid {
     starts: Vec<u32>,
     /// Vertex indices grouped by table slot.
     entries: Vec<u32>,
+    /// The points in `entries` order, so that a query reads each slot's candidates
+    /// from one contiguous run of memory (the query is bound by these loads).
+    sorted: Vec<Vec3>,
     keys: Vec<u64>,
 }
 
@@ -51,6 +54,9 @@ impl HashGrid {
         }
         self.entries.clear();
         self.entries.extend(self.keys.iter().map(|k| *k as u32));
+        self.sorted.clear();
+        self.sorted
+            .par_extend(self.entries.par_iter().map(|&i| points[i as usize]));
     }
 
     pub fn radius2(&self) -> f32 {
@@ -61,7 +67,7 @@ impl HashGrid {
     /// fixed order. Hash collisions may visit a point twice only if two of the visited
     /// cells share a slot, which the slot de-duplication below prevents.
     #[inline]
-    pub fn query(&self, points: &[Vec3], p: Vec3, mut f: impl FnMut(usize, f32)) {
+    pub fn query(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
         if self.entries.is_empty() {
             return;
         }
@@ -88,11 +94,14 @@ impl HashGrid {
                 continue;
             }
             seen[k] = slot;
-            let (a, b) = (self.starts[slot as usize], self.starts[slot as usize + 1]);
-            for &i in &self.entries[a as usize..b as usize] {
-                let d2 = (points[i as usize] - p).length_squared();
+            let (a, b) = (
+                self.starts[slot as usize] as usize,
+                self.starts[slot as usize + 1] as usize,
+            );
+            for (j, q) in self.sorted[a..b].iter().enumerate() {
+                let d2 = (*q - p).length_squared();
                 if d2 <= self.radius2 {
-                    f(i as usize, d2);
+                    f(self.entries[a + j] as usize, d2);
                 }
             }
         }
@@ -100,7 +109,10 @@ impl HashGrid {
 
     /// Bytes held by the grid's buffers.
     pub fn bytes(&self) -> usize {
-        self.starts.capacity() * 4 + self.entries.capacity() * 4 + self.keys.capacity() * 8
+        self.starts.capacity() * 4
+            + self.entries.capacity() * 4
+            + self.keys.capacity() * 8
+            + self.sorted.capacity() * 12
     }
 }
 
@@ -136,7 +148,7 @@ mod tests {
             for q in 0..200 {
                 let p = pts[q * 7] + Vec3::new(0.01, -0.02, 0.005);
                 let mut found = Vec::new();
-                grid.query(&pts, p, |i, _| found.push(i));
+                grid.query(p, |i, _| found.push(i));
                 let mut expect: Vec<usize> = (0..pts.len())
                     .filter(|&i| (pts[i] - p).length_squared() <= r * r)
                     .collect();
@@ -152,7 +164,7 @@ mod tests {
         let mut grid = HashGrid::default();
         grid.build(&[], 0.1);
         let mut n = 0;
-        grid.query(&[], Vec3::ZERO, |_, _| n += 1);
+        grid.query(Vec3::ZERO, |_, _| n += 1);
         assert_eq!(n, 0);
     }
 }

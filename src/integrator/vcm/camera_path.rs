@@ -265,7 +265,7 @@ fn connect(
             frame: yframe,
             ng: y.ng,
             wo: yframe.to_local(y.wo),
-            cont: pass.continuation(ym),
+            cont: y.cont,
         };
         let Some(el) = ys.eval(-dir, Mode::Importance) else {
             continue;
@@ -303,10 +303,9 @@ fn merge(
     surface: &Surface,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let scene = pass.scene;
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.grid.query(&ws.positions, it.p, |i, _| {
+    ws.grid.query(it.p, |i, _| {
         let y = &ws.vertices[i];
         if y.len + walk.len > pass.s.max_depth {
             return;
@@ -317,10 +316,9 @@ fn merge(
         if e.cos < MIN_COS {
             return;
         }
-        let y_cont = pass.continuation(&scene.materials[y.material as usize]);
         let w = pass
             .mis
-            .weight_merge(y.q, walk.q, e.pdf_dir * surface.cont, e.pdf_rev * y_cont);
+            .weight_merge(y.q, walk.q, e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
         merges += 1;
         // The photon's flux already holds the cosine at its surface: f without it.
         sum += y.throughput * e.f * (w / e.cos);

@@ -30,6 +30,8 @@ pub(crate) struct LightVertex {
     pub wo: Vec3,
     pub throughput: Rgb,
     pub material: u32,
+    /// Russian-roulette continuation probability of the material.
+    pub cont: f32,
     /// Segments from the light to this vertex.
     pub len: u32,
     pub q: Partial,
@@ -266,6 +268,7 @@ fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
                     wo: -ray.d,
                     throughput: walk.throughput,
                     material: scene.shapes[it.shape as usize].material,
+                    cont: surface.cont,
                     len: walk.len,
                     q: walk.q,
                 });
