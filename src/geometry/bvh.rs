@@ -6,7 +6,7 @@
 use super::bvh4::Bvh4;
 use super::primitive::{surface_point, Prim, PrimHit, PrimMeta};
 use super::{Interaction, Ray};
-use crate::math::Vec2;
+use crate::math::{Vec2, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
 use obvhs::BvhBuildParams;
@@ -40,6 +40,8 @@ pub struct Accel {
     /// Primitives in the tree's leaf order, so that leaves are runs of them.
     prims: Vec<Prim>,
     meta: Vec<PrimMeta>,
+    /// `Prim::flat_normal` of each primitive, in the same order.
+    normals: Vec<Vec3A>,
     pub build_time: Duration,
     pub bounds: Aabb,
 }
@@ -52,6 +54,7 @@ impl Accel {
                 tree: Bvh4::empty(),
                 prims,
                 meta,
+                normals: Vec::new(),
                 build_time: start.elapsed(),
                 bounds: Aabb::empty(),
             };
@@ -59,9 +62,11 @@ impl Accel {
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
         let bvh2 = build_bvh2(&aabbs, build_params(prims.len()), &mut Duration::default());
         let (tree, order) = Bvh4::from_bvh2(&bvh2, &prims);
+        let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
         Accel {
             tree,
-            prims: order.iter().map(|&i| prims[i as usize]).collect(),
+            normals: prims.iter().map(Prim::flat_normal).collect(),
+            prims,
             meta: order.iter().map(|&i| meta[i as usize]).collect(),
             build_time: start.elapsed(),
             bounds: *bvh2.nodes[0].aabb(),
@@ -73,6 +78,7 @@ impl Accel {
         self.tree.memory_bytes()
             + self.prims.len() * std::mem::size_of::<Prim>()
             + self.meta.len() * std::mem::size_of::<PrimMeta>()
+            + self.normals.len() * std::mem::size_of::<Vec3A>()
     }
 
     pub fn prim_count(&self) -> usize {
@@ -101,13 +107,14 @@ impl Accel {
 
     /// Geometry of a hit, before the scene applies per-shape normal flips and
     /// shading normals.
+    #[inline]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> Interaction {
         let prim = &self.prims[hit.prim as usize];
         let ph = PrimHit {
             t: hit.t,
             uv: hit.uv,
         };
-        let (p, p_err, ng) = surface_point(prim, ray, &ph);
+        let (p, p_err, ng) = surface_point(prim, self.normals[hit.prim as usize], ray, &ph);
         let meta = self.meta[hit.prim as usize];
         Interaction {
             p,

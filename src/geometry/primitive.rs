@@ -67,6 +67,16 @@ impl Prim {
         }
     }
 
+    /// The unit normal of a flat primitive (counter-clockwise triangles, u x v for
+    /// disks); zero for spheres, whose normal depends on the hit point.
+    pub fn flat_normal(&self) -> Vec3A {
+        match *self {
+            Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
+            Prim::Sphere { .. } => Vec3A::ZERO,
+            Prim::Disk { u, v, .. } => u.cross(v).normalize(),
+        }
+    }
+
     pub fn area(&self) -> f32 {
         match *self {
             Prim::Tri { e1, e2, .. } => 0.5 * e1.cross(e2).length(),
@@ -166,8 +176,10 @@ fn intersect_disk(c: Vec3A, u: Vec3A, v: Vec3A, o: Vec3A, d: Vec3A, tmax: f32) -
 }
 
 /// Hit point, its error bound and the geometric normal (unflipped: counter-clockwise
-/// triangles, outward spheres, u x v for disks).
-pub fn surface_point(prim: &Prim, ray: &Ray, hit: &PrimHit) -> (Vec3, Vec3, Vec3) {
+/// triangles, outward spheres, u x v for disks). `flat` is the primitive's
+/// [`Prim::flat_normal`], computed once per primitive rather than once per hit.
+#[inline]
+pub fn surface_point(prim: &Prim, flat: Vec3A, ray: &Ray, hit: &PrimHit) -> (Vec3, Vec3, Vec3) {
     match *prim {
         Prim::Tri { p0, e1, e2 } => {
             let (b1, b2) = (hit.uv.x, hit.uv.y);
@@ -175,7 +187,7 @@ pub fn surface_point(prim: &Prim, ray: &Ray, hit: &PrimHit) -> (Vec3, Vec3, Vec3
             let (p1, p2) = (p0 + e1, p0 + e2);
             let p = p0 * b0 + p1 * b1 + p2 * b2;
             let err = gamma(8) * ((p0 * b0).abs() + (p1 * b1).abs() + (p2 * b2).abs());
-            (p.into(), err.into(), e1.cross(e2).normalize().into())
+            (p.into(), err.into(), flat.into())
         }
         Prim::Sphere { c, r } => {
             let p = Vec3A::from(ray.at(hit.t));
@@ -187,7 +199,7 @@ pub fn surface_point(prim: &Prim, ray: &Ray, hit: &PrimHit) -> (Vec3, Vec3, Vec3
         Prim::Disk { c, u, v } => {
             let p = c + u * hit.uv.x + v * hit.uv.y;
             let err = gamma(6) * (c.abs() + (u * hit.uv.x).abs() + (v * hit.uv.y).abs());
-            (p.into(), err.into(), u.cross(v).normalize().into())
+            (p.into(), err.into(), flat.into())
         }
     }
 }

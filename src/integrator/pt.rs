@@ -81,7 +81,7 @@ impl PathTracer {
     }
 
     /// Next-event estimation at a non-delta vertex: one light, one shadow ray.
-    #[inline]
+    #[inline(always)]
     fn direct(&self, scene: &Scene, v: &Vertex, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let Vertex { it, frame, wo, m } = *v;
         let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
@@ -208,8 +208,15 @@ impl PathTracer {
 
 impl Integrator for PathTracer {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
-        render_pixels(scene, seed, iteration, film, |ray, rng, stats| {
-            self.li(scene, ray, rng, stats)
-        })
+        // Inlined into render_pixels' per-processor copies of the tile loop, so that the
+        // whole kernel, not just the loop around it, is compiled with AVX2 and FMA.
+        render_pixels(
+            scene,
+            seed,
+            iteration,
+            film,
+            #[inline(always)]
+            |ray, rng, stats| self.li(scene, ray, rng, stats),
+        )
     }
 }

@@ -14,6 +14,9 @@ pub struct AreaLight {
     prims: Vec<Prim>,
     /// -1 when the shape's normals are flipped.
     normal_sign: f32,
+    /// Front normals of flat primitives (flip applied), so sampling need not
+    /// normalise a cross product per sample.
+    normals: Vec<Vec3>,
     by_area: Distribution1D,
     area: f32,
 }
@@ -22,13 +25,18 @@ impl AreaLight {
     pub fn new(shape: u32, prims: Vec<Prim>, flip: bool, radiance: Rgb, two_sided: bool) -> Self {
         let areas: Vec<f32> = prims.iter().map(Prim::area).collect();
         let area = areas.iter().sum();
+        let normal_sign = if flip { -1.0 } else { 1.0 };
         AreaLight {
+            normals: prims
+                .iter()
+                .map(|p| Vec3::from(p.flat_normal()) * normal_sign)
+                .collect(),
             shape,
             radiance,
             two_sided,
             by_area: Distribution1D::new(&areas),
             prims,
-            normal_sign: if flip { -1.0 } else { 1.0 },
+            normal_sign,
             area,
         }
     }
@@ -73,21 +81,20 @@ impl AreaLight {
 
     #[inline]
     fn point_on(&self, i: usize, u: Vec2) -> (Vec3, Vec3) {
-        let (p, n) = match self.prims[i] {
+        match self.prims[i] {
             Prim::Tri { p0, e1, e2 } => {
                 let b = square_to_triangle(u);
-                (p0 + e1 * b.x + e2 * b.y, e1.cross(e2).normalize())
+                ((p0 + e1 * b.x + e2 * b.y).into(), self.normals[i])
             }
             Prim::Sphere { c, r } => {
                 let d = crate::math::warp::square_to_uniform_sphere(u);
-                (c + r * glam::Vec3A::from(d), d.into())
+                ((c + r * glam::Vec3A::from(d)).into(), d * self.normal_sign)
             }
             Prim::Disk { c, u: du, v: dv } => {
                 let q = square_to_disk(u);
-                (c + du * q.x + dv * q.y, du.cross(dv).normalize())
+                ((c + du * q.x + dv * q.y).into(), self.normals[i])
             }
-        };
-        (p.into(), Vec3::from(n) * self.normal_sign)
+        }
     }
 
     #[inline]

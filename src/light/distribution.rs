@@ -65,6 +65,10 @@ impl Distribution1D {
 
     #[inline]
     fn find(&self, u: f32) -> usize {
+        // One bin (a scene's only light, a light of one primitive) needs no search.
+        if self.func.len() == 1 {
+            return 0;
+        }
         // Largest i with cdf[i] <= u, restricted to bins of non-zero probability.
         let i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1);
         i.min(self.func.len() - 1)

@@ -75,7 +75,7 @@ impl Scene {
     }
 
     /// Closest surface along the ray, with normals on the shape's front side.
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<Interaction> {
         let hit = self.accel.intersect(ray)?;
         let mut it = self.accel.interaction(ray, &hit);
