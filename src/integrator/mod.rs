@@ -10,6 +10,7 @@ pub mod driver;
 pub mod hashgrid;
 mod pixels;
 pub mod pt;
+pub mod sppm;
 
 use crate::film::Film;
 use crate::scene::Scene;
@@ -108,6 +109,10 @@ pub trait Integrator: Send + Sync {
 pub enum Settings {
     /// Unidirectional path tracing with next-event estimation and MIS.
     Pt(pt::PtSettings),
+    /// Progressive photon mapping (visible points fixed per pixel).
+    Ppm(sppm::SppmSettings),
+    /// Stochastic progressive photon mapping (new visible points every pass).
+    Sppm(sppm::SppmSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -116,7 +121,7 @@ pub enum Settings {
 }
 
 /// Names accepted for `algorithm`.
-pub const ALGORITHMS: &[&str] = &["pt", "normals", "albedo"];
+pub const ALGORITHMS: &[&str] = &["pt", "ppm", "sppm", "normals", "albedo"];
 
 #[derive(Debug, thiserror::Error)]
 pub enum SettingsError {
@@ -130,6 +135,8 @@ impl Settings {
     pub fn name(&self) -> &'static str {
         match self {
             Settings::Pt(_) => "pt",
+            Settings::Ppm(_) => "ppm",
+            Settings::Sppm(_) => "sppm",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -171,6 +178,7 @@ impl Settings {
     fn validate(&self) -> Result<(), SettingsError> {
         match self {
             Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -178,6 +186,8 @@ impl Settings {
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
+            Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
+            Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }
