@@ -80,7 +80,7 @@ fn kill_9_then_restart_resumes_sppm_bit_identically() {
     kill_9_then_restart(
         "sppm",
         json!({"light_paths": 0.25, "radius_factor": 0.02}),
-        600,
+        1500,
     );
 }
 
