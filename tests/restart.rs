@@ -71,6 +71,20 @@ fn wait_until(what: &str, mut f: impl FnMut() -> bool) {
 
 #[test]
 fn kill_9_then_restart_resumes_bit_identically() {
+    kill_9_then_restart("pt", json!({}), 1500);
+}
+
+/// SPPM's iterations depend on per-pixel statistics, which the checkpoint carries.
+#[test]
+fn kill_9_then_restart_resumes_sppm_bit_identically() {
+    kill_9_then_restart(
+        "sppm",
+        json!({"light_paths": 0.25, "radius_factor": 0.02}),
+        1500,
+    );
+}
+
+fn kill_9_then_restart(alg: &str, params: Value, spp: u64) {
     let dir = tempfile::tempdir().unwrap();
     let mut p = start(dir.path());
     let scene = tiny_scene(64);
@@ -91,10 +105,9 @@ fn kill_9_then_restart_resumes_bit_identically() {
         get(&format!("{}/v1/jobs/{quick}", p.url))["state"] == "completed"
     });
 
-    let spp = 1500u64;
     let long = post(
         &format!("{}/v1/jobs", p.url),
-        json!({"scene": scene_id, "halt": {"spp": spp}, "seed": 77, "snapshot_every": {"iterations": 50}}),
+        json!({"scene": scene_id, "algorithm": alg, "params": params, "halt": {"spp": spp}, "seed": 77, "snapshot_every": {"iterations": 50}}),
     );
     let long = long["id"].as_str().unwrap().to_string();
     let waiting = post(
@@ -160,7 +173,8 @@ fn kill_9_then_restart_resumes_bit_identically() {
     let file = caustic::scene::load::parse_scene(&scene.to_string()).unwrap();
     let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
     let settings =
-        caustic::integrator::Settings::resolve(Some("pt"), None, &Default::default()).unwrap();
+        caustic::integrator::Settings::resolve(Some(alg), None, params.as_object().unwrap())
+            .unwrap();
     let direct = caustic::integrator::driver::render(
         &compiled,
         settings.build().as_ref(),
@@ -174,7 +188,7 @@ fn kill_9_then_restart_resumes_bit_identically() {
     assert_eq!(
         direct.image().pixels(),
         served.pixels(),
-        "resumed image differs"
+        "{alg}: resumed image differs"
     );
     let mut p = p;
     p.child.kill().unwrap();

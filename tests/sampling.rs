@@ -11,7 +11,8 @@
 
 use caustic::geometry::Prim;
 use caustic::light::{
-    AreaLight, Distribution1D, Distribution2D, EnvMap, LatLong, Light, PointLight, SpotLight,
+    AreaLight, Distribution1D, Distribution2D, EnvMap, LatLong, Light, PointLight, SceneSphere,
+    SpotLight,
 };
 use caustic::material::{fresnel, Conductor, Dielectric, Diffuse, Material, Mirror, Mode, Phong};
 use caustic::math::{Frame, Mat3, Rgb, Rng, Vec2, Vec3, Vec3A};
@@ -2016,5 +2017,141 @@ fn distribution2d_zero_row_is_never_sampled() {
     for _ in 0..10_000 {
         let (p, _) = d2.sample(rng.next_2d());
         assert!(p.y >= 0.5, "sampled the zero row at {p}");
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// 5. Emission sampling (light paths)
+// ---------------------------------------------------------------------------------
+
+/// Mean and standard error, per channel, of `sample_le(..).weight()` (a missing sample
+/// counts as zero), checking on the way that `pdf_le` gives the densities each sample
+/// reports (only for lights a ray can hit: delta lights have no density to agree on).
+fn emission_weight_stats(
+    light: &Light,
+    sphere: &SceneSphere,
+    seed: u64,
+    n: usize,
+) -> [(f64, f64); 3] {
+    let mut rng = Rng::new(seed, 0, 0);
+    let mut sum = [0.0f64; 3];
+    let mut sum2 = [0.0f64; 3];
+    let mut mismatched = 0;
+    for _ in 0..n {
+        let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
+        let Some(s) = light.sample_le(sphere, u_pos, u_dir) else {
+            continue;
+        };
+        assert!(
+            (s.d.length() - 1.0).abs() < 1e-4 && s.pdf_pos > 0.0 && s.pdf_dir > 0.0,
+            "{s:?}"
+        );
+        if !light.is_delta() {
+            let (pp, pd) = light.pdf_le(sphere, s.n, s.d);
+            if !rel_close(pp as f64, s.pdf_pos as f64, 1e-3)
+                || !rel_close(pd as f64, s.pdf_dir as f64, 1e-3)
+            {
+                mismatched += 1;
+            }
+        }
+        let w = s.weight();
+        for c in 0..3 {
+            sum[c] += w[c] as f64;
+            sum2[c] += (w[c] as f64).powi(2);
+        }
+    }
+    // An environment sample exactly on a texel edge may round into the neighbour.
+    assert!(
+        mismatched <= n / 10_000,
+        "{mismatched} samples disagree with pdf_le"
+    );
+    let nf = n as f64;
+    std::array::from_fn(|c| {
+        let m = sum[c] / nf;
+        let var = (sum2[c] / nf - m * m).max(0.0);
+        (m, (var / (nf - 1.0)).sqrt())
+    })
+}
+
+/// The photon power a light emits on average, E[Le cos / (p_pos p_dir)], is the
+/// light's power: every light type, within 4 standard errors (plus float slack for
+/// estimators with no variance, such as a point light's).
+#[test]
+fn emission_weight_mean_is_light_power() {
+    let bounds = SceneSphere {
+        center: Vec3::new(0.3, -0.2, 0.5),
+        radius: 2.5,
+    };
+    let area = |prims: Vec<Prim>, flip: bool, two_sided: bool| {
+        Light::Area(AreaLight::new(
+            0,
+            prims,
+            flip,
+            Rgb::new(2.0, 3.0, 4.0),
+            two_sided,
+        ))
+    };
+    let (env, _, _) = synthetic_envmap(false);
+    let cases: Vec<(&str, Light)> = vec![
+        ("quad", area(quad(0.5, 0.75, 1.5, false), false, false)),
+        (
+            "two-sided quad",
+            area(quad(0.5, 0.75, -1.5, false), false, true),
+        ),
+        (
+            "disk",
+            area(disk(Vec3::new(0.3, 0.2, 1.0), 0.8, false), true, false),
+        ),
+        (
+            "sphere",
+            area(sphere(Vec3::new(0.5, -0.3, 2.0), 1.0), false, false),
+        ),
+        (
+            "inward sphere",
+            area(sphere(Vec3::new(0.2, 0.1, -0.3), 1.5), true, false),
+        ),
+        (
+            "point",
+            Light::Point(PointLight {
+                position: Vec3::new(0.3, -1.2, 2.0),
+                intensity: Rgb::new(5.0, 7.0, 11.0),
+            }),
+        ),
+        (
+            "spot",
+            Light::Spot(SpotLight::new(
+                Vec3::new(1.0, 2.0, 3.0),
+                Vec3::new(0.2, -0.9, 0.4).normalize(),
+                Rgb::new(1.0, 2.0, 3.0),
+                40f32.to_radians(),
+                15f32.to_radians(),
+            )),
+        ),
+        (
+            "directional",
+            Light::Directional(caustic::light::DirectionalLight {
+                direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+                irradiance: Rgb::new(10.0, 4.0, 0.5),
+            }),
+        ),
+        (
+            "constant environment",
+            Light::Constant {
+                radiance: Rgb::new(0.5, 0.7, 1.0),
+            },
+        ),
+        ("environment map", Light::EnvMap(env)),
+    ];
+    for (k, (name, light)) in cases.iter().enumerate() {
+        let stats = emission_weight_stats(light, &bounds, 1600 + k as u64, 400_000);
+        let power = light.power(&bounds);
+        for (c, (m, se)) in stats.iter().enumerate() {
+            let want = power[c] as f64;
+            let tol = 4.0 * se + 1e-4 * want.abs();
+            assert!(
+                (m - want).abs() <= tol,
+                "{name}, channel {c}: mean weight {m} +- {se} vs power {want}"
+            );
+        }
     }
 }

@@ -10,6 +10,7 @@ pub mod driver;
 pub mod hashgrid;
 mod pixels;
 pub mod pt;
+pub mod sppm;
 pub mod vcm;
 
 use crate::film::Film;
@@ -117,6 +118,10 @@ pub enum Settings {
     Bpm(vcm::VcmSettings),
     /// Vertex connection and merging.
     Vcm(vcm::VcmSettings),
+    /// Progressive photon mapping (visible points fixed per pixel).
+    Ppm(sppm::SppmSettings),
+    /// Stochastic progressive photon mapping (new visible points every pass).
+    Sppm(sppm::SppmSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -125,7 +130,9 @@ pub enum Settings {
 }
 
 /// Names accepted for `algorithm`.
-pub const ALGORITHMS: &[&str] = &["pt", "lt", "bpt", "bpm", "vcm", "normals", "albedo"];
+pub const ALGORITHMS: &[&str] = &[
+    "pt", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "normals", "albedo",
+];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
 /// (a scene written for `pt` with max_depth 10 means the same paths for `vcm`).
@@ -147,6 +154,8 @@ impl Settings {
             Settings::Bpt(_) => "bpt",
             Settings::Bpm(_) => "bpm",
             Settings::Vcm(_) => "vcm",
+            Settings::Ppm(_) => "ppm",
+            Settings::Sppm(_) => "sppm",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -214,6 +223,7 @@ impl Settings {
             Settings::Vcm(s) => s
                 .validate(vcm::Technique::Vcm)
                 .map_err(SettingsError::Invalid),
+            Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -225,6 +235,8 @@ impl Settings {
             Settings::Bpt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpt, s.clone())),
             Settings::Bpm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpm, s.clone())),
             Settings::Vcm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Vcm, s.clone())),
+            Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
+            Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

@@ -175,9 +175,17 @@ fn start(shared: &Shared, status: &mut JobStatus) -> Result<Box<Runtime>, JobErr
         .map_err(|e| JobError::Internal(format!("stored settings: {e}")))?;
     let dir = shared.job_dir(&status.id);
     let reference = load_reference(shared, &status.spec, &scene)?;
+    let integrator = settings.build();
     let (film, samples, elapsed, iteration) = match Checkpoint::read(&dir) {
         Some(c) if c.film.width() == scene.width() && c.film.height() == scene.height() => {
             truncate_log(&dir, c.iteration)?;
+            if let Some(state) = &c.state {
+                // An unusable state is not fatal: the integrator then starts its
+                // statistics afresh and keeps the film consistent.
+                if let Err(e) = integrator.load_state(state) {
+                    tracing::warn!(job = %status.id, "checkpoint state not restored: {e}");
+                }
+            }
             (c.film, c.samples, c.elapsed_s, c.iteration)
         }
         _ => (Film::new(scene.width(), scene.height()), 0, 0.0, 0),
@@ -186,7 +194,7 @@ fn start(shared: &Shared, status: &mut JobStatus) -> Result<Box<Runtime>, JobErr
     status.elapsed_s = elapsed;
     status.dropped = film.dropped();
     Ok(Box::new(Runtime {
-        integrator: settings.build(),
+        integrator,
         scene,
         film,
         samples,
@@ -368,6 +376,7 @@ fn snapshot(
         elapsed_s: status.elapsed_s,
         samples: rt.samples,
         film: rt.film.clone(),
+        state: rt.integrator.save_state(),
     }
     .write(&dir)?;
     rt.last_snapshot = (it, status.elapsed_s);
@@ -400,6 +409,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
                 elapsed_s: r.status.elapsed_s,
                 samples: rt.samples,
                 film: rt.film.clone(),
+                state: rt.integrator.save_state(),
             }
             .write(&dir);
         }

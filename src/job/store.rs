@@ -76,16 +76,22 @@ impl JobDir {
 }
 
 /// The state a job resumes from: the film's exact f64 sums after `iteration`
-/// iterations, so a resumed job finishes bit-identical to an uninterrupted one.
+/// iterations, so a resumed job finishes bit-identical to an uninterrupted one, and
+/// the integrator's own state for algorithms whose iterations are not independent
+/// (SPPM's per-pixel statistics; see `Integrator::save_state`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Checkpoint {
     pub iteration: u64,
     pub elapsed_s: f64,
     pub samples: u64,
     pub film: Film,
+    pub state: Option<Vec<u8>>,
 }
 
 const MAGIC: &[u8; 8] = b"CAUSTCK1";
+/// Tags the optional integrator-state section after the film (absent in checkpoints
+/// written before it existed, which still load, with no state).
+const STATE_TAG: &[u8; 8] = b"INTSTATE";
 
 impl Checkpoint {
     pub fn encode(&self) -> Vec<u8> {
@@ -103,6 +109,11 @@ impl Checkpoint {
                 out.extend_from_slice(&c.to_le_bytes());
             }
         }
+        if let Some(state) = &self.state {
+            out.extend_from_slice(STATE_TAG);
+            out.extend_from_slice(&(state.len() as u64).to_le_bytes());
+            out.extend_from_slice(state);
+        }
         out
     }
 
@@ -115,10 +126,22 @@ impl Checkpoint {
         let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().unwrap());
         let (w, h) = (u32_at(8), u32_at(12));
         let n = w as usize * h as usize;
-        if bytes.len() != head + n * 24 {
-            return None;
-        }
-        let sums = bytes[head..]
+        let film_end = head.checked_add(n.checked_mul(24)?)?;
+        let state = match bytes.len().checked_sub(film_end)? {
+            0 => None,
+            rest => {
+                let t = &bytes[film_end..];
+                if rest < 16 || &t[..8] != STATE_TAG {
+                    return None;
+                }
+                let len = u64::from_le_bytes(t[8..16].try_into().unwrap());
+                if len != (rest - 16) as u64 {
+                    return None;
+                }
+                Some(t[16..].to_vec())
+            }
+        };
+        let sums = bytes[head..film_end]
             .chunks_exact(24)
             .map(|c| {
                 let f = |k: usize| f64::from_le_bytes(c[k * 8..k * 8 + 8].try_into().unwrap());
@@ -130,6 +153,7 @@ impl Checkpoint {
             elapsed_s: f64::from_bits(u64_at(24)),
             samples: u64_at(32),
             film: Film::from_parts(w, h, sums, u64_at(40)),
+            state,
         })
     }
 
@@ -254,10 +278,25 @@ mod tests {
             elapsed_s: 1.25,
             samples: 99,
             film,
+            state: None,
         };
         let back = Checkpoint::decode(&c.encode()).unwrap();
         assert_eq!(c, back);
         assert!(Checkpoint::decode(&c.encode()[..20]).is_none());
+        // With integrator state; a checkpoint without it (the old format) is a prefix.
+        let with = Checkpoint {
+            state: Some(vec![1, 2, 3, 250]),
+            ..c.clone()
+        };
+        let bytes = with.encode();
+        assert_eq!(Checkpoint::decode(&bytes).unwrap(), with);
+        assert_eq!(bytes[..c.encode().len()], c.encode()[..]);
+        assert!(Checkpoint::decode(&bytes[..bytes.len() - 1]).is_none());
+        let empty = Checkpoint {
+            state: Some(Vec::new()),
+            ..c
+        };
+        assert_eq!(Checkpoint::decode(&empty.encode()).unwrap(), empty);
     }
 
     #[test]

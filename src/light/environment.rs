@@ -51,15 +51,21 @@ impl EnvMap {
                     .collect::<Vec<_>>()
             })
             .collect();
-        // Mean radiance over the sphere: sum of L sin(theta) dA over (4 pi).
+        // Mean radiance over the sphere: sum of L times each texel's exact solid angle,
+        // (2 pi / width) (cos theta_0 - cos theta_1), over 4 pi. (The midpoint rule,
+        // sin(theta_mid) d theta, is 0.6% low on an 8-row map.)
         let mut mean = Rgb::ZERO;
         for y in 0..height {
-            let sin_t = ((y as f32 + 0.5) / height as f32 * PI).sin();
+            let (t0, t1) = (y as f64 / height as f64, (y + 1) as f64 / height as f64);
+            let band =
+                ((t0 * std::f64::consts::PI).cos() - (t1 * std::f64::consts::PI).cos()) as f32;
+            let mut row = Rgb::ZERO;
             for x in 0..width {
-                mean += texels[y * width + x] * sin_t;
+                row += texels[y * width + x];
             }
+            mean += row * band;
         }
-        let mean = mean * (2.0 * PI * PI / (width * height) as f32) / (4.0 * PI);
+        let mean = mean * (2.0 * PI / width as f32) / (4.0 * PI);
         EnvMap {
             width,
             height,

@@ -1,0 +1,850 @@
+//! Progressive photon mapping (PPM; Hachisuka, Ogaki and Jensen 2008) and stochastic
+//! progressive photon mapping (SPPM; Hachisuka and Jensen 2009).
+//!
+//! Every pass (= iteration) has two halves:
+//! 1. A camera pass: one camera path per pixel, followed through delta (specular)
+//!    events to the first non-delta surface, its *visible point*. Emission met on the
+//!    way (and at the visible point) is added with weight 1, and direct lighting at the
+//!    visible point is estimated by next-event estimation (one light sample, one shadow
+//!    ray), as pbrt-v4's SPPM does. PPM replays the same camera sample every pass (the
+//!    camera random stream of iteration 0), so its visible points are those of the
+//!    first ray-tracing pass, recomputed rather than stored; SPPM draws a new jittered
+//!    sample (film position, lens, lobe choices) every pass.
+//! 2. A photon pass: `light_paths x pixels` photon paths. Photons that have scattered
+//!    at least once are stored at non-delta surfaces; photons arriving straight from
+//!    the light are not (that light is the NEE term above), so photons carry only
+//!    indirect light.
+//!
+//! Each pixel keeps the statistics of the papers: N (accumulated photon count), R
+//! (radius) and tau (accumulated flux). With M photons found within R of this pass's
+//! visible point and Phi = beta_vp sum f(wo, wi_p) Phi_p their flux [2008, eq. (9)]:
+//!   N' = N + alpha M                       [2008, eq. (7)]
+//!   R' = R sqrt((N + alpha M) / (N + M))   [2008, eq. (8)]
+//!   tau' = (tau + Phi) R'^2 / R^2          [2008, eq. (11)]
+//! and the pixel's indirect radiance is tau / (N_emitted pi R^2) [2008, eq. (12)],
+//! N_emitted being every photon path emitted so far. SPPM uses the same update with
+//! the visible point of the current pass [2009, sec. 4]. The image written to the film
+//! is direct (the mean over passes of the camera-pass radiance) plus that indirect
+//! estimate.
+//!
+//! Photons are gathered per visible point from a hash grid built over the photons of
+//! a wave (rather than splatting photons into a grid of visible points): every pixel
+//! sums its photons in the grid's fixed order with no atomics, so the image does not
+//! depend on the thread count, and photon memory is bounded by the wave size.
+//!
+//! Iterations are not independent: the per-pixel statistics are the integrator's state
+//! (`save_state` / `load_state`). After iteration i the film holds (i + 1) times the
+//! current estimate, so that every consumer's sums / iterations is the estimate.
+
+use super::{Integrator, RenderStats};
+use crate::film::{is_valid_sample, Film};
+use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::integrator::hashgrid::HashGrid;
+use crate::material::{Material, Mode};
+use crate::math::rng::mix64;
+use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec2, Vec3};
+use crate::scene::Scene;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// Photon mapping parameters (`ppm` and `sppm` take the same ones).
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path, in Mitsuba's sense (1 = emitters seen directly), counted over the camera and photon halves together |
+/// | `light_paths` | 1.0 | photon paths per pass, as a multiple of the pixel count |
+/// | `radius` | none | initial gather radius, in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.01 | initial radius as a fraction of the scene's bounding-sphere radius (about 1.5 pixels on the 256 x 256 Cornell box) |
+/// | `alpha` | 0.7 | fraction of new photons kept per pass (the papers' alpha, in (0, 1]; 1 never shrinks the radius) |
+/// | `rr_depth` | 1 | photon scattering events before Russian roulette starts (it keeps photon power near constant: survival = new / old throughput) |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct SppmSettings {
+    pub max_depth: u32,
+    pub light_paths: f32,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: f32,
+    pub rr_depth: u32,
+}
+
+impl Default for SppmSettings {
+    fn default() -> Self {
+        SppmSettings {
+            max_depth: 64,
+            light_paths: 1.0,
+            radius: None,
+            radius_factor: 0.01,
+            alpha: 0.7,
+            rr_depth: 1,
+        }
+    }
+}
+
+/// Most photon paths per pass per pixel (memory stays bounded by waves, time does not).
+const MAX_LIGHT_PATHS: f32 = 1024.0;
+
+impl SppmSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        if !(self.light_paths > 0.0 && self.light_paths <= MAX_LIGHT_PATHS) {
+            return Err(format!("light_paths must be in (0, {MAX_LIGHT_PATHS}]"));
+        }
+        if let Some(r) = self.radius {
+            if !(r > 0.0 && r.is_finite()) {
+                return Err("radius must be positive and finite".into());
+            }
+        }
+        if !(self.radius_factor > 0.0 && self.radius_factor.is_finite()) {
+            return Err("radius_factor must be positive and finite".into());
+        }
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err("alpha must be in (0, 1]".into());
+        }
+        Ok(())
+    }
+
+    /// Initial radius for `scene`.
+    pub fn initial_radius(&self, scene: &Scene) -> f32 {
+        self.radius
+            .unwrap_or(self.radius_factor * scene.sphere.radius)
+    }
+}
+
+/// Which visible points a pass uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// PPM: the same camera sample per pixel every pass.
+    Ppm,
+    /// SPPM: a new camera sample per pixel every pass.
+    Sppm,
+}
+
+/// Photon paths traced (and their photons held in memory) at once.
+const WAVE: usize = 1 << 19;
+/// Photon paths per parallel task.
+const CHUNK: usize = 1024;
+/// Pixels per parallel task of the camera pass.
+const PIXEL_CHUNK: usize = 256;
+/// Seed mixes that keep camera, direct-lighting and photon streams apart.
+const CAMERA_STREAM: u64 = 0x5350_504D_4341_4D31;
+const NEE_STREAM: u64 = 0x5350_504D_4E45_4531;
+const PHOTON_STREAM: u64 = 0x5350_504D_5048_4F31;
+
+/// One pixel's progressive statistics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PixelStat {
+    /// Accumulated photon count N.
+    n: f64,
+    /// Gather radius R.
+    r: f64,
+    /// Accumulated flux tau (camera throughput included).
+    tau: [f64; 3],
+    /// Sum over passes of the camera-pass radiance (emission and NEE).
+    direct: [f64; 3],
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct State {
+    seed: u64,
+    /// The iteration the state expects next.
+    next: u64,
+    /// Passes accumulated since the statistics were initialised.
+    passes: u64,
+    /// Photon paths emitted over those passes.
+    emitted: u64,
+    pixels: Vec<PixelStat>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum StateError {
+    #[error("not a photon-mapping state (bad magic)")]
+    Magic,
+    #[error("state was saved by {saved:?}, not {this:?}")]
+    Variant { saved: Variant, this: Variant },
+    #[error("state is truncated or has trailing bytes ({0} bytes)")]
+    Length(usize),
+    #[error("state holds a non-finite or negative statistic at pixel {0}")]
+    Value(usize),
+}
+
+const STATE_MAGIC: &[u8; 8] = b"SPPMST01";
+const STATE_HEAD: usize = 8 + 1 + 4 * 8 + 8;
+const PIXEL_BYTES: usize = 8 * 8;
+
+impl State {
+    fn new(seed: u64, iteration: u64, pixels: usize, r0: f32) -> State {
+        State {
+            seed,
+            next: iteration,
+            passes: 0,
+            emitted: 0,
+            pixels: vec![
+                PixelStat {
+                    n: 0.0,
+                    r: r0 as f64,
+                    tau: [0.0; 3],
+                    direct: [0.0; 3],
+                };
+                pixels
+            ],
+        }
+    }
+
+    /// Little-endian: magic, variant, seed, next, passes, emitted, pixel count, then
+    /// per pixel N, R, tau (3), direct (3) as f64.
+    fn encode(&self, variant: Variant) -> Vec<u8> {
+        let mut out = Vec::with_capacity(STATE_HEAD + self.pixels.len() * PIXEL_BYTES);
+        out.extend_from_slice(STATE_MAGIC);
+        out.push(variant as u8);
+        for v in [
+            self.seed,
+            self.next,
+            self.passes,
+            self.emitted,
+            self.pixels.len() as u64,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for p in &self.pixels {
+            for v in [p.n, p.r].iter().chain(p.tau.iter()).chain(p.direct.iter()) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        out
+    }
+
+    fn decode(bytes: &[u8], variant: Variant) -> Result<State, StateError> {
+        if bytes.len() < STATE_HEAD {
+            return Err(StateError::Length(bytes.len()));
+        }
+        if &bytes[..8] != STATE_MAGIC {
+            return Err(StateError::Magic);
+        }
+        let saved = match bytes[8] {
+            0 => Variant::Ppm,
+            1 => Variant::Sppm,
+            _ => return Err(StateError::Magic),
+        };
+        if saved != variant {
+            return Err(StateError::Variant {
+                saved,
+                this: variant,
+            });
+        }
+        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().unwrap());
+        let count = u64_at(9 + 32) as usize;
+        if count
+            .checked_mul(PIXEL_BYTES)
+            .and_then(|b| b.checked_add(STATE_HEAD))
+            != Some(bytes.len())
+        {
+            return Err(StateError::Length(bytes.len()));
+        }
+        let mut pixels = Vec::with_capacity(count);
+        for (i, c) in bytes[STATE_HEAD..].chunks_exact(PIXEL_BYTES).enumerate() {
+            let f = |k: usize| f64::from_le_bytes(c[k * 8..k * 8 + 8].try_into().unwrap());
+            let p = PixelStat {
+                n: f(0),
+                r: f(1),
+                tau: [f(2), f(3), f(4)],
+                direct: [f(5), f(6), f(7)],
+            };
+            let ok = (0..8).all(|k| f(k).is_finite() && f(k) >= 0.0) && p.r > 0.0;
+            if !ok {
+                return Err(StateError::Value(i));
+            }
+            pixels.push(p);
+        }
+        Ok(State {
+            seed: u64_at(9),
+            next: u64_at(17),
+            passes: u64_at(25),
+            emitted: u64_at(33),
+            pixels,
+        })
+    }
+}
+
+/// A camera path's first non-delta vertex.
+#[derive(Clone, Copy)]
+struct VisiblePoint {
+    p: Vec3,
+    ng: Vec3,
+    frame: Frame,
+    /// Towards the camera, local frame.
+    wo: Vec3,
+    /// Camera-path throughput up to here.
+    beta: Rgb,
+    material: u32,
+    /// Scattering events before this vertex.
+    depth: u32,
+}
+
+/// A stored photon (its position lives in a separate array for the hash grid).
+#[derive(Clone, Copy)]
+struct Photon {
+    /// Towards where the photon came from, world space.
+    wi: Vec3,
+    /// Power carried (flux per emitted path).
+    beta: Rgb,
+    /// Scattering events before it arrived.
+    depth: u32,
+}
+
+/// Photons of one parallel task.
+#[derive(Default)]
+struct PhotonChunk {
+    pos: Vec<Vec3>,
+    data: Vec<Photon>,
+    stats: RenderStats,
+}
+
+/// The photons of one wave and the grid over their positions.
+#[derive(Default)]
+struct PhotonMap {
+    grid: HashGrid,
+    pos: Vec<Vec3>,
+    data: Vec<Photon>,
+}
+
+/// What a pixel's camera path found: radiance on the way, and its visible point.
+type CameraResult = (Rgb, Option<VisiblePoint>);
+
+/// Per-pixel gather result of one pass.
+#[derive(Clone, Copy, Default)]
+struct Gathered {
+    phi: [f64; 3],
+    m: u64,
+}
+
+pub struct PhotonMapper {
+    s: SppmSettings,
+    variant: Variant,
+    inner: Mutex<Inner>,
+}
+
+/// What `iterate` changes: the statistics, and photon buffers kept for their capacity.
+#[derive(Default)]
+struct Inner {
+    state: Option<State>,
+    map: PhotonMap,
+}
+
+impl PhotonMapper {
+    pub fn new(s: SppmSettings, variant: Variant) -> Self {
+        PhotonMapper {
+            s,
+            variant,
+            inner: Mutex::new(Inner::default()),
+        }
+    }
+
+    /// Photon paths per pass for a scene.
+    fn paths_per_pass(&self, scene: &Scene) -> u64 {
+        let px = scene.width() as f64 * scene.height() as f64;
+        (self.s.light_paths as f64 * px).ceil().max(1.0) as u64
+    }
+
+    /// Camera half of a pass for pixel `index`: the radiance found on the way to the
+    /// visible point (emission seen through delta events, plus NEE there), and the
+    /// visible point itself.
+    fn camera_path(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        index: u64,
+        stats: &mut RenderStats,
+    ) -> (Rgb, Option<VisiblePoint>) {
+        let w = scene.width() as u64;
+        let cam_iteration = match self.variant {
+            Variant::Ppm => 0,
+            Variant::Sppm => iteration,
+        };
+        let mut rng = Rng::new(mix64(seed ^ CAMERA_STREAM), cam_iteration, index);
+        let film_pos = Vec2::new((index % w) as f32, (index / w) as f32) + rng.next_2d();
+        let mut ray = scene.camera.generate_ray(film_pos, rng.next_2d());
+        stats.samples += 1;
+        stats.rays += 1;
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32;
+        let mut null_crossings = 0u32;
+        loop {
+            let Some(it) = scene.intersect(&ray) else {
+                // Every event so far was a delta lobe: no NEE could have found this.
+                if !scene.env_lights.is_empty() {
+                    l += beta * scene.env_radiance(ray.d);
+                }
+                return (l, None);
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                null_crossings += 1;
+                if null_crossings > 256 {
+                    return (l, None);
+                }
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                stats.rays += 1;
+                continue;
+            }
+            if let Some((_, area)) = scene.area_light(&it) {
+                l += beta * area.le(it.ng, -ray.d);
+            }
+            if depth + 1 >= self.s.max_depth {
+                return (l, None);
+            }
+            let frame = Frame::from_normal(it.ns);
+            let wo = frame.to_local(-ray.d);
+            if !m.is_delta() {
+                let mut nee_rng = Rng::new(mix64(seed ^ NEE_STREAM), iteration, index);
+                l += beta * direct(scene, &it, &frame, wo, m, &mut nee_rng, stats);
+                let vp = VisiblePoint {
+                    p: it.p,
+                    ng: it.ng,
+                    frame,
+                    wo,
+                    beta,
+                    material: scene.shapes[it.shape as usize].material,
+                    depth,
+                };
+                return (l, Some(vp));
+            }
+            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
+                return (l, None);
+            };
+            let wi = frame.to_world(s.wi);
+            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+                return (l, None);
+            }
+            beta *= s.weight;
+            depth += 1;
+            if beta == Rgb::ZERO {
+                return (l, None);
+            }
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            stats.rays += 1;
+        }
+    }
+
+    /// Traces photon path `index` of pass `iteration`, appending its stored photons.
+    fn trace_photon(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        index: u64,
+        out: &mut PhotonChunk,
+    ) {
+        let mut rng = Rng::new(mix64(seed ^ PHOTON_STREAM), iteration, index);
+        let (li, pmf, _) = scene.light_sampler.sample(rng.next_f32());
+        let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
+        let Some(e) = scene.lights[li].sample_le(&scene.sphere, u_pos, u_dir) else {
+            return;
+        };
+        if !(e.pdf_pos > 0.0 && e.pdf_dir > 0.0 && pmf > 0.0) {
+            return;
+        }
+        // Photon power: Le cos / (p_pos p_dir p_select).
+        let mut beta = e.weight() / pmf;
+        if !is_valid_sample(beta) || beta == Rgb::ZERO {
+            return;
+        }
+        // Points sampled on an area light carry a small relative error; leave the
+        // surface as a hit point would.
+        let mut ray = if e.n == Vec3::ZERO {
+            Ray::new(e.p, e.d)
+        } else {
+            let err = Vec3::splat(e.p.abs().max_element() * gamma(16));
+            spawn_ray(e.p, err, e.n, e.d)
+        };
+        let max_depth = self.s.max_depth;
+        let mut depth = 0u32; // scattering events so far
+        let mut null_crossings = 0u32;
+        loop {
+            out.stats.rays += 1;
+            let Some(it) = scene.intersect(&ray) else {
+                return;
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                null_crossings += 1;
+                if null_crossings > 256 {
+                    return;
+                }
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                continue;
+            }
+            let wo_world = -ray.d;
+            if depth >= 1 && !m.is_delta() {
+                out.pos.push(it.p);
+                out.data.push(Photon {
+                    wi: wo_world,
+                    beta,
+                    depth,
+                });
+                out.stats.light_vertices += 1;
+            }
+            // A photon stored after depth + 1 events contributes to a visible point
+            // with camera depth 0 only if (depth + 1) + 0 + 2 <= max_depth.
+            if depth + 3 > max_depth {
+                return;
+            }
+            let frame = Frame::from_normal(it.ns);
+            let wo = frame.to_local(wo_world);
+            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance) else {
+                return;
+            };
+            let wi = frame.to_world(s.wi);
+            let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
+            if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
+                return;
+            }
+            // Adjoint BSDF with shading normals (Veach 1997, eq. (5.17)):
+            // |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|); 1 where ns = ng.
+            let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
+            if !corr.is_finite() {
+                return;
+            }
+            let new_beta = beta * s.weight * corr;
+            depth += 1;
+            // Russian roulette with survival new / old power, so surviving photons keep
+            // about the power they had (pbrt-v4's SPPM does the same).
+            beta = if depth >= self.s.rr_depth {
+                let q = (max_component(new_beta) / max_component(beta)).min(1.0);
+                if q.is_nan() || rng.next_f32() >= q {
+                    return;
+                }
+                new_beta / q
+            } else {
+                new_beta
+            };
+            if beta == Rgb::ZERO || !beta.is_finite() {
+                return;
+            }
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+        }
+    }
+
+    /// Photon paths `start..end` of a pass into `map` (photons in path order).
+    fn trace_wave(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        (start, end): (u64, u64),
+        map: &mut PhotonMap,
+    ) -> RenderStats {
+        let chunks: Vec<(u64, u64)> = (start..end)
+            .step_by(CHUNK)
+            .map(|a| (a, (a + CHUNK as u64).min(end)))
+            .collect();
+        let parts: Vec<PhotonChunk> = chunks
+            .into_par_iter()
+            .map(|(a, b)| {
+                let mut c = PhotonChunk::default();
+                for i in a..b {
+                    self.trace_photon(scene, seed, iteration, i, &mut c);
+                }
+                c
+            })
+            .collect();
+        map.pos.clear();
+        map.data.clear();
+        let mut stats = RenderStats::default();
+        for c in parts {
+            map.pos.extend_from_slice(&c.pos);
+            map.data.extend_from_slice(&c.data);
+            stats += c.stats;
+        }
+        stats
+    }
+
+    /// Photons within the pixel's radius of its visible point: (flux Phi, count M).
+    #[inline]
+    fn gather(
+        &self,
+        scene: &Scene,
+        map: &PhotonMap,
+        vp: &VisiblePoint,
+        r: f32,
+        acc: &mut Gathered,
+    ) {
+        let m = &scene.materials[vp.material as usize];
+        let r2 = r * r;
+        let mut phi = Rgb::ZERO;
+        map.grid.query(vp.p, |i, d2| {
+            let ph = &map.data[i];
+            if d2 > r2 || ph.depth + vp.depth + 2 > self.s.max_depth {
+                return;
+            }
+            acc.m += 1;
+            let wi = vp.frame.to_local(ph.wi);
+            if (ph.wi.dot(vp.ng) > 0.0) != (wi.z > 0.0) || wi.z == 0.0 {
+                return;
+            }
+            // eval is f |cos theta_i|; the density estimate wants f alone.
+            let f = m.eval(vp.wo, wi, Mode::Radiance) / wi.z.abs();
+            phi += f * ph.beta;
+        });
+        let phi = vp.beta * phi;
+        acc.phi = std::array::from_fn(|c| acc.phi[c] + phi[c] as f64);
+    }
+}
+
+/// Next-event estimation at a visible point: one light, one shadow ray. Light sampling
+/// alone (no MIS): the camera path stops here, so no BSDF sample can find the light.
+fn direct(
+    scene: &Scene,
+    it: &Interaction,
+    frame: &Frame,
+    wo: Vec3,
+    m: &Material,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    if scene.lights.is_empty() {
+        return Rgb::ZERO;
+    }
+    let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+    let Some(ls) = scene.lights[li].sample_li(it.p, rng.next_2d()) else {
+        return Rgb::ZERO;
+    };
+    let wi = frame.to_local(ls.wi);
+    if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
+        return Rgb::ZERO;
+    }
+    let f = m.eval(wo, wi, Mode::Radiance);
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let ray = if ls.dist.is_finite() {
+        spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+    } else {
+        spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+    };
+    stats.shadow_rays += 1;
+    stats.connections += 1;
+    if !scene.visible(&ray) {
+        return Rgb::ZERO;
+    }
+    f * ls.li / (sel_pdf * ls.pdf)
+}
+
+impl Integrator for PhotonMapper {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        let (w, h) = (scene.width(), scene.height());
+        let npix = w as usize * h as usize;
+        let mut guard = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        let inner = &mut *guard;
+        // Statistics belong to one sequence of passes: start afresh at iteration 0,
+        // and whenever the caller does not continue where the state left off.
+        let fresh = match &inner.state {
+            Some(st) => {
+                iteration == 0 || st.seed != seed || st.next != iteration || st.pixels.len() != npix
+            }
+            None => true,
+        };
+        if fresh {
+            inner.state = Some(State::new(
+                seed,
+                iteration,
+                npix,
+                self.s.initial_radius(scene),
+            ));
+        }
+        let state = inner.state.as_mut().expect("state was just set");
+        let mut stats = RenderStats::default();
+
+        // 1. Camera pass: visible points, and the radiance found on the way.
+        let parts: Vec<(Vec<CameraResult>, RenderStats)> = (0..npix)
+            .step_by(PIXEL_CHUNK)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|a| {
+                let mut st = RenderStats::default();
+                let v = (a..(a + PIXEL_CHUNK).min(npix))
+                    .map(|i| self.camera_path(scene, seed, iteration, i as u64, &mut st))
+                    .collect();
+                (v, st)
+            })
+            .collect();
+        let mut camera = Vec::with_capacity(npix);
+        for (v, st) in parts {
+            camera.extend(v);
+            stats += st;
+        }
+
+        // 2. Photon passes in waves, each gathered into every visible point.
+        let paths = if scene.lights.is_empty() {
+            0
+        } else {
+            self.paths_per_pass(scene)
+        };
+        let mut gathered = vec![Gathered::default(); npix];
+        let r_max = camera
+            .iter()
+            .zip(&state.pixels)
+            .filter(|((_, vp), _)| vp.is_some())
+            .map(|(_, p)| p.r as f32)
+            .fold(0.0f32, f32::max);
+        let map = &mut inner.map;
+        let mut start = 0u64;
+        while start < paths && r_max > 0.0 {
+            let end = (start + WAVE as u64).min(paths);
+            stats += self.trace_wave(scene, seed, iteration, (start, end), map);
+            map.grid.build(&map.pos, r_max);
+            stats.vertex_bytes = stats.vertex_bytes.max(
+                (map.pos.capacity() * std::mem::size_of::<Vec3>()
+                    + map.data.capacity() * std::mem::size_of::<Photon>()
+                    + map.grid.bytes()) as u64,
+            );
+            let map = &*map;
+            gathered
+                .par_iter_mut()
+                .with_min_len(256)
+                .zip(camera.par_iter())
+                .zip(state.pixels.par_iter())
+                .for_each(|((acc, (_, vp)), px)| {
+                    if let Some(vp) = vp {
+                        self.gather(scene, map, vp, px.r as f32, acc);
+                    }
+                });
+            start = end;
+        }
+
+        // 3. Per-pixel statistics [2008, eqs. (7), (8), (11)], then the film.
+        let alpha = self.s.alpha as f64;
+        let dropped: u64 = state
+            .pixels
+            .par_iter_mut()
+            .with_min_len(256)
+            .zip(camera.par_iter())
+            .zip(gathered.par_iter())
+            .map(|((px, (l, _)), g)| {
+                let mut dropped = 0;
+                if is_valid_sample(*l) {
+                    for c in 0..3 {
+                        px.direct[c] += l[c] as f64;
+                    }
+                } else {
+                    dropped += 1;
+                }
+                let phi_ok = g.phi.iter().all(|v| v.is_finite() && *v >= 0.0);
+                if !phi_ok {
+                    dropped += 1;
+                } else if g.m > 0 {
+                    let m = g.m as f64;
+                    let n_new = px.n + alpha * m;
+                    let r_new = px.r * (n_new / (px.n + m)).sqrt();
+                    let shrink = (r_new / px.r) * (r_new / px.r);
+                    for c in 0..3 {
+                        px.tau[c] = (px.tau[c] + g.phi[c]) * shrink;
+                    }
+                    px.n = n_new;
+                    px.r = r_new;
+                }
+                dropped
+            })
+            .sum();
+        state.passes += 1;
+        state.emitted += paths;
+        state.next = iteration + 1;
+        stats.merges = gathered.iter().map(|g| g.m).sum();
+        stats.merge_radius =
+            (state.pixels.iter().map(|p| p.r).sum::<f64>() / npix.max(1) as f64) as f32;
+
+        // The estimate after this pass, times the iteration count the caller divides by.
+        let k = (iteration + 1) as f64;
+        let passes = state.passes as f64;
+        let emitted = state.emitted.max(1) as f64;
+        let sums: Vec<[f64; 3]> = state
+            .pixels
+            .par_iter()
+            .with_min_len(1024)
+            .map(|px| {
+                let norm = 1.0 / (emitted * std::f64::consts::PI * px.r * px.r);
+                std::array::from_fn(|c| k * (px.direct[c] / passes + px.tau[c] * norm))
+            })
+            .collect();
+        *film = Film::from_parts(w, h, sums, film.dropped() + dropped);
+        stats
+    }
+
+    fn save_state(&self) -> Option<Vec<u8>> {
+        let guard = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        guard.state.as_ref().map(|s| s.encode(self.variant))
+    }
+
+    fn load_state(&self, bytes: &[u8]) -> Result<(), String> {
+        let st = State::decode(bytes, self.variant).map_err(|e| e.to_string())?;
+        self.inner.lock().unwrap_or_else(|e| e.into_inner()).state = Some(st);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn state_round_trips_and_rejects_damage() {
+        let mut st = State::new(9, 4, 3, 0.25);
+        st.passes = 4;
+        st.emitted = 1234;
+        st.pixels[1].tau = [1.0, 2.0, 3.5];
+        st.pixels[2].n = 17.3;
+        let bytes = st.encode(Variant::Sppm);
+        assert_eq!(State::decode(&bytes, Variant::Sppm).unwrap(), st);
+        assert!(matches!(
+            State::decode(&bytes, Variant::Ppm),
+            Err(StateError::Variant { .. })
+        ));
+        assert!(matches!(
+            State::decode(&bytes[..bytes.len() - 1], Variant::Sppm),
+            Err(StateError::Length(_))
+        ));
+        let mut bad = bytes.clone();
+        bad[0] = b'X';
+        assert!(matches!(
+            State::decode(&bad, Variant::Sppm),
+            Err(StateError::Magic)
+        ));
+        let mut nan = bytes;
+        let o = STATE_HEAD + PIXEL_BYTES; // pixel 1, N
+        nan[o..o + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        assert!(matches!(
+            State::decode(&nan, Variant::Sppm),
+            Err(StateError::Value(1))
+        ));
+    }
+
+    #[test]
+    fn settings_validate() {
+        assert!(SppmSettings::default().validate().is_ok());
+        for bad in [
+            SppmSettings {
+                alpha: 0.0,
+                ..Default::default()
+            },
+            SppmSettings {
+                light_paths: 0.0,
+                ..Default::default()
+            },
+            SppmSettings {
+                radius: Some(-1.0),
+                ..Default::default()
+            },
+            SppmSettings {
+                max_depth: 0,
+                ..Default::default()
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+    }
+}
