@@ -68,6 +68,19 @@ impl HashGrid {
     /// cells share a slot, which the slot de-duplication below prevents.
     #[inline]
     pub fn query(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
+        self.query_sorted(p, |k, d2| f(self.entries[k] as usize, d2));
+    }
+
+    /// The original index of each point, in the grid's storage order.
+    pub fn order(&self) -> &[u32] {
+        &self.entries
+    }
+
+    /// Like [`HashGrid::query`], passing positions in storage order (see
+    /// [`HashGrid::order`]): callers that lay their per-point data out in that order
+    /// read it contiguously too.
+    #[inline]
+    pub fn query_sorted(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
         if self.entries.is_empty() {
             return;
         }
@@ -101,7 +114,7 @@ impl HashGrid {
             for (j, q) in self.sorted[a..b].iter().enumerate() {
                 let d2 = (*q - p).length_squared();
                 if d2 <= self.radius2 {
-                    f(self.entries[a + j] as usize, d2);
+                    f(a + j, d2);
                 }
             }
         }

@@ -305,8 +305,8 @@ fn merge(
 ) -> Rgb {
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.grid.query(it.p, |i, _| {
-        let y = &ws.vertices[i];
+    ws.grid.query_sorted(it.p, |k, _| {
+        let y = &ws.merge[k];
         if y.len + walk.len > pass.s.max_depth {
             return;
         }

@@ -37,6 +37,30 @@ pub(crate) struct LightVertex {
     pub q: Partial,
 }
 
+/// The part of a light vertex that merging reads, stored in hash-grid order: a range
+/// query then reads memory in runs instead of jumping across the path-ordered store.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MergeVertex {
+    pub wo: Vec3,
+    pub throughput: Rgb,
+    pub len: u32,
+    pub cont: f32,
+    pub q: Partial,
+}
+
+impl From<&LightVertex> for MergeVertex {
+    #[inline]
+    fn from(v: &LightVertex) -> Self {
+        MergeVertex {
+            wo: v.wo,
+            throughput: v.throughput,
+            len: v.len,
+            cont: v.cont,
+            q: v.q,
+        }
+    }
+}
+
 /// One chunk's output, kept between iterations to reuse its buffers.
 #[derive(Default)]
 pub(crate) struct Chunk {

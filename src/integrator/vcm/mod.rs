@@ -22,8 +22,9 @@ use crate::film::Film;
 use crate::material::Material;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
-use light_path::{trace_light_paths, Chunk, LightVertex};
+use light_path::{trace_light_paths, Chunk, LightVertex, MergeVertex};
 use mis::Mis;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -236,6 +237,8 @@ struct Workspace {
     /// End (exclusive) of each light path's vertices in `vertices`.
     path_ends: Vec<u32>,
     grid: HashGrid,
+    /// What merging needs of each vertex, in the grid's storage order.
+    merge: Vec<MergeVertex>,
 }
 
 pub struct Vcm {
@@ -296,10 +299,18 @@ impl Integrator for Vcm {
         let mut stats = trace_light_paths(&pass, seed, iteration, ws);
         if pass.technique.merges() {
             ws.grid.build(&ws.positions, pass.radius);
+            let (grid, vertices) = (&ws.grid, &ws.vertices);
+            ws.merge.clear();
+            ws.merge.par_extend(
+                grid.order()
+                    .par_iter()
+                    .map(|&i| MergeVertex::from(&vertices[i as usize])),
+            );
             stats.merge_radius = pass.radius;
         }
         stats.vertex_bytes = (ws.vertices.capacity() * std::mem::size_of::<LightVertex>()
             + ws.positions.capacity() * std::mem::size_of::<Vec3>()
+            + ws.merge.capacity() * std::mem::size_of::<MergeVertex>()
             + ws.grid.bytes()) as u64;
         let ids: Vec<usize> = self
             .layers
