@@ -35,7 +35,7 @@ impl HashGrid {
             .par_iter()
             .copied()
             .reduce(|| Vec3::splat(f32::INFINITY), Vec3::min);
-        let table = (n.max(1)).next_power_of_two() as u64;
+        let table = (n.max(4) / 4).next_power_of_two() as u64;
         let (origin, inv) = (self.origin, self.inv_cell);
         self.keys.clear();
         self.keys
