@@ -1,4 +1,5 @@
-//! The caustic command line: render, diff and bench.
+//! The caustic command line: render, reference, diff and bench (and the server and
+//! its client commands).
 
 use anyhow::{bail, Context, Result};
 use caustic::film::{self, Image};
@@ -34,7 +35,12 @@ enum Command {
         #[arg(long)]
         png: Option<PathBuf>,
     },
-    /// Measure speed: time per iteration, samples/s and rays/s (median of repeats).
+    /// Render a long reference image for error measurements (as `render`, with a time
+    /// budget, and a seed unlike the default one of `render` and `bench`).
+    Reference(ReferenceArgs),
+    /// Measure speed (ms and CPU s per iteration, samples/s, rays/s; median of
+    /// repeats), or with --time compare algorithms at equal time: RMSE against a
+    /// reference over time, a CSV, a log-log plot and each algorithm's image.
     Bench(BenchArgs),
     /// Run the render server (REST and gRPC) on a local data directory.
     Serve(ServeArgs),
@@ -253,17 +259,73 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct ReferenceArgs {
+    scene: PathBuf,
+    /// Algorithm (default: the scene's, else pt).
+    #[arg(long, short)]
+    algorithm: Option<String>,
+    /// Wall-clock budget in seconds.
+    #[arg(long, value_name = "SECONDS", required_unless_present = "spp")]
+    time: Option<f64>,
+    /// A number of iterations instead of a time budget.
+    #[arg(long, conflicts_with = "time")]
+    spp: Option<u64>,
+    /// 1 by default, so that a reference shares no samples with a `render` or
+    /// `bench` run at their default seed 0.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Algorithm parameter, repeatable: --param max_depth=8
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
+    /// Output EXR (linear float32 RGB).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write an sRGB PNG here.
+    #[arg(long)]
+    png: Option<PathBuf>,
+}
+
+#[derive(Args)]
 struct BenchArgs {
     scene: PathBuf,
     /// Comma-separated algorithms.
     #[arg(long, default_value = "pt")]
     algorithms: String,
-    /// Iterations per timed run.
-    #[arg(long, default_value_t = 16)]
+    /// Speed mode: iterations per timed run.
+    #[arg(long, default_value_t = 16, conflicts_with = "time")]
     spp: u64,
-    /// Timed runs per algorithm; the median is reported.
-    #[arg(long, default_value_t = 5)]
+    /// Speed mode: timed runs per algorithm; the median is reported.
+    #[arg(long, default_value_t = 5, conflicts_with = "time")]
     repeat: usize,
+    /// Equal-time mode: seconds of iterations per algorithm (needs --reference or
+    /// --reference-from).
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f64>,
+    /// Equal-time mode: the reference image.
+    #[arg(
+        long,
+        value_name = "EXR",
+        requires = "time",
+        conflicts_with = "reference_from"
+    )]
+    reference: Option<PathBuf>,
+    /// Equal-time mode: render the reference first with this algorithm for this many
+    /// seconds (seed --seed + 1), saved as DIR/reference.exr.
+    #[arg(long, value_name = "ALG:SECONDS", requires = "time")]
+    reference_from: Option<String>,
+    /// Equal-time mode: output directory (bench.csv, rmse_vs_time.png, <algorithm>.exr).
+    #[arg(short, long, value_name = "DIR", default_value = "bench-out")]
+    output: PathBuf,
+    /// Equal-time mode: measuring times per run, spaced evenly on a log scale over
+    /// the last three decades of the budget (plus the first iteration and the end).
+    #[arg(long, default_value_t = 20)]
+    points: usize,
+    /// Equal-time mode: the seed of every algorithm's run.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
     #[arg(long)]
     threads: Option<usize>,
     #[arg(long = "param", value_name = "KEY=VALUE")]
@@ -280,7 +342,11 @@ fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Render(a) => with_threads(a.threads, || render(&a)),
         Command::Diff { a, b, png } => diff(&a, &b, png.as_deref()),
-        Command::Bench(a) => with_threads(a.threads, || bench(&a)),
+        Command::Reference(a) => with_threads(a.threads, || reference(&a)),
+        Command::Bench(a) => with_threads(a.threads, || match a.time {
+            Some(t) => bench_equal_time(&a, t),
+            None => bench(&a),
+        }),
         Command::Serve(a) => serve(a),
         Command::Submit(a) => submit(a),
         Command::Watch(a) => watch(a),
@@ -353,16 +419,7 @@ fn render(a: &RenderArgs) -> Result<()> {
             time: time.map(Duration::from_secs_f64),
         },
     };
-    let integrator = settings.build();
-    let bar = progress_bar(halt);
-    let out = driver::render(&scene, integrator.as_ref(), a.seed, halt, |i, el| {
-        match halt.iterations {
-            Some(_) => bar.set_position(i),
-            None => bar.set_position(el.as_millis() as u64),
-        }
-        bar.set_message(format!("{i} it"));
-    });
-    bar.finish_and_clear();
+    let out = render_with_progress(&scene, &settings, a.seed, halt, "");
     let image = out.image();
     write_outputs(a, &scene, &image, &out.film.layer_images())?;
     print_summary(
@@ -375,16 +432,79 @@ fn render(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn progress_bar(halt: Halt) -> ProgressBar {
+/// A progress bar over iterations, or over milliseconds for a time budget, with an
+/// optional label in front.
+fn progress_bar(halt: Halt, label: &str) -> ProgressBar {
     let (len, unit) = match (halt.iterations, halt.time) {
         (Some(n), _) => (n, "it"),
         (None, Some(t)) => (t.as_millis() as u64, "ms"),
         _ => (1, "it"),
     };
     let bar = ProgressBar::new(len);
-    let style = format!("{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}} < {{eta}}]");
+    let style =
+        format!("{{prefix}}{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}} < {{eta}}]");
     bar.set_style(ProgressStyle::with_template(&style).expect("template"));
+    if !label.is_empty() {
+        bar.set_prefix(format!("{label} "));
+    }
     bar
+}
+
+/// Advances `bar` after `i` iterations and `elapsed` time.
+fn show_progress(bar: &ProgressBar, by_count: bool, i: u64, elapsed: Duration) {
+    if by_count {
+        bar.set_position(i);
+    } else {
+        bar.set_position(elapsed.as_millis() as u64);
+    }
+    bar.set_message(format!("{i} it"));
+}
+
+/// `driver::render` with a progress bar on stderr.
+fn render_with_progress(
+    scene: &Scene,
+    settings: &Settings,
+    seed: u64,
+    halt: Halt,
+    label: &str,
+) -> driver::RenderOutcome {
+    let integrator = settings.build();
+    let bar = progress_bar(halt, label);
+    let by_count = halt.iterations.is_some();
+    let out = driver::render(scene, integrator.as_ref(), seed, halt, |i, el| {
+        show_progress(&bar, by_count, i, el)
+    });
+    bar.finish_and_clear();
+    out
+}
+
+fn reference(a: &ReferenceArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let settings = Settings::resolve(
+        a.algorithm.as_deref(),
+        scene.integrator.as_ref(),
+        &parse_params(&a.params)?,
+    )?;
+    let halt = Halt {
+        iterations: a.spp,
+        time: a.time.map(Duration::from_secs_f64),
+    };
+    let out = render_with_progress(&scene, &settings, a.seed, halt, "");
+    let image = out.image();
+    film::write_exr(&a.output, &image)?;
+    eprintln!("wrote {}", a.output.display());
+    if let Some(p) = &a.png {
+        film::write_png(p, &image, 0.0)?;
+        eprintln!("wrote {}", p.display());
+    }
+    print_summary(
+        settings.name(),
+        out.iterations,
+        out.elapsed,
+        &out.stats,
+        out.film.dropped(),
+    );
+    Ok(())
 }
 
 /// Writes the image, with the integrator's own layers (technique or strategy parts)
@@ -463,53 +583,202 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The algorithms of `--algorithms`, each resolved against the scene and `--param`.
+fn bench_settings(a: &BenchArgs, scene: &Scene) -> Result<Vec<Settings>> {
+    let params = parse_params(&a.params)?;
+    a.algorithms
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|alg| {
+            Ok(Settings::resolve(
+                Some(alg),
+                scene.integrator.as_ref(),
+                &params,
+            )?)
+        })
+        .collect()
+}
+
+/// Speed: per algorithm, one untimed warm-up iteration, then `--repeat` timed runs of
+/// `--spp` iterations; medians of wall and process CPU time per iteration.
 fn bench(a: &BenchArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
-    let params = parse_params(&a.params)?;
+    let all = bench_settings(a, &scene)?;
     println!(
-        "{:<10} {:>12} {:>14} {:>12} {:>10}",
-        "algorithm", "ms/iteration", "M samples/s", "M rays/s", "dropped"
+        "{:<10} {:>12} {:>15} {:>14} {:>12} {:>10}",
+        "algorithm", "ms/iteration", "CPU s/iteration", "M samples/s", "M rays/s", "dropped"
     );
-    for alg in a.algorithms.split(',').map(str::trim) {
-        let settings = Settings::resolve(Some(alg), scene.integrator.as_ref(), &params)?;
-        let integrator = settings.build();
-        let halt = Halt {
-            iterations: Some(a.spp),
-            time: None,
-        };
-        // One untimed warm-up run, then the timed repeats.
+    let iterations = |n| Halt {
+        iterations: Some(n),
+        time: None,
+    };
+    for settings in all {
         driver::render(
             &scene,
-            integrator.as_ref(),
+            settings.build().as_ref(),
             1,
-            Halt {
-                iterations: Some(1),
-                time: None,
-            },
+            iterations(1),
             |_, _| {},
         );
         let mut ms = Vec::new();
+        let mut cpu = Vec::new();
         let mut sps = Vec::new();
         let mut rps = Vec::new();
         let mut dropped = 0;
         for r in 0..a.repeat.max(1) {
-            let out = driver::render(&scene, integrator.as_ref(), r as u64, halt, |_, _| {});
+            // A fresh integrator per run: algorithms with state start over.
+            let integrator = settings.build();
+            let sw = caustic::bench::Stopwatch::start();
+            let out = driver::render(
+                &scene,
+                integrator.as_ref(),
+                r as u64,
+                iterations(a.spp),
+                |_, _| {},
+            );
+            let (_, cpu_time) = sw.elapsed();
             let secs = out.elapsed.as_secs_f64();
-            ms.push(secs * 1e3 / out.iterations as f64);
+            let n = out.iterations.max(1) as f64;
+            ms.push(secs * 1e3 / n);
+            cpu.push(cpu_time.as_secs_f64() / n);
             sps.push(out.stats.samples as f64 / secs / 1e6);
             rps.push((out.stats.rays + out.stats.shadow_rays) as f64 / secs / 1e6);
             dropped += out.film.dropped();
         }
         println!(
-            "{:<10} {:>12.2} {:>14.3} {:>12.2} {:>10}",
-            alg,
+            "{:<10} {:>12.2} {:>15.4} {:>14.3} {:>12.2} {:>10}",
+            settings.name(),
             median(ms),
+            median(cpu),
             median(sps),
             median(rps),
             dropped
         );
     }
     Ok(())
+}
+
+/// `ALG:SECONDS` of `--reference-from`.
+fn parse_reference_from(s: &str) -> Result<(String, f64)> {
+    let parsed = s
+        .rsplit_once(':')
+        .and_then(|(alg, t)| Some((alg.trim().to_string(), t.trim().parse::<f64>().ok()?)));
+    match parsed {
+        Some((alg, t)) if !alg.is_empty() && t > 0.0 && t.is_finite() => Ok((alg, t)),
+        _ => bail!("--reference-from {s}: expected ALGORITHM:SECONDS, e.g. vcm:3600"),
+    }
+}
+
+/// Equal time: every algorithm runs for `time` seconds of iterations; the error
+/// against the reference is measured at log-spaced times (untimed).
+fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
+    if !(time > 0.0 && time.is_finite()) {
+        bail!("--time {time}: expected a positive number of seconds");
+    }
+    let scene = load_scene(&a.scene)?;
+    let all = bench_settings(a, &scene)?;
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("creating {}", a.output.display()))?;
+    let reference = match (&a.reference, &a.reference_from) {
+        (Some(path), _) => film::read_exr(path)?,
+        (None, Some(spec)) => {
+            let (alg, secs) = parse_reference_from(spec)?;
+            let params = parse_params(&a.params)?;
+            let settings = Settings::resolve(Some(&alg), scene.integrator.as_ref(), &params)?;
+            let halt = Halt {
+                iterations: None,
+                time: Some(Duration::from_secs_f64(secs)),
+            };
+            let seed = a.seed.wrapping_add(1);
+            let out = render_with_progress(&scene, &settings, seed, halt, "reference");
+            let image = out.image();
+            let path = a.output.join("reference.exr");
+            film::write_exr(&path, &image)?;
+            eprintln!(
+                "reference: {alg}, {} iterations in {:.1} s, wrote {}",
+                out.iterations,
+                out.elapsed.as_secs_f64(),
+                path.display()
+            );
+            image
+        }
+        (None, None) => {
+            bail!("--time needs a reference: --reference EXR or --reference-from ALG:SECONDS")
+        }
+    };
+    let plan = caustic::bench::Plan {
+        seed: a.seed,
+        budget: Duration::from_secs_f64(time),
+        points: a.points,
+    };
+    let halt = Halt {
+        iterations: None,
+        time: Some(plan.budget),
+    };
+    let mut runs = Vec::new();
+    for settings in &all {
+        let label = unique_label(settings.name(), &runs);
+        let integrator = settings.build();
+        let bar = progress_bar(halt, &label);
+        let run = caustic::bench::converge(
+            &label,
+            &scene,
+            integrator.as_ref(),
+            &reference,
+            plan,
+            |i, el| show_progress(&bar, false, i, el),
+        )?;
+        bar.finish_and_clear();
+        let path = a.output.join(format!("{label}.exr"));
+        film::write_exr(&path, &run.image())?;
+        runs.push(run);
+    }
+    let csv = a.output.join("bench.csv");
+    caustic::bench::write_csv(&csv, &runs)?;
+    let png = a.output.join("rmse_vs_time.png");
+    let title = format!(
+        "{}: RMSE vs time",
+        a.scene.file_stem().unwrap_or_default().to_string_lossy()
+    );
+    caustic::bench::plot_rmse_vs_time(&png, &title, &runs)?;
+    eprintln!(
+        "wrote {}, {} and the final images in {}",
+        csv.display(),
+        png.display(),
+        a.output.display()
+    );
+    println!(
+        "{:<10} {:>10} {:>9} {:>9} {:>12} {:>12} {:>10} {:>8}",
+        "algorithm", "iterations", "time s", "CPU s", "RMSE", "rel MSE", "M rays/s", "dropped"
+    );
+    for run in &runs {
+        let p = run.last();
+        println!(
+            "{:<10} {:>10} {:>9.2} {:>9.2} {:>12.4e} {:>12.4e} {:>10.2} {:>8}",
+            run.label,
+            p.iteration,
+            p.elapsed_s,
+            p.cpu_s,
+            p.rmse,
+            p.rel_mse,
+            p.rays_per_s() / 1e6,
+            p.dropped
+        );
+    }
+    Ok(())
+}
+
+/// `name`, or `name-2`, `name-3`, ... when earlier runs already use it.
+fn unique_label(name: &str, runs: &[caustic::bench::ConvergenceRun]) -> String {
+    let taken = |l: &str| runs.iter().any(|r| r.label == l);
+    if !taken(name) {
+        return name.to_string();
+    }
+    (2..)
+        .map(|k| format!("{name}-{k}"))
+        .find(|l| !taken(l))
+        .expect("a free label")
 }
 
 fn serve(a: ServeArgs) -> Result<()> {

@@ -281,7 +281,7 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     m.render_ns
         .fetch_add((secs * 1e9) as u64, Ordering::Relaxed);
     status.eta_s = eta(status, rt.per_iter);
-    let rays_per_s = (stats.rays + stats.shadow_rays) as f64 / secs.max(1e-9);
+    let figures = batch_figures(&stats, n, secs, rt.film.sums().len());
     shared.emit(Event::Progress {
         job: status.id.clone(),
         iteration: status.iteration,
@@ -298,7 +298,7 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     };
     let mut done = by_count || by_time;
     if due || done {
-        snapshot(shared, status, rt, rays_per_s)?;
+        snapshot(shared, status, rt, &figures)?;
         done |= spec
             .halt
             .target_rmse
@@ -320,6 +320,26 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     Ok(done)
 }
 
+/// The per-batch figures of a log row: rays per second, and per-iteration means over
+/// the `n` iterations of the batch (the merge radius is the latest iteration's).
+fn batch_figures(
+    stats: &crate::integrator::RenderStats,
+    n: u64,
+    secs: f64,
+    pixels: usize,
+) -> LogRow {
+    let per_iteration = |v: u64| v as f64 / n.max(1) as f64;
+    let per_pixel = |v: u64| per_iteration(v) / pixels.max(1) as f64;
+    LogRow {
+        rays_per_s: (stats.rays + stats.shadow_rays) as f64 / secs.max(1e-9),
+        merge_radius: stats.merge_radius as f64,
+        light_vertices: per_iteration(stats.light_vertices),
+        connections_per_pixel: per_pixel(stats.connections),
+        merges_per_pixel: per_pixel(stats.merges),
+        ..Default::default()
+    }
+}
+
 fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
     let by_count = status
         .spec
@@ -337,14 +357,14 @@ fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
     }
 }
 
-/// Snapshot EXR + PNG, latest.*, a log row with the error against the reference, and
-/// the checkpoint, in that order: once the checkpoint names iteration i, everything up
-/// to i is on disk.
+/// Snapshot EXR + PNG, latest.*, a log row with the error against the reference (and
+/// the batch's `figures`), and the checkpoint, in that order: once the checkpoint
+/// names iteration i, everything up to i is on disk.
 fn snapshot(
     shared: &Shared,
     status: &mut JobStatus,
     rt: &mut Runtime,
-    rays_per_s: f64,
+    figures: &LogRow,
 ) -> Result<(), JobError> {
     let dir = shared.job_dir(&status.id);
     let it = status.iteration;
@@ -368,7 +388,7 @@ fn snapshot(
             rmse: metrics.map(|m| m.rmse),
             rel_mse: metrics.map(|m| m.rel_mse),
             dropped: status.dropped,
-            rays_per_s,
+            ..figures.clone()
         },
     )?;
     Checkpoint {
@@ -439,5 +459,31 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
             job: id.to_string(),
             status: Box::new(status),
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::RenderStats;
+
+    #[test]
+    fn batch_figures_are_per_iteration_means() {
+        let stats = RenderStats {
+            rays: 600,
+            shadow_rays: 400,
+            light_vertices: 3000,
+            connections: 800,
+            merges: 200,
+            merge_radius: 0.5,
+            ..Default::default()
+        };
+        // 4 iterations on a 10-pixel film in 2 seconds.
+        let f = batch_figures(&stats, 4, 2.0, 10);
+        assert_eq!(f.rays_per_s, 500.0);
+        assert_eq!(f.light_vertices, 750.0);
+        assert_eq!(f.connections_per_pixel, 20.0);
+        assert_eq!(f.merges_per_pixel, 5.0);
+        assert_eq!(f.merge_radius, 0.5);
     }
 }

@@ -168,7 +168,8 @@ impl Checkpoint {
     }
 }
 
-/// One row of log.csv.
+/// One row of log.csv: the job at a snapshot. The last five figures describe the batch
+/// of iterations that ended at the snapshot (per iteration, averaged over the batch).
 #[derive(
     Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize, utoipa::ToSchema,
 )]
@@ -179,32 +180,58 @@ pub struct LogRow {
     pub rmse: Option<f64>,
     pub rel_mse: Option<f64>,
     pub dropped: u64,
+    /// Closest-hit plus shadow rays per second.
     pub rays_per_s: f64,
+    /// Merge radius of the latest iteration; 0 for algorithms that do not merge (and
+    /// in logs written before the column existed).
+    #[serde(default)]
+    pub merge_radius: f64,
+    /// Light-subpath vertices (or photons) stored per iteration.
+    #[serde(default)]
+    pub light_vertices: f64,
+    /// Vertex connections per pixel per iteration.
+    #[serde(default)]
+    pub connections_per_pixel: f64,
+    /// Merges per pixel per iteration.
+    #[serde(default)]
+    pub merges_per_pixel: f64,
 }
 
-pub const LOG_HEADER: &str = "iteration,elapsed_s,samples,rmse,rel_mse,dropped,rays_per_s";
+pub const LOG_HEADER: &str = "iteration,elapsed_s,samples,rmse,rel_mse,dropped,rays_per_s,merge_radius,light_vertices,connections_per_pixel,merges_per_pixel";
+
+/// Columns of logs written before the per-iteration figures were added; such rows
+/// still parse, with those figures 0.
+const OLD_COLUMNS: usize = 7;
 
 impl LogRow {
     pub fn csv(&self) -> String {
         let opt = |v: Option<f64>| v.map(|x| format!("{x:.6e}")).unwrap_or_default();
         format!(
-            "{},{:.4},{},{},{},{},{:.0}",
+            "{},{:.4},{},{},{},{},{:.0},{:.6e},{:.1},{:.4},{:.4}",
             self.iteration,
             self.elapsed_s,
             self.samples,
             opt(self.rmse),
             opt(self.rel_mse),
             self.dropped,
-            self.rays_per_s
+            self.rays_per_s,
+            self.merge_radius,
+            self.light_vertices,
+            self.connections_per_pixel,
+            self.merges_per_pixel
         )
     }
 
+    /// A row in the current format, or in the old seven-column one.
     pub fn parse(line: &str) -> Option<LogRow> {
         let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 7 {
+        let columns = LOG_HEADER.split(',').count();
+        if f.len() != columns && f.len() != OLD_COLUMNS {
             return None;
         }
         let opt = |s: &str| if s.is_empty() { None } else { s.parse().ok() };
+        // A figure the row does not have (an old row) is 0.
+        let extra = |i: usize| -> Option<f64> { f.get(i).map_or(Some(0.0), |s| s.parse().ok()) };
         Some(LogRow {
             iteration: f[0].parse().ok()?,
             elapsed_s: f[1].parse().ok()?,
@@ -213,15 +240,24 @@ impl LogRow {
             rel_mse: opt(f[4]),
             dropped: f[5].parse().ok()?,
             rays_per_s: f[6].parse().ok()?,
+            merge_radius: extra(7)?,
+            light_vertices: extra(8)?,
+            connections_per_pixel: extra(9)?,
+            merges_per_pixel: extra(10)?,
         })
     }
 }
 
 /// Appends a row; rows past the checkpoint are dropped on resume (see
 /// [`truncate_log`]), so the log always matches the image.
+/// A log in an older format is first rewritten in the current one, so that the file
+/// keeps one header and one shape of row.
 pub fn append_log(dir: &JobDir, row: &LogRow) -> Result<(), JobError> {
     let path = dir.log_csv();
     let new = !path.exists();
+    if !new && !has_current_header(&path) {
+        write_log(dir, &read_log(dir))?;
+    }
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -255,6 +291,11 @@ pub fn truncate_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> {
         .into_iter()
         .filter(|r| r.iteration <= iteration)
         .collect();
+    write_log(dir, &rows)
+}
+
+/// Replaces log.csv with `rows` in the current format, atomically.
+fn write_log(dir: &JobDir, rows: &[LogRow]) -> Result<(), JobError> {
     let mut text = String::from(LOG_HEADER);
     text.push('\n');
     for r in rows {
@@ -262,6 +303,16 @@ pub fn truncate_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> {
         text.push('\n');
     }
     write_bytes_atomic(&dir.log_csv(), text.as_bytes()).map_err(JobError::from)
+}
+
+fn has_current_header(path: &Path) -> bool {
+    use std::io::BufRead;
+    let Ok(f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut first = String::new();
+    let _ = std::io::BufReader::new(f).read_line(&mut first);
+    first.trim_end() == LOG_HEADER
 }
 
 #[cfg(test)]
@@ -313,6 +364,10 @@ mod tests {
                 rel_mse: None,
                 dropped: 0,
                 rays_per_s: 1e6,
+                merge_radius: 0.25,
+                light_vertices: 1234.0,
+                connections_per_pixel: 3.5,
+                merges_per_pixel: 0.125,
             };
             append_log(&jd, &row).unwrap();
         }
@@ -321,5 +376,69 @@ mod tests {
         let rows = read_log(&jd);
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[1].rmse, Some(0.5));
+        assert_eq!(rows[1].merge_radius, 0.25);
+        assert_eq!(rows[1].light_vertices, 1234.0);
+        assert_eq!(rows[1].connections_per_pixel, 3.5);
+        assert_eq!(rows[1].merges_per_pixel, 0.125);
+    }
+
+    #[test]
+    fn old_seven_column_logs_parse_and_are_upgraded_on_append() {
+        let dir = tempfile::tempdir().unwrap();
+        let jd = JobDir::new(dir.path(), "j");
+        jd.create().unwrap();
+        let old = "iteration,elapsed_s,samples,rmse,rel_mse,dropped,rays_per_s\n\
+                   4,0.5000,262144,1.000000e-1,,0,2000000\n\
+                   8,1.0000,524288,5.000000e-2,2.000000e-3,1,2100000\n";
+        std::fs::write(jd.log_csv(), old).unwrap();
+        let rows = read_log(&jd);
+        assert_eq!(rows.len(), 2);
+        assert_eq!(
+            rows[0],
+            LogRow {
+                iteration: 4,
+                elapsed_s: 0.5,
+                samples: 262144,
+                rmse: Some(0.1),
+                rel_mse: None,
+                dropped: 0,
+                rays_per_s: 2e6,
+                ..Default::default()
+            }
+        );
+        assert_eq!(rows[1].rel_mse, Some(2e-3));
+        assert_eq!(rows[1].merges_per_pixel, 0.0);
+
+        // Appending rewrites the file in the current format first: one header, one shape.
+        let new = LogRow {
+            iteration: 12,
+            merge_radius: 0.01,
+            ..Default::default()
+        };
+        append_log(&jd, &new).unwrap();
+        let text = std::fs::read_to_string(jd.log_csv()).unwrap();
+        assert!(text.starts_with(&format!("{LOG_HEADER}\n")), "{text}");
+        let columns = LOG_HEADER.split(',').count();
+        assert!(
+            text.lines().all(|l| l.split(',').count() == columns),
+            "{text}"
+        );
+        let rows = read_log(&jd);
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[1].rmse, Some(0.05));
+        assert_eq!(rows[2].merge_radius, 0.01);
+
+        // Rows of neither shape are skipped.
+        assert!(LogRow::parse("1,2,3").is_none());
+        assert!(LogRow::parse("1,0.5,10,,,0,5,x,0,0,0").is_none());
+    }
+
+    #[test]
+    fn log_rows_deserialise_from_old_json() {
+        let row: LogRow = serde_json::from_str(
+            r#"{"iteration":1,"elapsed_s":0.1,"samples":9,"rmse":null,"rel_mse":null,"dropped":0,"rays_per_s":5.0}"#,
+        )
+        .unwrap();
+        assert_eq!(row.light_vertices, 0.0);
     }
 }
