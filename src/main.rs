@@ -558,6 +558,17 @@ fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats,
         s.rays,
         s.shadow_rays,
     );
+    if s.light_vertices > 0 || s.merges > 0 || s.connections > 0 {
+        let n = iterations.max(1) as f64;
+        println!(
+            "  per iteration: {:.0} light vertices stored ({:.1} MiB of vertex storage), {:.0} connections, {:.0} merges; last merge radius {:.3e}",
+            s.light_vertices as f64 / n,
+            s.vertex_bytes as f64 / 1048576.0,
+            s.connections as f64 / n,
+            s.merges as f64 / n,
+            s.merge_radius,
+        );
+    }
 }
 
 fn diff(a: &Path, b: &Path, png: Option<&Path>) -> Result<()> {

@@ -69,6 +69,8 @@ pub(crate) struct Chunk {
     ends: Vec<u32>,
     pub splats: Vec<Splat>,
     stats: RenderStats,
+    /// A vertex was not stored because the budget was spent.
+    over_budget: bool,
 }
 
 /// The shading context of a non-specular vertex, for evaluating connections.
@@ -143,6 +145,7 @@ pub(super) fn trace_light_paths(
         chunk.ends.clear();
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
+        chunk.over_budget = false;
         for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
             let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
             trace_one(pass, &mut rng, chunk, budget);
@@ -158,6 +161,12 @@ pub(super) fn trace_light_paths(
         ws.vertices.extend_from_slice(&chunk.vertices);
         ws.path_ends.extend(chunk.ends.iter().map(|e| base + e));
         stats += chunk.stats;
+    }
+    if ws.chunks.iter().any(|c| c.over_budget) {
+        tracing::warn!(
+            "light vertices beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
+            pass.s.max_vertex_mib
+        );
     }
     ws.positions.extend(ws.vertices.iter().map(|v| v.p));
     stats.light_vertices = ws.vertices.len() as u64;
@@ -283,7 +292,9 @@ fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
             cont: pass.continuation(m),
         };
         if !m.is_delta() {
-            if store && chunk.vertices.len() < budget {
+            if store && chunk.vertices.len() >= budget {
+                chunk.over_budget = true;
+            } else if store {
                 chunk.vertices.push(LightVertex {
                     p: it.p,
                     p_err: it.p_err,
