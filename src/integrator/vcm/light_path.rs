@@ -146,11 +146,8 @@ pub(super) fn trace_light_paths(
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
         chunk.over_budget = false;
-        for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-            let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
-            trace_one(pass, &mut rng, chunk, budget);
-            chunk.ends.push(chunk.vertices.len() as u32);
-        }
+        let paths = c * CHUNK..((c + 1) * CHUNK).min(n);
+        trace_chunk(pass, seed, iteration, paths, chunk, budget);
     });
     ws.vertices.clear();
     ws.positions.clear();
@@ -171,6 +168,55 @@ pub(super) fn trace_light_paths(
     ws.positions.extend(ws.vertices.iter().map(|v| v.p));
     stats.light_vertices = ws.vertices.len() as u64;
     stats
+}
+
+/// One chunk of light paths, compiled for AVX2 + FMA processors (chosen at run time)
+/// and for baseline x86-64, as the camera pass is (see `pixels.rs`).
+fn trace_chunk(
+    pass: &Pass,
+    seed: u64,
+    iteration: u64,
+    paths: std::ops::Range<usize>,
+    chunk: &mut Chunk,
+    budget: usize,
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: the features were detected on this processor just above.
+            return unsafe { trace_chunk_avx2(pass, seed, iteration, paths, chunk, budget) };
+        }
+    }
+    trace_chunk_body(pass, seed, iteration, paths, chunk, budget)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+unsafe fn trace_chunk_avx2(
+    pass: &Pass,
+    seed: u64,
+    iteration: u64,
+    paths: std::ops::Range<usize>,
+    chunk: &mut Chunk,
+    budget: usize,
+) {
+    trace_chunk_body(pass, seed, iteration, paths, chunk, budget)
+}
+
+#[inline(always)]
+fn trace_chunk_body(
+    pass: &Pass,
+    seed: u64,
+    iteration: u64,
+    paths: std::ops::Range<usize>,
+    chunk: &mut Chunk,
+    budget: usize,
+) {
+    for i in paths {
+        let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
+        trace_one(pass, &mut rng, chunk, budget);
+        chunk.ends.push(chunk.vertices.len() as u32);
+    }
 }
 
 /// Where a light subpath starts: the ray, its throughput and MIS state, and (for area
@@ -236,6 +282,7 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
     ))
 }
 
+#[inline(always)]
 fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
     let scene = pass.scene;
     let Some((st, es, li, pick)) = start(pass, rng) else {
