@@ -216,14 +216,17 @@ mod tests {
         Accel::build(prims.to_vec(), meta)
     }
 
-    /// The same tree traversed every way it can be: with AVX encodings where the
-    /// processor has them, with SSE only, and with the heap stack of deep trees.
+    /// The same tree traversed every way it can be: with AVX-512 and AVX encodings
+    /// where the processor has them, with SSE only, and with the heap stack of deep
+    /// trees.
     fn variants(prims: &[Prim]) -> Vec<Accel> {
         let mut sse = build(prims);
         sse.tree.disable_avx();
+        let mut avx = build(prims);
+        avx.tree.disable_avx512();
         let mut heap = build(prims);
         heap.tree.force_heap_stack();
-        vec![build(prims), sse, heap]
+        vec![build(prims), avx, sse, heap]
     }
 
     fn random_dir(rng: &mut Rng) -> Vec3 {
