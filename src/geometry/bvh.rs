@@ -218,7 +218,7 @@ mod tests {
 
     /// The same tree traversed every way it can be: with AVX-512 and AVX encodings
     /// where the processor has them, with SSE only, and with the heap stack of deep
-    /// trees.
+    /// trees. The tests give every variant the same rays.
     fn variants(prims: &[Prim]) -> Vec<Accel> {
         let mut sse = build(prims);
         sse.tree.disable_avx();
@@ -331,7 +331,7 @@ mod tests {
         let mut rng = Rng::new(11, 0, 0);
         let prims = random_prims(&mut rng, 3000, 1.0, true);
         for accel in variants(&prims) {
-            check_many(&accel, &prims, &mut rng, 1000);
+            check_many(&accel, &prims, &mut rng.clone(), 1000);
         }
     }
 
@@ -365,6 +365,7 @@ mod tests {
             r: 0.5,
         });
         for accel in variants(&prims) {
+            let mut rng = rng.clone();
             check_many(&accel, &prims, &mut rng, 1000);
             // Aimed at vertices and edge midpoints, where the slab test decides by an
             // ulp whether the box holding the hit is entered (hence Ize's widening).
