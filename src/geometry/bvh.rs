@@ -339,7 +339,7 @@ mod tests {
     /// by many boxes, and axis rays run along them.
     #[test]
     fn agrees_with_brute_force_on_axis_aligned_walls() {
-        let mut rng = Rng::new(12, 0, 0);
+        let rng = Rng::new(12, 0, 0);
         let mut prims = Vec::new();
         for i in -4..4 {
             for j in -4..4 {
