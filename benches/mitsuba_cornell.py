@@ -8,8 +8,21 @@ comparison of issue 2. Not used by the tests.
 Prints milliseconds per sample per pixel: the median over repeats of each spp count,
 after a warm-up render that pays for JIT compilation.
 
-The llvm_* variants need a libLLVM recent enough for Dr.Jit (LLVM 14 aborts with
-"Cannot select ... fminimum"); point DRJIT_LIBLLVM_PATH at a newer one if needed.
+The llvm_* variants need a libLLVM recent enough for Dr.Jit: LLVM 14 and 15 both
+abort with "LLVM ERROR: Cannot select: ... fminimum" (Dr.Jit 1.x emits
+llvm.minimum/maximum, which their x86 backends cannot lower). LLVM 19 from Debian
+bookworm's own archive works. The recipe that ran on Debian 12 (Python 3.11):
+
+    apt-get install libllvm19           # 1:19.1.7-3~deb12u1, bookworm/main
+    python3 -m venv /tmp/mi-venv && /tmp/mi-venv/bin/pip install mitsuba  # 3.9.1
+    DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
+        /tmp/mi-venv/bin/python benches/mitsuba_cornell.py --spp 16 --repeat 5
+
+Dr.Jit runs one worker per core and vectorises to the widest registers it finds
+(16 lanes with AVX-512). It is very sensitive to other load: on a 2-core machine it
+measured 190-220 ms/spp at load average ~8 and 26-65 ms/spp at ~3.5. Compare it with
+caustic alternately, in one session; the CPU time also printed (all threads, per
+spp) is steadier than wall time on a busy machine.
 """
 
 import argparse
@@ -46,13 +59,18 @@ def main():
     for spp in args.spp:
         # Warm-up: the first render at a given spp traces and compiles the kernel.
         finish(mi.render(scene, spp=spp, seed=0))
-        times = []
+        times, cpu = [], []
         for r in range(args.repeat):
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             finish(mi.render(scene, spp=spp, seed=r + 1))
             times.append(time.perf_counter() - start)
+            cpu.append(time.process_time() - start_cpu)
         ms = statistics.median(times) * 1e3 / spp
-        print(f"{args.variant} spp={spp}: {ms:.2f} ms/spp (median of {args.repeat})")
+        ms_cpu = statistics.median(cpu) * 1e3 / spp
+        print(
+            f"{args.variant} spp={spp}: {ms:.2f} ms/spp, CPU {ms_cpu:.2f} ms/spp "
+            f"(medians of {args.repeat})"
+        )
 
 
 if __name__ == "__main__":

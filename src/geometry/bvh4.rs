@@ -13,8 +13,11 @@
 //!   distances are the primitives' own, bit for bit.
 //! - The stack lives on the machine stack, its bound taken from the tree's depth.
 //! - x86_64 needs nothing beyond SSE2; where the processor has AVX the same kernels
-//!   run compiled with its three-operand encodings (fewer register copies), chosen
-//!   once when the tree is built. Other targets use the portable lanes.
+//!   run compiled with its three-operand encodings (fewer register copies), and where
+//!   it has AVX-512VL, compiled again for its 32 vector registers (the ray's nine
+//!   broadcast lanes and the node's planes then stay in registers instead of being
+//!   spilled and reloaded on every node). The kernel is chosen once, when the tree is
+//!   built. Other targets use the portable lanes.
 
 use super::bvh::Hit;
 use super::lanes::{F4, M4};
@@ -70,8 +73,34 @@ pub struct Bvh4 {
     root: u32,
     /// Stack entries a traversal can need: at most three per inner level.
     stack_len: usize,
-    /// Whether to run the kernels compiled for AVX (detected when built).
-    avx: bool,
+    /// Which compilation of the kernels to run (detected when built).
+    isa: Isa,
+}
+
+/// The instruction sets the kernels are compiled for, best last.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Isa {
+    Base,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Avx,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Avx512,
+}
+
+impl Isa {
+    fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl")
+            {
+                return Isa::Avx512;
+            }
+            if std::is_x86_feature_detected!("avx") {
+                return Isa::Avx;
+            }
+        }
+        Isa::Base
+    }
 }
 
 /// Per-ray values shared by every slab and triangle test.
@@ -222,9 +251,11 @@ impl Bvh4 {
     #[inline(always)]
     pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is only set when the processor supports AVX.
-            return unsafe { self.intersect_avx(prims, ray) };
+        match self.isa {
+            // SAFETY: `isa` names only instruction sets detected on this processor.
+            Isa::Avx512 => return unsafe { self.intersect_avx512(prims, ray) },
+            Isa::Avx => return unsafe { self.intersect_avx(prims, ray) },
+            Isa::Base => {}
         }
         self.intersect_base(prims, ray)
     }
@@ -233,9 +264,11 @@ impl Bvh4 {
     #[inline(always)]
     pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            // SAFETY: `avx` is only set when the processor supports AVX.
-            return unsafe { self.occluded_avx(prims, ray) };
+        match self.isa {
+            // SAFETY: `isa` names only instruction sets detected on this processor.
+            Isa::Avx512 => return unsafe { self.occluded_avx512(prims, ray) },
+            Isa::Avx => return unsafe { self.occluded_avx(prims, ray) },
+            Isa::Base => {}
         }
         self.occluded_base(prims, ray)
     }
@@ -268,6 +301,25 @@ impl Bvh4 {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn occluded_avx(&self, prims: &[Prim], ray: &Ray) -> bool {
+        self.any_on_stack(prims, ray)
+    }
+
+    /// The kernels compiled for AVX-512VL: still four lanes, but with 32 vector
+    /// registers.
+    ///
+    /// # Safety
+    /// The processor must support AVX-512F and AVX-512VL.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn intersect_avx512(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        self.closest_on_stack(prims, ray)
+    }
+
+    /// # Safety
+    /// The processor must support AVX-512F and AVX-512VL.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn occluded_avx512(&self, prims: &[Prim], ray: &Ray) -> bool {
         self.any_on_stack(prims, ray)
     }
 
@@ -444,7 +496,14 @@ impl Bvh4 {
     /// Chooses the baseline kernels even where AVX exists.
     #[cfg(test)]
     pub fn disable_avx(&mut self) {
-        self.avx = false;
+        self.isa = Isa::Base;
+    }
+
+    /// Chooses the AVX kernels where AVX-512 exists too (processors without it, such
+    /// as many CI runners, take that path).
+    #[cfg(test)]
+    pub fn disable_avx512(&mut self) {
+        self.isa = self.isa.min(Isa::Avx);
     }
 
     /// A tree over nothing: every ray misses.
@@ -454,7 +513,7 @@ impl Bvh4 {
             tris: Vec::new(),
             root: EMPTY,
             stack_len: 0,
-            avx: avx_detected(),
+            isa: Isa::detect(),
         }
     }
 
@@ -471,13 +530,6 @@ impl Bvh4 {
     pub fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
         build::from_bvh2(bvh, prims)
     }
-}
-
-fn avx_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::is_x86_feature_detected!("avx");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
 }
 
 /// A leaf tested one primitive at a time (spheres, disks, mixed leaves, and leaves of

@@ -23,9 +23,17 @@ pub fn render_pixels<F>(
 where
     F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
-    render_pixels_indexed(scene, seed, iteration, film, |_, ray, rng, stats| {
-        radiance(ray, rng, stats)
-    })
+    // Inlined like the kernel itself: without it this wrapper is a function of its own,
+    // compiled for the baseline target and called per pixel, and the kernel inside it
+    // never gets the AVX2 copy of the tile loop.
+    render_pixels_indexed(
+        scene,
+        seed,
+        iteration,
+        film,
+        #[inline(always)]
+        |_, ray, rng, stats| radiance(ray, rng, stats),
+    )
 }
 
 /// Like [`render_pixels`], also passing the row-major pixel index (bidirectional
