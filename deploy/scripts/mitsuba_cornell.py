@@ -3,7 +3,7 @@
 comparison of issue 2. Not used by the tests.
 
     pip install mitsuba
-    python benches/mitsuba_cornell.py [--variant llvm_ad_rgb] [--spp 16 32 64] [--repeat 5]
+    python deploy/scripts/mitsuba_cornell.py [--variant llvm_ad_rgb] [--spp 16 32 64] [--repeat 5]
 
 Prints milliseconds per sample per pixel: the median over repeats of each spp count,
 after a warm-up render that pays for JIT compilation.
@@ -16,7 +16,7 @@ bookworm's own archive works. The recipe that ran on Debian 12 (Python 3.11):
     apt-get install libllvm19           # 1:19.1.7-3~deb12u1, bookworm/main
     python3 -m venv /tmp/mi-venv && /tmp/mi-venv/bin/pip install mitsuba  # 3.9.1
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
-        /tmp/mi-venv/bin/python benches/mitsuba_cornell.py --spp 16 --repeat 5
+        /tmp/mi-venv/bin/python deploy/scripts/mitsuba_cornell.py --spp 16 --repeat 5
 
 Dr.Jit runs one worker per core and vectorises to the widest registers it finds
 (16 lanes with AVX-512). It is very sensitive to other load: on a 2-core machine it

@@ -4,7 +4,7 @@
 Needs only the standard library and `requests`:
 
     pip install requests
-    python3 examples/sweep.py --url http://127.0.0.1:7878 --scene cornell-box
+    python3 deploy/scripts/sweep.py --url http://127.0.0.1:7878 --scene cornell-box
 
 The sweep renders the scene once as a long reference job, then runs every algorithm
 for each time budget against that reference, and prints one row per job.
