@@ -97,7 +97,8 @@ impl AreaLight {
         }
     }
 
-    #[inline]
+    // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
+    #[inline(always)]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         if let Some((c, r)) = self.visible_sphere(p) {
             return self.sample_sphere_cone(p, c, r, u);

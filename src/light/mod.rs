@@ -55,7 +55,8 @@ pub enum Light {
 
 impl Light {
     /// Samples a direction towards the light from `p`.
-    #[inline]
+    // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
+    #[inline(always)]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match self {
             Light::Area(l) => l.sample_li(p, u),

@@ -73,7 +73,8 @@ impl Material {
         }
     }
 
-    #[inline]
+    // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: Mode) -> Rgb {
         let (wo, wi, _) = orient(self.two_sided(), wo, wi);
         match self {
@@ -87,7 +88,8 @@ impl Material {
         }
     }
 
-    #[inline]
+    // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (wo, wi, _) = orient(self.two_sided(), wo, wi);
         match self {
@@ -99,7 +101,8 @@ impl Material {
     }
 
     /// Samples `wi` given `wo`; `u_lobe` picks a lobe, `u` the direction within it.
-    #[inline]
+    // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         let (wo_o, _, flipped) = orient(self.two_sided(), wo, Vec3::Z);
         let mut s = match self {
