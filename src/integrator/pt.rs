@@ -8,7 +8,7 @@ use crate::film::Film;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::material::{Material, Mode};
 use crate::math::{balance_heuristic, max_component, power_heuristic, Frame, Rgb, Rng, Vec3};
-use crate::scene::Scene;
+use crate::scene::{Scene, Surfacing};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
@@ -125,31 +125,23 @@ impl PathTracer {
         let mut specular = true; // the last event was a delta lobe (or the camera)
         let mut pdf_bsdf = 0.0f32;
         let mut prev_p = ray.o;
-        let mut null_crossings = 0u32;
         loop {
-            let Some(it) = scene.intersect(&ray) else {
-                if !scene.env_lights.is_empty() {
-                    let le = scene.env_radiance(ray.d);
-                    let w = if specular {
-                        1.0
-                    } else {
-                        self.mis(pdf_bsdf, scene.env_pdf(ray.d))
-                    };
-                    l += beta * le * w;
-                }
-                break;
-            };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                // An index-matched boundary is not a scattering event.
-                null_crossings += 1;
-                if null_crossings > 256 {
+            let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
+                Surfacing::Hit(it, m) => (it, m),
+                Surfacing::Escaped => {
+                    if !scene.env_lights.is_empty() {
+                        let le = scene.env_radiance(ray.d);
+                        let w = if specular {
+                            1.0
+                        } else {
+                            self.mis(pdf_bsdf, scene.env_pdf(ray.d))
+                        };
+                        l += beta * le * w;
+                    }
                     break;
                 }
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                stats.rays += 1;
-                continue;
-            }
+                Surfacing::Lost => break,
+            };
             if let Some((li, area)) = scene.area_light(&it) {
                 let le = area.le(it.ng, -ray.d);
                 if le != Rgb::ZERO {

@@ -43,7 +43,7 @@ use crate::integrator::hashgrid::HashGrid;
 use crate::material::{Material, Mode};
 use crate::math::rng::mix64;
 use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec2, Vec3};
-use crate::scene::Scene;
+use crate::scene::{Scene, Surfacing};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
@@ -373,25 +373,18 @@ impl PhotonMapper {
         let mut l = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         let mut depth = 0u32;
-        let mut null_crossings = 0u32;
         loop {
-            let Some(it) = scene.intersect(&ray) else {
-                // Every event so far was a delta lobe: no NEE could have found this.
-                if !scene.env_lights.is_empty() {
-                    l += beta * scene.env_radiance(ray.d);
-                }
-                return (l, None);
-            };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                null_crossings += 1;
-                if null_crossings > 256 {
+            let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
+                Surfacing::Hit(it, m) => (it, m),
+                Surfacing::Escaped => {
+                    // Every event so far was a delta lobe: no NEE could have found this.
+                    if !scene.env_lights.is_empty() {
+                        l += beta * scene.env_radiance(ray.d);
+                    }
                     return (l, None);
                 }
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                stats.rays += 1;
-                continue;
-            }
+                Surfacing::Lost => return (l, None),
+            };
             if let Some((_, area)) = scene.area_light(&it) {
                 l += beta * area.le(it.ng, -ray.d);
             }
@@ -464,21 +457,11 @@ impl PhotonMapper {
         };
         let max_depth = self.s.max_depth;
         let mut depth = 0u32; // scattering events so far
-        let mut null_crossings = 0u32;
         loop {
             out.stats.rays += 1;
-            let Some(it) = scene.intersect(&ray) else {
+            let Surfacing::Hit(it, m) = scene.next_scattering(&mut ray, &mut out.stats.rays) else {
                 return;
             };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                null_crossings += 1;
-                if null_crossings > 256 {
-                    return;
-                }
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                continue;
-            }
             let wo_world = -ray.d;
             if depth >= 1 && !m.is_delta() {
                 out.pos.push(it.p);

@@ -19,6 +19,19 @@ use error::Result;
 use std::path::Path;
 use std::time::Duration;
 
+/// Index-matched boundaries a ray may cross before it is given up as lost (a guard
+/// against rays trapped between coincident null surfaces).
+pub const MAX_NULL_CROSSINGS: u32 = 256;
+
+/// What [`Scene::next_scattering`] found.
+pub enum Surfacing<'a> {
+    Hit(Interaction, &'a Material),
+    /// Left the scene (environment lights apply).
+    Escaped,
+    /// Crossed more than MAX_NULL_CROSSINGS null boundaries.
+    Lost,
+}
+
 /// Per-shape data the integrators need after a hit.
 #[derive(Clone, Debug)]
 pub struct ShapeInfo {
@@ -90,6 +103,25 @@ impl Scene {
         Some(it)
     }
 
+    /// The next point where `ray` scatters: the closest hit that is not an
+    /// index-matched (`null`) boundary, which light passes straight through. `ray` is
+    /// advanced past the boundaries; each extra ray traced is added to `rays`.
+    #[inline(always)]
+    pub fn next_scattering(&self, ray: &mut Ray, rays: &mut u64) -> Surfacing<'_> {
+        for _ in 0..=MAX_NULL_CROSSINGS {
+            let Some(it) = self.intersect(ray) else {
+                return Surfacing::Escaped;
+            };
+            let m = self.material(&it);
+            if !matches!(m, Material::Null) {
+                return Surfacing::Hit(it, m);
+            }
+            *ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, ray.d);
+            *rays += 1;
+        }
+        Surfacing::Lost
+    }
+
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.accel.occluded(ray)
@@ -103,7 +135,7 @@ impl Scene {
             return !self.accel.occluded(ray);
         }
         let mut r = *ray;
-        for _ in 0..256 {
+        for _ in 0..MAX_NULL_CROSSINGS {
             let Some(hit) = self.accel.intersect(&r) else {
                 return true;
             };

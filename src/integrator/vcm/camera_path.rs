@@ -6,8 +6,9 @@ use super::{Pass, Workspace};
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::integrator::RenderStats;
 use crate::light::Light;
-use crate::material::{Material, Mode};
+use crate::material::Mode;
 use crate::math::{Frame, Rgb, Rng, Vec3};
+use crate::scene::Surfacing;
 
 /// Radiance along one camera ray of pixel `pixel`.
 #[inline(always)]
@@ -29,24 +30,17 @@ pub(super) fn radiance(
         specular: true,
     };
     let mut l = Rgb::ZERO;
-    let mut crossings = 0;
     loop {
-        let Some(it) = scene.intersect(&ray) else {
-            let v = walk.throughput * escaped(pass, &walk, ray.d);
-            record(layers, pass.layers.connection(0, walk.len + 1), v);
-            l += v;
-            break;
-        };
-        let m = scene.material(&it);
-        if matches!(m, Material::Null) {
-            crossings += 1;
-            if crossings > 256 {
+        let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
+            Surfacing::Hit(it, m) => (it, m),
+            Surfacing::Escaped => {
+                let v = walk.throughput * escaped(pass, &walk, ray.d);
+                record(layers, pass.layers.connection(0, walk.len + 1), v);
+                l += v;
                 break;
             }
-            ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-            stats.rays += 1;
-            continue;
-        }
+            Surfacing::Lost => break,
+        };
         let cos_in = it.ns.dot(ray.d).abs();
         if cos_in < MIN_COS {
             break;

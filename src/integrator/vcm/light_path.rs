@@ -8,6 +8,7 @@ use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
+use crate::scene::Surfacing;
 use rayon::prelude::*;
 
 /// Light paths per parallel chunk: fixed, so the split never depends on threads.
@@ -300,21 +301,11 @@ fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
     } = st;
     let store = pass.technique.connects() || pass.technique.merges();
     let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
-    let mut crossings = 0;
     loop {
         chunk.stats.rays += 1;
-        let Some(it) = scene.intersect(&ray) else {
+        let Surfacing::Hit(it, m) = scene.next_scattering(&mut ray, &mut chunk.stats.rays) else {
             return;
         };
-        let m = scene.material(&it);
-        if matches!(m, Material::Null) {
-            crossings += 1;
-            if crossings > 256 {
-                return;
-            }
-            ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-            continue;
-        }
         let cos_in = it.ns.dot(ray.d).abs();
         if cos_in < MIN_COS {
             return;
@@ -424,18 +415,19 @@ fn connect_to_camera(
     it: &Interaction,
     surface: &Surface,
 ) {
-    let cam = &pass.scene.camera;
-    let lens = cam.sample_lens(rng.next_2d());
-    let Some(raster) = cam.raster(it.p, lens) else {
+    let Some(LensLink {
+        lens,
+        raster,
+        dir,
+        dist2,
+        camera_pdf,
+    }) = lens_link(pass, rng, it.p)
+    else {
         return;
     };
-    let to_cam = lens - it.p;
-    let dist2 = to_cam.length_squared();
-    let dir = to_cam / dist2.sqrt();
     let Some(e) = surface.eval(dir, Mode::Importance) else {
         return;
     };
-    let camera_pdf = cam.pdf_dir(-dir);
     let camera_a = camera_pdf * e.cos / dist2;
     let w = if pass.technique == super::Technique::Lt {
         1.0
@@ -456,6 +448,34 @@ fn connect_to_camera(
     push_splat(pass, chunk, raster, v, layer);
 }
 
+/// A point connected to a sampled lens point.
+struct LensLink {
+    lens: Vec3,
+    raster: crate::math::Vec2,
+    /// Unit direction from the point towards the lens.
+    dir: Vec3,
+    dist2: f32,
+    /// The camera ray's solid-angle density per unit pixel area.
+    camera_pdf: f32,
+}
+
+#[inline]
+fn lens_link(pass: &Pass, rng: &mut Rng, p: Vec3) -> Option<LensLink> {
+    let cam = &pass.scene.camera;
+    let lens = cam.sample_lens(rng.next_2d());
+    let raster = cam.raster(p, lens)?;
+    let to_cam = lens - p;
+    let dist2 = to_cam.length_squared();
+    let dir = to_cam / dist2.sqrt();
+    Some(LensLink {
+        lens,
+        raster,
+        dir,
+        dist2,
+        camera_pdf: cam.pdf_dir(-dir),
+    })
+}
+
 /// Light tracing alone sees emitters through their own emission: connect the light
 /// path's origin to the lens (other techniques see emitters from the camera side).
 fn splat_emitter(
@@ -469,20 +489,22 @@ fn splat_emitter(
     let Light::Area(area) = &pass.scene.lights[li] else {
         return;
     };
-    let cam = &pass.scene.camera;
-    let lens = cam.sample_lens(rng.next_2d());
-    let Some(raster) = cam.raster(es.p, lens) else {
+    let Some(LensLink {
+        lens,
+        raster,
+        dir,
+        dist2,
+        camera_pdf,
+    }) = lens_link(pass, rng, es.p)
+    else {
         return;
     };
-    let to_cam = lens - es.p;
-    let dist2 = to_cam.length_squared();
-    let dir = to_cam / dist2.sqrt();
     let le = area.le(es.n, dir);
     let cos = es.n.dot(dir).abs();
     if le == Rgb::ZERO || cos <= 0.0 {
         return;
     }
-    let v = le * (cos * cam.pdf_dir(-dir) / (dist2 * pick * es.pdf_pos * pass.light_paths as f32));
+    let v = le * (cos * camera_pdf / (dist2 * pick * es.pdf_pos * pass.light_paths as f32));
     chunk.stats.shadow_rays += 1;
     let ray = spawn_ray_to(
         lens,
