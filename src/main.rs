@@ -409,6 +409,7 @@ fn render(a: &RenderArgs) -> Result<()> {
         scene.integrator.as_ref(),
         &parse_params(&a.params)?,
     )?;
+    settings.check_scene(&scene)?;
     let halt = match (a.spp, a.time) {
         (None, None) => Halt {
             iterations: Some(16),
@@ -485,6 +486,7 @@ fn reference(a: &ReferenceArgs) -> Result<()> {
         scene.integrator.as_ref(),
         &parse_params(&a.params)?,
     )?;
+    settings.check_scene(&scene)?;
     let halt = Halt {
         iterations: a.spp,
         time: a.time.map(Duration::from_secs_f64),
@@ -602,11 +604,9 @@ fn bench_settings(a: &BenchArgs, scene: &Scene) -> Result<Vec<Settings>> {
         .map(str::trim)
         .filter(|s| !s.is_empty())
         .map(|alg| {
-            Ok(Settings::resolve(
-                Some(alg),
-                scene.integrator.as_ref(),
-                &params,
-            )?)
+            let s = Settings::resolve(Some(alg), scene.integrator.as_ref(), &params)?;
+            s.check_scene(scene)?;
+            Ok(s)
         })
         .collect()
 }
@@ -697,6 +697,7 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
             let (alg, secs) = parse_reference_from(spec)?;
             let params = parse_params(&a.params)?;
             let settings = Settings::resolve(Some(&alg), scene.integrator.as_ref(), &params)?;
+            settings.check_scene(&scene)?;
             let halt = Halt {
                 iterations: None,
                 time: Some(Duration::from_secs_f64(secs)),

@@ -12,6 +12,7 @@ mod pixels;
 pub mod pt;
 pub mod sppm;
 pub mod vcm;
+pub mod volpath;
 
 use crate::film::Film;
 use crate::scene::Scene;
@@ -110,6 +111,8 @@ pub trait Integrator: Send + Sync {
 pub enum Settings {
     /// Unidirectional path tracing with next-event estimation and MIS.
     Pt(pt::PtSettings),
+    /// Volumetric path tracing (what `pt` runs on scenes with media).
+    Volpath(volpath::VolpathSettings),
     /// Light tracing: light paths splatted to the camera.
     Lt(vcm::VcmSettings),
     /// Bidirectional path tracing with all (s, t) connections.
@@ -131,7 +134,7 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "normals", "albedo",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "normals", "albedo",
 ];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
@@ -150,6 +153,7 @@ impl Settings {
     pub fn name(&self) -> &'static str {
         match self {
             Settings::Pt(_) => "pt",
+            Settings::Volpath(_) => "volpath",
             Settings::Lt(_) => "lt",
             Settings::Bpt(_) => "bpt",
             Settings::Bpm(_) => "bpm",
@@ -208,9 +212,26 @@ impl Settings {
         Ok(settings)
     }
 
+    /// Refuses algorithms that cannot render what the scene holds (media, for now, are
+    /// rendered by `pt`/`volpath` only; the others would silently ignore them).
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
+        let media_ok = matches!(
+            self,
+            Settings::Pt(_) | Settings::Volpath(_) | Settings::Normals {} | Settings::Albedo {}
+        );
+        if scene.has_media && !media_ok {
+            return Err(SettingsError::Invalid(format!(
+                "`{}` does not render participating media yet; this scene has media (use pt or volpath)",
+                self.name()
+            )));
+        }
+        Ok(())
+    }
+
     fn validate(&self) -> Result<(), SettingsError> {
         match self {
             Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Volpath(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Lt(s) => s
                 .validate(vcm::Technique::Lt)
                 .map_err(SettingsError::Invalid),
@@ -231,6 +252,7 @@ impl Settings {
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
+            Settings::Volpath(s) => Box::new(volpath::VolPath::new(s.clone())),
             Settings::Lt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Lt, s.clone())),
             Settings::Bpt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpt, s.clone())),
             Settings::Bpm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpm, s.clone())),

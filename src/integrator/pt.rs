@@ -200,6 +200,17 @@ impl PathTracer {
 
 impl Integrator for PathTracer {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        if scene.has_media {
+            // Scenes with media get the volumetric path tracer; scenes without pay
+            // nothing for it (not even a branch per ray).
+            let v = super::volpath::VolPath::new(super::volpath::VolpathSettings {
+                max_depth: self.s.max_depth,
+                rr_depth: self.s.rr_depth,
+                heuristic: self.s.heuristic,
+                equiangular: true,
+            });
+            return v.iterate(scene, seed, iteration, film);
+        }
         // Inlined into render_pixels' per-processor copies of the tile loop, so that the
         // whole kernel, not just the loop around it, is compiled with AVX2 and FMA.
         render_pixels(

@@ -257,6 +257,7 @@ impl Service {
             scene.integrator.as_ref(),
             &spec.params,
         )?;
+        settings.check_scene(&scene)?;
         Ok(JobStatus {
             id: self.new_id(),
             settings: serde_json::to_value(&settings).expect("settings serialise"),

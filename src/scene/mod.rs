@@ -4,6 +4,7 @@
 pub mod error;
 pub mod format;
 pub mod load;
+mod media;
 mod shapes;
 pub mod validate;
 
@@ -14,7 +15,8 @@ use crate::camera::Camera;
 use crate::geometry::{Accel, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::Material;
-use crate::math::{Rgb, Vec3};
+use crate::math::{Rgb, Rng, Vec3};
+use crate::medium::Medium;
 use error::Result;
 use std::path::Path;
 use std::time::Duration;
@@ -43,6 +45,19 @@ pub struct ShapeInfo {
     pub flip: bool,
     /// World-space vertex normals, for smooth shading of meshes.
     pub shading: Option<shapes::ShadingNormals>,
+    /// Medium on the side opposite the normal (index into `Scene::media`).
+    pub interior: Option<u32>,
+    /// Medium on the side the normal points to.
+    pub exterior: Option<u32>,
+}
+
+impl ShapeInfo {
+    /// Crossing the shape changes the medium (Mitsuba's rule: a shape that names no
+    /// medium leaves the ray's medium as it was).
+    #[inline]
+    pub fn is_medium_boundary(&self) -> bool {
+        self.interior.is_some() || self.exterior.is_some()
+    }
 }
 
 /// Figures about the compiled scene, printed in render statistics.
@@ -71,6 +86,13 @@ pub struct Scene {
     pub stats: SceneStats,
     /// Any shape has the `null` material (shadow rays must look through it).
     pub has_null: bool,
+    /// Participating media, indexed by `ShapeInfo::interior` / `exterior`.
+    pub media: Vec<Medium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// A shape or the camera refers to a medium: rays must track media. Declared but
+    /// unused media leave this false, and the scene renders as if they did not exist.
+    pub has_media: bool,
 }
 
 impl Scene {
@@ -158,6 +180,73 @@ impl Scene {
             };
         }
         false
+    }
+
+    /// The medium a ray is in after leaving surface point `it` in direction `w`,
+    /// coming from `current`.
+    #[inline]
+    pub fn medium_after(&self, it: &Interaction, w: Vec3, current: Option<u32>) -> Option<u32> {
+        let s = &self.shapes[it.shape as usize];
+        if !s.is_medium_boundary() {
+            current
+        } else if w.dot(it.ng) > 0.0 {
+            s.exterior
+        } else {
+            s.interior
+        }
+    }
+
+    /// Transmittance along a shadow ray (its segment t in (0, tmax), any direction
+    /// length) that starts in `medium`: zero if an opaque surface blocks it; media
+    /// change at boundaries on the way. Estimated with `rng` in heterogeneous media.
+    pub fn transmittance(
+        &self,
+        ray: &Ray,
+        mut medium: Option<u32>,
+        rng: &mut Rng,
+        rays: &mut u64,
+    ) -> Rgb {
+        if !self.has_media {
+            return if self.visible(ray) {
+                Rgb::ONE
+            } else {
+                Rgb::ZERO
+            };
+        }
+        let end = ray.at(ray.tmax);
+        let finite = ray.tmax.is_finite();
+        let mut r = *ray;
+        let mut tr = Rgb::ONE;
+        for _ in 0..MAX_NULL_CROSSINGS {
+            let hit = self.intersect(&r);
+            if let Some(m) = medium {
+                let len = r.d.length();
+                let t_end = hit.as_ref().map_or(r.tmax, |h| (h.p - r.o).length() / len);
+                tr *= self.media[m as usize].transmittance(r.o, r.d / len, t_end * len, rng);
+                if tr == Rgb::ZERO {
+                    return tr;
+                }
+            }
+            let Some(it) = hit else {
+                return tr;
+            };
+            if !matches!(self.material(&it), Material::Null) {
+                return Rgb::ZERO;
+            }
+            medium = self.medium_after(&it, r.d, medium);
+            *rays += 1;
+            let o = crate::geometry::offset_ray_origin(it.p, it.p_err, it.ng, r.d);
+            r = if finite {
+                Ray {
+                    o,
+                    d: end - o,
+                    tmax: 1.0 - crate::geometry::offset::SHADOW_EPSILON,
+                }
+            } else {
+                Ray::new(o, r.d)
+            };
+        }
+        Rgb::ZERO
     }
 
     /// Solid-angle density with which next-event estimation picks an escaping

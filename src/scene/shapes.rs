@@ -388,23 +388,18 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         .map(|(i, k)| (k.as_str(), i as u32))
         .collect();
     let materials: Vec<Material> = file.materials.values().map(material).collect();
-    for (i, s) in file.shapes.iter().enumerate() {
-        let side = match (&s.common.interior, &s.common.exterior) {
-            (Some(_), _) => "interior",
-            (None, Some(_)) => "exterior",
-            (None, None) => continue,
-        };
-        return Err(SceneError::new(
-            format!("shapes[{i}].{side}"),
-            "participating media are not rendered yet by this build",
-        ));
-    }
-    if file.camera.medium.is_some() {
-        return Err(SceneError::new(
-            "camera.medium",
-            "participating media are not rendered yet by this build",
-        ));
-    }
+    let medium_names: BTreeMap<&str, u32> = file
+        .media
+        .keys()
+        .enumerate()
+        .map(|(i, k)| (k.as_str(), i as u32))
+        .collect();
+    let media = file
+        .media
+        .iter()
+        .map(|(name, m)| super::media::medium(&format!("media.{name}"), m, base))
+        .collect::<Result<Vec<_>>>()?;
+    let medium_ref = |m: &Option<String>| m.as_deref().map(|n| medium_names[n]);
     let mut b = Builder {
         base,
         prims: Vec::new(),
@@ -435,6 +430,8 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
             light: light_index,
             flip: s.common.flip_normals,
             shading,
+            interior: medium_ref(&s.common.interior),
+            exterior: medium_ref(&s.common.exterior),
         });
     }
     for (i, l) in file.lights.iter().enumerate() {
@@ -469,7 +466,15 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         .filter(|(_, l)| matches!(l, Light::Constant { .. } | Light::EnvMap(_)))
         .map(|(i, _)| i as u32)
         .collect();
+    let camera_medium = medium_ref(&file.camera.medium);
+    let has_media = camera_medium.is_some()
+        || shapes
+            .iter()
+            .any(|s| s.interior.is_some() || s.exterior.is_some());
     Ok(Scene {
+        media,
+        camera_medium,
+        has_media,
         has_null: shapes
             .iter()
             .any(|s| matches!(materials[s.material as usize], Material::Null)),

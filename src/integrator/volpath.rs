@@ -1,0 +1,460 @@
+//! Volumetric path tracing: the path tracer with participating media. Free flights
+//! come from the medium (closed form when homogeneous, spectral tracking otherwise);
+//! next-event estimation goes through media with their transmittance (ratio tracking
+//! when heterogeneous) and is combined with phase or BSDF sampling by MIS on the
+//! directional densities, the transmittance being estimated independently by each
+//! strategy (as Mitsuba's `volpath` does).
+//!
+//! In homogeneous media, light from point and spot lights is also gathered by
+//! equi-angular sampling along each camera or bounce segment (Kulla and Fajardo 2012,
+//! "Importance sampling techniques for path tracing in participating media", sec. 3),
+//! combined by MIS with the distance-sampled scattering point that connects to the
+//! same light. `pt` runs this integrator when the scene has media.
+
+use super::pixels::render_pixels;
+use super::pt::Heuristic;
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::geometry::offset::SHADOW_EPSILON;
+use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::light::Light;
+use crate::material::{Material, Mode};
+use crate::math::{balance_heuristic, max_component, power_heuristic, Frame, Rgb, Rng, Vec3};
+use crate::medium::{Flight, Homogeneous, Phase};
+use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use serde::{Deserialize, Serialize};
+
+/// Volumetric path tracer parameters.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in scattering events, Mitsuba's meaning (medium events count) |
+/// | `rr_depth` | 5 | scattering events before Russian roulette starts |
+/// | `heuristic` | `power` | MIS weights: `power` (beta = 2) or `balance` |
+/// | `equiangular` | true | equi-angular sampling for point and spot lights in homogeneous media |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VolpathSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub heuristic: Heuristic,
+    pub equiangular: bool,
+}
+
+impl Default for VolpathSettings {
+    fn default() -> Self {
+        VolpathSettings {
+            max_depth: 64,
+            rr_depth: 5,
+            heuristic: Heuristic::Power,
+            equiangular: true,
+        }
+    }
+}
+
+impl VolpathSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// Equi-angular sampling of t on a segment [0, tmax] of a ray towards a point c: the
+/// density is proportional to 1 / |x(t) - c|^2 (Kulla and Fajardo, eq. 6-8).
+#[derive(Clone, Copy, Debug)]
+struct EquiAngular {
+    /// Distance along the ray to the point closest to c.
+    delta: f32,
+    /// Distance of c from the ray's line.
+    h: f32,
+    theta_a: f32,
+    theta_b: f32,
+    tmax: f32,
+}
+
+impl EquiAngular {
+    fn new(ray: &Ray, tmax: f32, c: Vec3) -> Option<Self> {
+        let oc = c - ray.o;
+        let delta = oc.dot(ray.d);
+        let h = (oc - ray.d * delta).length();
+        // On (or numerically on) the line the density degenerates to a spike.
+        if h.is_nan() || h <= 1e-6 * (1.0 + oc.length()) {
+            return None;
+        }
+        let theta_a = (-delta).atan2(h);
+        let theta_b = if tmax.is_finite() {
+            (tmax - delta).atan2(h)
+        } else {
+            std::f32::consts::FRAC_PI_2
+        };
+        (theta_b - theta_a > 1e-7).then_some(EquiAngular {
+            delta,
+            h,
+            theta_a,
+            theta_b,
+            tmax,
+        })
+    }
+
+    #[inline]
+    fn pdf(&self, t: f32) -> f32 {
+        if !(0.0..self.tmax).contains(&t) {
+            return 0.0;
+        }
+        let x = t - self.delta;
+        self.h / ((self.theta_b - self.theta_a) * (self.h * self.h + x * x))
+    }
+
+    #[inline]
+    fn sample(&self, u: f32) -> (f32, f32) {
+        let theta = self.theta_a + u * (self.theta_b - self.theta_a);
+        let t = (self.delta + self.h * theta.tan()).clamp(0.0, self.tmax);
+        (t, self.pdf(t))
+    }
+}
+
+/// Where next-event estimation starts.
+enum At<'a> {
+    Surface {
+        it: &'a Interaction,
+        frame: &'a Frame,
+        wo: Vec3,
+        m: &'a Material,
+    },
+    /// A scattering point in a medium; `seg` is the free-flight segment it was
+    /// sampled on, for equi-angular MIS.
+    Medium {
+        p: Vec3,
+        d: Vec3,
+        phase: &'a Phase,
+        seg: Option<Segment<'a>>,
+    },
+}
+
+/// A homogeneous free-flight segment: the ray, its length, the throughput the flight
+/// was sampled with, and the distance sampled on it.
+#[derive(Clone, Copy)]
+struct Segment<'a> {
+    medium: &'a Homogeneous,
+    ray: Ray,
+    tmax: f32,
+    beta: Rgb,
+    t: f32,
+}
+
+pub struct VolPath {
+    s: VolpathSettings,
+}
+
+impl VolPath {
+    pub fn new(s: VolpathSettings) -> Self {
+        VolPath { s }
+    }
+
+    #[inline]
+    fn mis(&self, a: f32, b: f32) -> f32 {
+        match self.s.heuristic {
+            Heuristic::Power => power_heuristic(a, b),
+            Heuristic::Balance => balance_heuristic(a, b),
+        }
+    }
+
+    /// Position of a light that equi-angular sampling serves (points and spots).
+    fn point_position(light: &Light) -> Option<Vec3> {
+        match light {
+            Light::Point(l) => Some(l.position),
+            Light::Spot(l) => Some(l.position),
+            _ => None,
+        }
+    }
+
+    /// Next-event estimation: one light, transmittance to it, MIS.
+    fn direct(
+        &self,
+        scene: &Scene,
+        at: &At,
+        medium: Option<u32>,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+        let light = &scene.lights[li];
+        let p = match at {
+            At::Surface { it, .. } => it.p,
+            At::Medium { p, .. } => *p,
+        };
+        let Some(ls) = light.sample_li(p, rng.next_2d()) else {
+            return Rgb::ZERO;
+        };
+        let (f, pdf_scatter, ray, start_medium) = match *at {
+            At::Surface { it, frame, wo, m } => {
+                let wi = frame.to_local(ls.wi);
+                if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) {
+                    return Rgb::ZERO;
+                }
+                let ray = if ls.dist.is_finite() {
+                    spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+                } else {
+                    spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+                };
+                let med = scene.medium_after(it, ls.wi, medium);
+                (m.eval(wo, wi, Mode::Radiance), m.pdf(wo, wi), ray, med)
+            }
+            At::Medium { p, d, phase, .. } => {
+                let ph = phase.eval(d, ls.wi);
+                let ray = if ls.dist.is_finite() {
+                    Ray {
+                        o: p,
+                        d: ls.p - p,
+                        tmax: 1.0 - SHADOW_EPSILON,
+                    }
+                } else {
+                    Ray::new(p, ls.wi)
+                };
+                (Rgb::splat(ph), ph, ray, medium)
+            }
+        };
+        if f == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        stats.shadow_rays += 1;
+        let tr = scene.transmittance(&ray, start_medium, rng, &mut stats.shadow_rays);
+        if tr == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let pdf_light = sel_pdf * ls.pdf;
+        let w = if !ls.delta {
+            self.mis(pdf_light, pdf_scatter)
+        } else {
+            self.equiangular_partner(at, light)
+        };
+        f * tr * ls.li * (w / pdf_light)
+    }
+
+    /// MIS weight of a distance-sampled connection to a point or spot light against
+    /// equi-angular sampling of the same segment (1 where that is not used).
+    fn equiangular_partner(&self, at: &At, light: &Light) -> f32 {
+        let At::Medium { seg: Some(seg), .. } = at else {
+            return 1.0;
+        };
+        let Some(c) = Self::point_position(light) else {
+            return 1.0;
+        };
+        let Some(ea) = EquiAngular::new(&seg.ray, seg.tmax, c) else {
+            return 1.0;
+        };
+        self.mis(seg.medium.flight_pdf(seg.t, seg.beta), ea.pdf(seg.t))
+    }
+
+    /// Single scattering towards a point or spot light at an equi-angular distance on
+    /// the segment [0, tmax) of `ray` in homogeneous `med` (beta: the throughput the
+    /// segment's free flight is sampled with). Returns the weighted contribution.
+    #[allow(clippy::too_many_arguments)]
+    fn equiangular(
+        &self,
+        scene: &Scene,
+        med: &Homogeneous,
+        medium: Option<u32>,
+        ray: &Ray,
+        tmax: f32,
+        beta: Rgb,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+        let u = rng.next_f32();
+        let light = &scene.lights[li];
+        let Some(c) = Self::point_position(light) else {
+            return Rgb::ZERO;
+        };
+        let Some(ea) = EquiAngular::new(ray, tmax, c) else {
+            return Rgb::ZERO;
+        };
+        let (t, pdf_t) = ea.sample(u);
+        if pdf_t.is_nan() || pdf_t <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let p = ray.at(t);
+        let Some(ls) = light.sample_li(p, rng.next_2d()) else {
+            return Rgb::ZERO;
+        };
+        let ph = med.phase.eval(ray.d, ls.wi);
+        let scatter = med.transmittance(t) * med.sigma_s * ph;
+        if scatter == Rgb::ZERO || ls.li == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        stats.shadow_rays += 1;
+        let shadow = Ray {
+            o: p,
+            d: ls.p - p,
+            tmax: 1.0 - SHADOW_EPSILON,
+        };
+        let tr = scene.transmittance(&shadow, medium, rng, &mut stats.shadow_rays);
+        let w = self.mis(pdf_t, med.flight_pdf(t, beta));
+        beta * scatter * tr * ls.li * (w / (sel_pdf * pdf_t))
+    }
+
+    /// Radiance along one camera ray.
+    fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
+        let equi = self.s.equiangular
+            && scene
+                .lights
+                .iter()
+                .any(|l| Self::point_position(l).is_some());
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32;
+        let mut specular = true;
+        let mut pdf_dir = 0.0f32;
+        let mut prev_p = ray.o;
+        let mut medium = scene.camera_medium;
+        let mut crossings = 0u32;
+        loop {
+            let hit = scene.intersect(&ray);
+            if let Some(mi) = medium {
+                let med = &scene.media[mi as usize];
+                let tmax = hit
+                    .as_ref()
+                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
+                let homog = med.as_homogeneous();
+                if let (true, Some(h)) = (equi && depth + 1 < self.s.max_depth, homog) {
+                    l += self.equiangular(scene, h, medium, &ray, tmax, beta, rng, stats);
+                }
+                let beta_flight = beta;
+                match med.sample_flight(ray.o, ray.d, tmax, beta, rng) {
+                    Flight::Scatter { t, weight } => {
+                        beta *= weight;
+                        if depth + 1 >= self.s.max_depth {
+                            break;
+                        }
+                        let p = ray.at(t);
+                        let seg = homog.filter(|_| equi).map(|h| Segment {
+                            medium: h,
+                            ray,
+                            tmax,
+                            beta: beta_flight,
+                            t,
+                        });
+                        let phase = med.phase();
+                        if !scene.lights.is_empty() {
+                            let at = At::Medium {
+                                p,
+                                d: ray.d,
+                                phase,
+                                seg,
+                            };
+                            l += beta * self.direct(scene, &at, medium, rng, stats);
+                        }
+                        let (wi, pdf) = phase.sample(ray.d, rng.next_2d());
+                        specular = false;
+                        pdf_dir = pdf;
+                        prev_p = p;
+                        depth += 1;
+                        if !self.roulette(depth, &mut beta, rng) {
+                            break;
+                        }
+                        ray = Ray::new(p, wi);
+                        stats.rays += 1;
+                        crossings = 0;
+                        continue;
+                    }
+                    Flight::Pass { weight } => beta *= weight,
+                    Flight::Absorbed => break,
+                }
+            }
+            let Some(it) = hit else {
+                if !scene.env_lights.is_empty() {
+                    let le = scene.env_radiance(ray.d);
+                    let w = if specular {
+                        1.0
+                    } else {
+                        self.mis(pdf_dir, scene.env_pdf(ray.d))
+                    };
+                    l += beta * le * w;
+                }
+                break;
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                crossings += 1;
+                if crossings > MAX_NULL_CROSSINGS {
+                    break;
+                }
+                medium = scene.medium_after(&it, ray.d, medium);
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                stats.rays += 1;
+                continue;
+            }
+            if let Some((li, area)) = scene.area_light(&it) {
+                let le = area.le(it.ng, -ray.d);
+                if le != Rgb::ZERO {
+                    let w = if specular {
+                        1.0
+                    } else {
+                        let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
+                        self.mis(pdf_dir, pdf_l)
+                    };
+                    l += beta * le * w;
+                }
+            }
+            if depth + 1 >= self.s.max_depth {
+                break;
+            }
+            let frame = Frame::from_normal(it.ns);
+            let wo = frame.to_local(-ray.d);
+            if !m.is_delta() && !scene.lights.is_empty() {
+                let at = At::Surface {
+                    it: &it,
+                    frame: &frame,
+                    wo,
+                    m,
+                };
+                l += beta * self.direct(scene, &at, medium, rng, stats);
+            }
+            let u_lobe = rng.next_f32();
+            let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+                break;
+            };
+            let wi = frame.to_world(s.wi);
+            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+                break;
+            }
+            beta *= s.weight;
+            specular = s.delta;
+            pdf_dir = s.pdf;
+            prev_p = it.p;
+            depth += 1;
+            if !self.roulette(depth, &mut beta, rng) {
+                break;
+            }
+            medium = scene.medium_after(&it, wi, medium);
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            stats.rays += 1;
+            crossings = 0;
+        }
+        l
+    }
+
+    /// Russian roulette on the throughput after `rr_depth` events; false ends the path.
+    #[inline]
+    fn roulette(&self, depth: u32, beta: &mut Rgb, rng: &mut Rng) -> bool {
+        if depth >= self.s.rr_depth {
+            let q = max_component(*beta).min(0.95);
+            if rng.next_f32() >= q {
+                return false;
+            }
+            *beta /= q;
+        }
+        *beta != Rgb::ZERO
+    }
+}
+
+impl Integrator for VolPath {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        render_pixels(scene, seed, iteration, film, |ray, rng, stats| {
+            self.li(scene, ray, rng, stats)
+        })
+    }
+}

@@ -1,0 +1,73 @@
+//! Participating media: homogeneous (closed form), heterogeneous grids and procedural
+//! noise (null-collision tracking over a majorant grid), and phase functions.
+//!
+//! Media are attached to shapes (`interior` / `exterior`) and to the camera, as in
+//! Mitsuba; the compiled scene tracks which medium a ray is in. All distances here are
+//! world-space lengths along unit directions.
+
+pub mod grid_io;
+mod heterogeneous;
+mod homogeneous;
+pub mod noise;
+mod phase;
+pub mod voxels;
+
+pub use heterogeneous::Heterogeneous;
+pub use homogeneous::{channel_probabilities, Homogeneous};
+pub use phase::Phase;
+
+use crate::math::{Rgb, Rng, Vec3};
+
+/// Outcome of free-flight sampling along a segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Flight {
+    /// A real scattering event at distance t; multiply the throughput by `weight`
+    /// (which already holds sigma_s / pdf).
+    Scatter { t: f32, weight: Rgb },
+    /// The flight reached the end of the segment; multiply the throughput by `weight`.
+    Pass { weight: Rgb },
+    /// The path ends here (a medium that only absorbs where the flight stopped).
+    Absorbed,
+}
+
+#[derive(Clone, Debug)]
+pub enum Medium {
+    Homogeneous(Homogeneous),
+    Heterogeneous(Box<Heterogeneous>),
+}
+
+impl Medium {
+    #[inline]
+    pub fn phase(&self) -> &Phase {
+        match self {
+            Medium::Homogeneous(m) => &m.phase,
+            Medium::Heterogeneous(m) => &m.phase,
+        }
+    }
+
+    /// Samples the first interaction along o + t d (unit d), t in [0, tmax).
+    #[inline]
+    pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
+        match self {
+            Medium::Homogeneous(m) => m.sample_flight(tmax, beta, rng),
+            Medium::Heterogeneous(m) => m.sample_flight(o, d, tmax, beta, rng),
+        }
+    }
+
+    /// Transmittance over t in [0, tmax]: exact for homogeneous media, an unbiased
+    /// estimate otherwise.
+    #[inline]
+    pub fn transmittance(&self, o: Vec3, d: Vec3, tmax: f32, rng: &mut Rng) -> Rgb {
+        match self {
+            Medium::Homogeneous(m) => m.transmittance(tmax),
+            Medium::Heterogeneous(m) => m.transmittance(o, d, tmax, rng),
+        }
+    }
+
+    pub fn as_homogeneous(&self) -> Option<&Homogeneous> {
+        match self {
+            Medium::Homogeneous(m) => Some(m),
+            Medium::Heterogeneous(_) => None,
+        }
+    }
+}
