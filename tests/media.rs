@@ -513,3 +513,26 @@ fn bad_media_are_refused_with_their_path() {
         assert!(err.starts_with(path), "{media}: {err}");
     }
 }
+
+#[test]
+fn lights_know_the_medium_they_emit_into() {
+    let mut v: Value =
+        serde_json::from_str(&std::fs::read_to_string("scenes/cornell-box.json").unwrap()).unwrap();
+    v["materials"]["boundary"] = json!({"type": "null"});
+    v["media"] =
+        json!({"fog": {"type": "homogeneous", "sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5]}});
+    v["shapes"].as_array_mut().unwrap().push(
+        json!({"type": "cube", "material": "boundary", "interior": "fog",
+                     "transform": {"scale": 1.001}}),
+    );
+    v["lights"] = json!([
+        {"type": "point", "position": [0.2, 0.5, 0.1], "intensity": [1, 1, 1]},
+        {"type": "point", "position": [0, 0, 3], "intensity": [1, 1, 1]}
+    ]);
+    let scene = compile(v);
+    // The ceiling's area light (inside the fog cube, on a shape that is no boundary),
+    // a point inside and a point outside.
+    assert_eq!(scene.light_media, vec![Some(0), Some(0), None]);
+    assert_eq!(scene.medium_at(Vec3::new(0.0, 0.0, 0.5)), Some(0));
+    assert_eq!(scene.medium_at(Vec3::new(0.0, 0.0, 1.5)), None);
+}

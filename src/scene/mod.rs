@@ -93,6 +93,8 @@ pub struct Scene {
     /// A shape or the camera refers to a medium: rays must track media. Declared but
     /// unused media leave this false, and the scene renders as if they did not exist.
     pub has_media: bool,
+    /// The medium each light emits into (index as `lights`), for light tracing.
+    pub light_media: Vec<Option<u32>>,
 }
 
 impl Scene {
@@ -194,6 +196,36 @@ impl Scene {
         } else {
             s.interior
         }
+    }
+
+    /// The medium at point `p`, found by walking a ray to the first medium boundary
+    /// (any direction works when boundaries are closed). A point outside every
+    /// boundary is in vacuum, unless the scene has no boundaries at all: then it is in
+    /// the camera's (unbounded) medium.
+    pub fn medium_at(&self, p: Vec3) -> Option<u32> {
+        if !self.has_media {
+            return None;
+        }
+        if !self.shapes.iter().any(|s| s.is_medium_boundary()) {
+            return self.camera_medium;
+        }
+        // An irrational-looking direction, to avoid grazing edges of axis-aligned boxes.
+        let d = Vec3::new(0.2718, 0.5772, 0.7705).normalize();
+        let mut ray = Ray::new(p, d);
+        for _ in 0..4 * MAX_NULL_CROSSINGS {
+            let it = self.intersect(&ray)?;
+            let s = &self.shapes[it.shape as usize];
+            if s.is_medium_boundary() {
+                // Leaving through the boundary means we were on its inner side.
+                return if d.dot(it.ng) > 0.0 {
+                    s.interior
+                } else {
+                    s.exterior
+                };
+            }
+            ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, d);
+        }
+        None
     }
 
     /// Transmittance along a shadow ray (its segment t in (0, tmax), any direction

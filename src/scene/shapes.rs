@@ -471,7 +471,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         || shapes
             .iter()
             .any(|s| s.interior.is_some() || s.exterior.is_some());
-    Ok(Scene {
+    let mut scene = Scene {
         media,
         camera_medium,
         has_media,
@@ -488,5 +488,32 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         sphere,
         integrator: file.integrator.clone(),
         stats: b.stats,
-    })
+        light_media: Vec::new(),
+    };
+    scene.light_media = (0..scene.lights.len())
+        .map(|i| light_medium(&scene, i))
+        .collect();
+    Ok(scene)
+}
+
+/// The medium a light emits into: an area light on a medium boundary emits into the
+/// medium on its normal side; other lights sit in whatever medium surrounds them.
+fn light_medium(scene: &Scene, i: usize) -> Option<u32> {
+    if !scene.has_media {
+        return None;
+    }
+    match &scene.lights[i] {
+        Light::Area(a) => {
+            let shape = &scene.shapes[a.shape as usize];
+            if shape.is_medium_boundary() {
+                return shape.exterior;
+            }
+            let (p, n) = a.sample_area(0.5, crate::math::Vec2::splat(0.5));
+            scene.medium_at(p + n * 1e-4 * (1.0 + p.abs().max_element()))
+        }
+        Light::Point(l) => scene.medium_at(l.position),
+        Light::Spot(l) => scene.medium_at(l.position),
+        // Light from infinity arrives through whatever surrounds the scene.
+        _ => scene.medium_at(scene.sphere.center + Vec3::Y * 2.0 * scene.sphere.radius),
+    }
 }
