@@ -11,5 +11,6 @@ pub mod job;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod medium;
 pub mod scene;
 pub mod server;
