@@ -54,12 +54,12 @@ def smoke_room():
     for k in ("large-box", "small-box"):
         d.pop(k, None)
     # The 64^3 grid of scenes/media/smoke.vol placed as in smoke-room.json.
-    lo, hi = [-0.6, -1.0, -0.6], [0.6, 0.8, 0.6]
+    lo, hi = [-0.6, -0.99, -0.6], [0.6, 0.81, 0.6]
     scale = [h - l for l, h in zip(lo, hi)]
     to_world = mi.ScalarTransform4f().translate(lo).scale(scale)
     d["smoke"] = {
         "type": "cube",
-        "to_world": mi.ScalarTransform4f().translate([0.0, -0.1, 0.0]).scale([0.6, 0.9, 0.6]),
+        "to_world": mi.ScalarTransform4f().translate([0.0, -0.09, 0.0]).scale([0.6, 0.9, 0.6]),
         "bsdf": {"type": "null"},
         "interior": {
             "type": "heterogeneous",
@@ -68,7 +68,7 @@ def smoke_room():
                 "filename": os.path.join(SCENES, "smoke.vol"),
                 "to_world": to_world,
             },
-            "scale": 8.0,
+            "scale": 25.0,
             "albedo": 0.9,
         },
     }
