@@ -84,7 +84,9 @@ pub struct Scene {
     /// Default integrator settings from the scene file.
     pub integrator: Option<serde_json::Value>,
     pub stats: SceneStats,
-    /// Any shape has the `null` material (shadow rays must look through it).
+    /// The tree holds index-matched (`null`) boundaries (only scenes with media keep
+    /// them: elsewhere they change nothing and are left out), so shadow rays must
+    /// look through them.
     pub has_null: bool,
     /// Participating media, indexed by `ShapeInfo::interior` / `exterior`.
     pub media: Vec<Medium>,
