@@ -12,7 +12,7 @@ pub use error::SceneError;
 pub use format::SceneFile;
 
 use crate::camera::Camera;
-use crate::geometry::{Accel, Interaction, Ray};
+use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};
@@ -116,8 +116,21 @@ impl Scene {
     /// Closest surface along the ray, with normals on the shape's front side.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<Interaction> {
-        let hit = self.accel.intersect(ray)?;
-        let mut it = self.accel.interaction(ray, &hit);
+        let hit = self.hit(ray)?;
+        Some(self.interaction(ray, &hit))
+    }
+
+    /// Distance and primitive of the closest hit only; [`Scene::interaction`] makes
+    /// the surface point when it is needed (a free flight often ends before it).
+    #[inline(always)]
+    pub fn hit(&self, ray: &Ray) -> Option<Hit> {
+        self.accel.intersect(ray)
+    }
+
+    /// The surface point of a hit, with the shape's normal flip and shading normals.
+    #[inline(always)]
+    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> Interaction {
+        let mut it = self.accel.interaction(ray, hit);
         let shape = &self.shapes[it.shape as usize];
         if shape.flip {
             it.ng = -it.ng;
@@ -126,7 +139,7 @@ impl Scene {
             Some(s) => s.normal(it.local, hit.uv, it.ng),
             None => it.ng,
         };
-        Some(it)
+        it
     }
 
     /// The next point where `ray` scatters: the closest hit that is not an
@@ -252,18 +265,19 @@ impl Scene {
         let mut r = *ray;
         let mut tr = Rgb::ONE;
         for _ in 0..MAX_NULL_CROSSINGS {
-            let hit = self.intersect(&r);
+            let hit = self.hit(&r);
             if let Some(m) = medium {
                 let len = r.d.length();
-                let t_end = hit.as_ref().map_or(r.tmax, |h| (h.p - r.o).length() / len);
+                let t_end = hit.as_ref().map_or(r.tmax, |h| h.t);
                 tr *= self.media[m as usize].transmittance(r.o, r.d / len, t_end * len, rng);
                 if tr == Rgb::ZERO {
                     return tr;
                 }
             }
-            let Some(it) = hit else {
+            let Some(hit) = hit else {
                 return tr;
             };
+            let it = self.interaction(&r, &hit);
             if !matches!(self.material(&it), Material::Null) {
                 return Rgb::ZERO;
             }
