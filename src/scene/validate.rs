@@ -404,7 +404,10 @@ fn validate_shape(scene: &SceneFile, path: &str, s: &ShapeDesc) -> Result<()> {
     }
     if let Some(e) = &c.emission {
         non_negative3(&format!("{path}.emission.radiance"), e.radiance)?;
-        if matches!(scene.materials.get(&c.material), Some(MaterialDesc::Null {})) {
+        if matches!(
+            scene.materials.get(&c.material),
+            Some(MaterialDesc::Null {})
+        ) {
             return Err(SceneError::new(
                 format!("{path}.emission"),
                 "a `null` (index-matched) boundary cannot emit: rays pass through it unseen",
