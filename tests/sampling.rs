@@ -2203,7 +2203,10 @@ fn phase_sampling_matches_pdf_chi2() {
                 assert!(pdf > 0.0 && pdf.is_finite(), "{name}: pdf {pdf}");
                 // At the g = 0.99 spike an f32 direction fixes 1 - mu only to ~1e-3
                 // relative, and the density depends on it steeply.
-                assert!((pdf - p.eval(d, wi)).abs() <= 1e-2 * pdf, "{name}: pdf != eval");
+                assert!(
+                    (pdf - p.eval(d, wi)).abs() <= 1e-2 * pdf,
+                    "{name}: pdf != eval"
+                );
                 Some(wi)
             },
             |wi| p.eval(d, wi) as f64,
@@ -2211,7 +2214,11 @@ fn phase_sampling_matches_pdf_chi2() {
         );
         assert_chi2(&name, &t.chi2);
         if spike.is_none() {
-            assert!((t.integral - 1.0).abs() < 2e-3, "{name}: integral {}", t.integral);
+            assert!(
+                (t.integral - 1.0).abs() < 2e-3,
+                "{name}: integral {}",
+                t.integral
+            );
             assert_eq!(t.failures, 0);
         }
     }
