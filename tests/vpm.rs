@@ -211,7 +211,7 @@ fn assert_converges(name: &str, scene: &Scene, r: &Reference, params: Value) {
         c.stats.merges / iterations
     );
     eprintln!(
-        "  RMSE at n = {NS:?}: {:?}\n  log-log slope {slope:.3} (expected between -0.5 and {slowest:.3})",
+        "  RMSE at n = {NS:?}: {:?}\n  log-log slope {slope:.3} (expected in [-0.5, {slowest:.3}] +- {SLOPE_SLACK})",
         c.rmse.iter().map(|v| format!("{v:.5}")).collect::<Vec<_>>()
     );
     assert!(

@@ -74,10 +74,13 @@
 //! where the Morton codes change their highest differing bit (the LBVH split, an
 //! octree-like hierarchy), leaves of a few photons; every photon has the same
 //! radius in an iteration, so nodes store point bounds and the ray is tested against
-//! them grown by r. A BVH bounds a segment query by the photons near the segment;
-//! walking hash-grid cells along the ray would need a 3D DDA dilated by r through a
-//! hashed table whose slots alias far-away cells, and obvhs's builders target
-//! triangles and give no promise that a parallel build is thread-count independent.
+//! them grown by r. A BVH bounds a segment query by the photons near the segment and
+//! fixes the order in which they are summed. Walking hash-grid cells along the ray
+//! would need a 3D DDA dilated by r through a hashed table whose slots alias far-away
+//! cells. obvhs could build over photon boxes, but its PLOC builder divides the work
+//! by `rayon::current_num_threads()`, so its tree (and with it the summation order,
+//! and the image bits) would not obviously be thread-count independent; a Morton sort
+//! with unique keys is, and building it costs one parallel sort per iteration.
 //!
 //! ## Determinism
 //! Photon paths run in fixed chunks, each with its own RNG stream per path; chunks are
@@ -226,7 +229,7 @@ struct Photon {
     p: Vec3,
     /// Direction the light travelled before scattering here (the phase function's `d`).
     d: Vec3,
-    /// Power: flux per emitted path, times sigma_s / (free-flight density) of the flight
+    /// Power: flux per emitted path, times the weight sigma_s T / pdf of the free flight
     /// that ended here.
     beta: Rgb,
     medium: u32,
@@ -344,53 +347,26 @@ impl Vpm {
     /// One photon path: free flights through media, photons stored where they scatter
     /// in one, BSDF sampling at surfaces.
     fn trace_photon(&self, scene: &Scene, rng: &mut Rng, out: &mut Chunk, budget: usize) {
-        let Some((mut ray, mut beta, mut medium)) = emit(scene, rng) else {
+        let Some((mut ray, beta, mut medium)) = emit(scene, rng) else {
             return;
         };
-        let max_depth = self.s.max_depth;
-        let mut depth = 0u32;
+        let mut walk = PhotonWalk { beta, depth: 0 };
         let mut crossings = 0u32;
         loop {
             out.stats.rays += 1;
             let hit = scene.intersect(&ray);
             if let Some(mi) = medium {
-                let med = &scene.media[mi as usize];
                 let tmax = hit
                     .as_ref()
                     .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
-                match med.sample_flight(ray.o, ray.d, tmax, beta, rng) {
-                    Flight::Scatter { t, weight } => {
-                        let before = beta;
-                        beta *= weight;
-                        let p = ray.at(t);
-                        // A camera segment reached directly (j = 0) needs k + 2 <= max_depth.
-                        if depth + 2 <= max_depth {
-                            if out.photons.len() < budget {
-                                out.photons.push(Photon {
-                                    p,
-                                    d: ray.d,
-                                    beta,
-                                    medium: mi,
-                                    depth,
-                                });
-                            } else {
-                                out.over_budget = true;
-                            }
-                        }
-                        if depth + 3 > max_depth {
-                            return;
-                        }
-                        let (wi, _) = med.phase().sample(ray.d, rng.next_2d());
-                        depth += 1;
-                        if !photon_roulette(before, &mut beta, rng) {
-                            return;
-                        }
-                        ray = Ray::new(p, wi);
+                match self.photon_flight(scene, mi, &ray, tmax, &mut walk, rng, out, budget) {
+                    Flown::Scattered(next) => {
+                        ray = next;
                         crossings = 0;
                         continue;
                     }
-                    Flight::Pass { weight } => beta *= weight,
-                    Flight::Absorbed => return,
+                    Flown::Passed => {}
+                    Flown::Ended => return,
                 }
             }
             let Some(it) = hit else {
@@ -407,22 +383,69 @@ impl Vpm {
                 continue;
             }
             // Photons stored after this bounce have k >= depth + 1.
-            if depth + 3 > max_depth {
+            if walk.depth + 3 > self.s.max_depth {
                 return;
             }
             let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
                 return;
             };
-            let before = beta;
-            beta *= weight;
-            depth += 1;
-            if !photon_roulette(before, &mut beta, rng) {
+            if !walk.scatter(weight, rng) {
                 return;
             }
             medium = scene.medium_after(&it, wi, medium);
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
             crossings = 0;
         }
+    }
+
+    /// A photon's free flight over [0, tmax) of `ray` in medium `mi`; stores a photon
+    /// where it scatters.
+    #[allow(clippy::too_many_arguments)]
+    fn photon_flight(
+        &self,
+        scene: &Scene,
+        mi: u32,
+        ray: &Ray,
+        tmax: f32,
+        walk: &mut PhotonWalk,
+        rng: &mut Rng,
+        out: &mut Chunk,
+        budget: usize,
+    ) -> Flown {
+        let med = &scene.media[mi as usize];
+        let (t, weight) = match med.sample_flight(ray.o, ray.d, tmax, walk.beta, rng) {
+            Flight::Scatter { t, weight } => (t, weight),
+            Flight::Pass { weight } => {
+                walk.beta *= weight;
+                return Flown::Passed;
+            }
+            Flight::Absorbed => return Flown::Ended,
+        };
+        let p = ray.at(t);
+        let stored = walk.beta * weight;
+        // A camera segment reached directly (j = 0) needs k + 2 <= max_depth.
+        if walk.depth + 2 <= self.s.max_depth {
+            if out.photons.len() < budget {
+                out.photons.push(Photon {
+                    p,
+                    d: ray.d,
+                    beta: stored,
+                    medium: mi,
+                    depth: walk.depth,
+                });
+            } else {
+                out.over_budget = true;
+            }
+        }
+        if walk.depth + 3 > self.s.max_depth {
+            return Flown::Ended;
+        }
+        let (wi, _) = med.phase().sample(ray.d, rng.next_2d());
+        // The phase function is sampled exactly: its weight is 1.
+        if !walk.scatter(weight, rng) {
+            return Flown::Ended;
+        }
+        Flown::Scattered(Ray::new(p, wi))
     }
 
     /// Radiance along one camera ray (module notes: media from photons, surfaces path
@@ -681,16 +704,37 @@ fn photon_bounce(
     corr.is_finite().then_some((wi, s.weight * corr))
 }
 
-/// Photon roulette with survival (new power) / (old power), so that survivors keep
-/// about the power they had; false ends the path.
-#[inline]
-fn photon_roulette(before: Rgb, beta: &mut Rgb, rng: &mut Rng) -> bool {
-    let q = (max_component(*beta) / max_component(before)).min(1.0);
-    if q.is_nan() || rng.next_f32() >= q {
-        return false;
+/// How a photon's free flight through a medium ended.
+enum Flown {
+    /// It scattered (a photon was stored) and goes on along this ray.
+    Scattered(Ray),
+    /// It reached the end of the segment (the next surface, or nothing).
+    Passed,
+    /// It was absorbed, rouletted away or reached the depth limit.
+    Ended,
+}
+
+/// A photon path between events: its power and the scattering events so far.
+struct PhotonWalk {
+    beta: Rgb,
+    depth: u32,
+}
+
+impl PhotonWalk {
+    /// A scattering event multiplies the power by `weight`, then Russian roulette with
+    /// survival (new power) / (old power) lets survivors keep about the power they had
+    /// (the best case for a density estimate); false ends the path.
+    #[inline]
+    fn scatter(&mut self, weight: Rgb, rng: &mut Rng) -> bool {
+        let new = self.beta * weight;
+        self.depth += 1;
+        let q = (max_component(new) / max_component(self.beta)).min(1.0);
+        if q.is_nan() || rng.next_f32() >= q {
+            return false;
+        }
+        self.beta = new / q;
+        self.beta != Rgb::ZERO && self.beta.is_finite()
     }
-    *beta /= q;
-    *beta != Rgb::ZERO && beta.is_finite()
 }
 
 /// Next-event estimation at a surface: one light, one shadow ray through media. Light
@@ -763,8 +807,15 @@ impl Integrator for Vpm {
             self.li(scene, &g, ray, rng, st)
         });
         stats.merge_radius = radius;
-        stats.vertex_bytes =
-            (ws.photons.capacity() * std::mem::size_of::<Photon>() + index_bytes) as u64;
+        let chunk_bytes: usize = ws
+            .chunks
+            .iter()
+            .map(|c| c.photons.capacity())
+            .sum::<usize>()
+            * std::mem::size_of::<Photon>();
+        stats.vertex_bytes = (ws.photons.capacity() * std::mem::size_of::<Photon>()
+            + chunk_bytes
+            + index_bytes) as u64;
         stats
     }
 }
