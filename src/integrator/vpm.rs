@@ -214,7 +214,8 @@ impl VpmSettings {
 
 /// r_{j+1} for iteration j (from 0) of a kernel of dimension k: r_1 (prod_{i=1}^{j}
 /// (i + alpha) / (i + 1))^(1/k) [Knaus and Zwicker 2011, eqs. (15), (20)]. Summed in
-/// logarithms in f64, so the product neither underflows nor depends on anything but j.
+/// logarithms in f64, so the product neither underflows nor depends on anything but j;
+/// j logarithms per iteration is about 1 ms at j = 10^5, nothing next to an iteration.
 pub fn radius_schedule(r1: f32, alpha: f32, k: u32, iteration: u64) -> f32 {
     let a = alpha as f64;
     let log: f64 = (1..=iteration)
