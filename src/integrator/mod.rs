@@ -13,6 +13,7 @@ pub mod pt;
 pub mod sppm;
 pub mod vcm;
 pub mod volpath;
+pub mod vpm;
 
 use crate::film::Film;
 use crate::scene::Scene;
@@ -125,6 +126,8 @@ pub enum Settings {
     Ppm(sppm::SppmSettings),
     /// Stochastic progressive photon mapping (new visible points every pass).
     Sppm(sppm::SppmSettings),
+    /// Volumetric photon mapping, progressive (point query or beam radiance estimate).
+    Vpm(vpm::VpmSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -134,7 +137,7 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "normals", "albedo",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "normals", "albedo",
 ];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
@@ -160,6 +163,7 @@ impl Settings {
             Settings::Vcm(_) => "vcm",
             Settings::Ppm(_) => "ppm",
             Settings::Sppm(_) => "sppm",
+            Settings::Vpm(_) => "vpm",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -213,15 +217,19 @@ impl Settings {
     }
 
     /// Refuses algorithms that cannot render what the scene holds (media, for now, are
-    /// rendered by `pt`/`volpath` only; the others would silently ignore them).
+    /// rendered by `pt`/`volpath`/`vpm` only; the others would silently ignore them).
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
         let media_ok = matches!(
             self,
-            Settings::Pt(_) | Settings::Volpath(_) | Settings::Normals {} | Settings::Albedo {}
+            Settings::Pt(_)
+                | Settings::Volpath(_)
+                | Settings::Vpm(_)
+                | Settings::Normals {}
+                | Settings::Albedo {}
         );
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt or volpath)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath or vpm)",
                 self.name()
             )));
         }
@@ -245,6 +253,7 @@ impl Settings {
                 .validate(vcm::Technique::Vcm)
                 .map_err(SettingsError::Invalid),
             Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Vpm(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -259,6 +268,7 @@ impl Settings {
             Settings::Vcm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Vcm, s.clone())),
             Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
             Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
+            Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

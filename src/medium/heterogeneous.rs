@@ -91,6 +91,16 @@ impl Heterogeneous {
         (sigma_t, sigma_t * albedo)
     }
 
+    /// Scattering coefficient at world point `p` (zero outside the field's cube): the
+    /// sigma_s that `sample_flight` puts into the weight of a scattering event there.
+    pub fn sigma_s_at(&self, p: Vec3) -> Rgb {
+        let l = self.to_local.transform_point3(p);
+        if l.min_element() < 0.0 || l.max_element() > 1.0 {
+            return Rgb::ZERO;
+        }
+        self.coefficients(l, f32::INFINITY).1
+    }
+
     /// Spectral tracking; see the module notes.
     pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
         let Some(r) = self.clip(o, d, tmax) else {

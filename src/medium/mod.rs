@@ -64,6 +64,16 @@ impl Medium {
         }
     }
 
+    /// Scattering coefficient at world point `p`, for estimators that divide it out of a
+    /// free flight's weight (the volumetric photon map's point query).
+    #[inline]
+    pub fn sigma_s_at(&self, p: Vec3) -> Rgb {
+        match self {
+            Medium::Homogeneous(m) => m.sigma_s,
+            Medium::Heterogeneous(m) => m.sigma_s_at(p),
+        }
+    }
+
     pub fn as_homogeneous(&self) -> Option<&Homogeneous> {
         match self {
             Medium::Homogeneous(m) => Some(m),

@@ -1,0 +1,1161 @@
+//! Volumetric photon mapping (Jensen and Christensen 1998, "Efficient simulation of
+//! light transport in scenes with participating media using photon maps"), made
+//! progressive in the probabilistic form of Knaus and Zwicker 2011 ("Progressive photon
+//! mapping: a probabilistic approach"), with two radiance estimates: the point query of
+//! the original paper and the beam radiance estimate (Jarosz, Zwicker and Jensen 2008,
+//! "The beam radiance estimate for volumetric photon mapping").
+//!
+//! ## An iteration
+//! 1. Photon pass: `light_paths x pixels` photon paths leave the lights (emission
+//!    sampling, in the medium each light emits into), take free flights through media
+//!    and scatter at surfaces and in media. Every real scattering event in a medium
+//!    stores a photon: position x_p, propagation direction d_p, power beta_p, medium,
+//!    and the number of events before it. beta_p is the throughput *after* the free
+//!    flight's weight, which already holds sigma_s T / pdf, so the stored powers are a
+//!    sample of the scattered flux: E[sum_p beta_p g(x_p, d_p)] = N int sigma_s(x)
+//!    L(x, w) g(x, w) dw dx for N emitted paths. Photons are rouletted at every event
+//!    with survival (new power) / (old power), which keeps their powers nearly equal,
+//!    the best case for a density estimate.
+//! 2. Camera pass: one path per pixel. Media are left entirely to the photons (the camera
+//!    path never scatters in a medium); surfaces are path traced (see below).
+//!
+//! ## The two estimates (N photon paths, radius r, phase function f_p, wo = -ray.d)
+//! `point`: a free flight is sampled on the camera segment. If it scatters at x with
+//! weight W = sigma_s(x) T / pdf, the path ends there with
+//! ```text
+//! W / sigma_s(x) * 1 / (N (4/3) pi r^3) * sum_{|x_p - x| < r} f_p(d_p, wo) beta_p
+//! ```
+//! (the 3D kernel density estimate of the in-scattered radiance sigma_s int f_p L dw,
+//! divided by sigma_s because W holds it already). If it passes, the path continues to
+//! the surface with the flight's pass weight.
+//!
+//! `beam` (default): the whole camera segment [0, s) in the medium is one query. Every
+//! photon whose sphere of radius r the segment passes through, i.e. whose projection
+//! t_p = (x_p - o).d lies in [0, s) and whose distance from the ray is below r,
+//! contributes with the 2D kernel 1 / (pi r^2):
+//! ```text
+//! 1 / (N pi r^2) * sum_p T(o, o + t_p d) f_p(d_p, wo) beta_p
+//! ```
+//! estimating int_0^s T(t) sigma_s int f_p L dw dt with the kernel blurring only across
+//! the ray (no sigma_s: beta_p holds it). The path then continues to the surface with
+//! the segment's transmittance (closed form in homogeneous media, ratio tracking
+//! otherwise, as for the T to each photon). One query replaces ray marching, and no
+//! noise comes from sampling a distance.
+//!
+//! Only photons of the camera segment's own medium count (a kernel reaching across an
+//! index-matched boundary would mix media of different sigma_s).
+//!
+//! ## Surfaces
+//! Path traced: direct light by next-event estimation (one light, its transmittance
+//! through media with `Scene::transmittance`), indirect light by continuing the camera
+//! path with a BSDF sample, on which the next medium segment queries the photons again.
+//! Emitters count only when seen through specular events (NEE found the rest). So no
+//! surface photon map is needed: surface transport is unbiased and all bias is the
+//! volume kernel's, which is what this integrator is about; photons still bounce off
+//! surfaces, so light that reached the medium via walls is in the photons. A scene
+//! without media renders as a path tracer with NEE (no photons are traced).
+//!
+//! ## Progressive radius
+//! Iterations are independent estimates averaged by the film, the radius of iteration
+//! i (from 1) following Knaus and Zwicker: r_{i+1}^k = r_i^k (i + alpha) / (i + 1) with
+//! k the kernel's dimension [2011, eq. (15) for k = 2, eq. (20) for k = 3]. The
+//! variance of an estimate grows as r^-k (photons in the kernel ~ r^k, kernel ~ r^-k),
+//! so this is the schedule under which the variance of iteration i grows as
+//! i^(1 - alpha) whatever k: the point query shrinks with k = 3, the beam estimate,
+//! whose kernel is a disk across the ray, with k = 2. With bias ~ r^2 the mean image's
+//! MSE falls as n^-alpha (variance) against n^(-4 (1 - alpha) / k) (squared bias); they
+//! balance at alpha = 4 / (k + 4): the defaults 2/3 (beam) and 4/7 (point), RMSE
+//! ~ n^-1/3 and n^-2/7. The radius is a function of the iteration index alone.
+//!
+//! ## Acceleration
+//! Point queries use the shared hash grid (cells of 2r, 8 cells per query). Beam
+//! queries use a BVH over the photon points built here: photons sorted along a Morton
+//! curve (keys hold the photon index, so the order never depends on threads), split
+//! where the Morton codes change their highest differing bit (the LBVH split, an
+//! octree-like hierarchy), leaves of a few photons; every photon has the same
+//! radius in an iteration, so nodes store point bounds and the ray is tested against
+//! them grown by r. A BVH bounds a segment query by the photons near the segment and
+//! fixes the order in which they are summed. Walking hash-grid cells along the ray
+//! would need a 3D DDA dilated by r through a hashed table whose slots alias far-away
+//! cells. obvhs could build over photon boxes, but its PLOC builder divides the work
+//! by `rayon::current_num_threads()`, so its tree (and with it the summation order,
+//! and the image bits) would not obviously be thread-count independent; a Morton sort
+//! with unique keys is, and building it costs one parallel sort per iteration.
+//!
+//! ## Determinism
+//! Photon paths run in fixed chunks, each with its own RNG stream per path; chunks are
+//! concatenated in order, the BVH order comes from a sort on unique keys, and the camera
+//! pass is the shared tile loop. An iteration is a pure function of (scene, settings,
+//! seed, iteration).
+
+use super::hashgrid::HashGrid;
+use super::pixels::render_pixels;
+use super::{Integrator, RenderStats};
+use crate::film::{is_valid_sample, Film};
+use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::material::{Material, Mode};
+use crate::math::rng::mix64;
+use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec3, PI};
+use crate::medium::Flight;
+use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// How radiance from media is estimated from the photons.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Estimate {
+    /// The beam radiance estimate: one query per camera segment, 2D kernel.
+    #[default]
+    Beam,
+    /// A 3D kernel at a distance-sampled point of each camera segment.
+    Point,
+}
+
+impl Estimate {
+    /// Dimension of the kernel (the exponent of r in its normalisation).
+    pub fn kernel_dims(self) -> u32 {
+        match self {
+            Estimate::Beam => 2,
+            Estimate::Point => 3,
+        }
+    }
+
+    /// Knaus and Zwicker's alpha that balances variance and squared bias asymptotically
+    /// for this kernel: 4 / (k + 4) (module notes).
+    pub fn default_alpha(self) -> f32 {
+        4.0 / (self.kernel_dims() as f32 + 4.0)
+    }
+}
+
+/// Volumetric photon mapping parameters.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in Mitsuba's sense (1 = emitters seen directly; medium events count), over the photon and camera halves together: a photon stored after k events counts on a camera segment reached after j surface events when k + j + 2 <= max_depth |
+/// | `rr_depth` | 5 | camera-path scattering events before Russian roulette (survival min(largest throughput channel, 0.95)); photons are rouletted at every event with survival new / old power |
+/// | `light_paths` | 1.0 | photon paths per iteration, as a multiple of the pixel count; in (0, 1024] |
+/// | `estimate` | `beam` | `beam`: the beam radiance estimate along each camera segment (2D kernel 1 / (pi r^2)); `point`: a 3D kernel 1 / ((4/3) pi r^3) at one distance-sampled point per segment |
+/// | `radius` | none | radius of the first iteration in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.03 | radius of the first iteration as a fraction of the scene's bounding-sphere radius |
+/// | `alpha` | none | Knaus and Zwicker's alpha in (0, 1]: r_{i+1}^k = r_i^k (i + alpha) / (i + 1), k = 2 (beam) or 3 (point); none picks 2/3 for `beam`, 4/7 for `point`; 1 keeps the radius fixed |
+/// | `max_photon_mib` | 1024 | budget for the photons stored per iteration; photons beyond it are not stored (a warning is logged) |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VpmSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub light_paths: f32,
+    pub estimate: Estimate,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: Option<f32>,
+    pub max_photon_mib: u32,
+}
+
+impl Default for VpmSettings {
+    fn default() -> Self {
+        VpmSettings {
+            max_depth: 64,
+            rr_depth: 5,
+            light_paths: 1.0,
+            estimate: Estimate::Beam,
+            radius: None,
+            radius_factor: 0.03,
+            alpha: None,
+            max_photon_mib: 1024,
+        }
+    }
+}
+
+/// Most photon paths per iteration per pixel.
+const MAX_LIGHT_PATHS: f32 = 1024.0;
+
+impl VpmSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        if !(self.light_paths > 0.0 && self.light_paths <= MAX_LIGHT_PATHS) {
+            return Err(format!("light_paths must be in (0, {MAX_LIGHT_PATHS}]"));
+        }
+        if let Some(r) = self.radius {
+            if !(r > 0.0 && r.is_finite()) {
+                return Err("radius must be positive and finite".into());
+            }
+        }
+        if !(self.radius_factor > 0.0 && self.radius_factor.is_finite()) {
+            return Err("radius_factor must be positive and finite".into());
+        }
+        if let Some(a) = self.alpha {
+            if !(a > 0.0 && a <= 1.0) {
+                return Err("alpha must be in (0, 1]".into());
+            }
+        }
+        if self.max_photon_mib == 0 {
+            return Err("max_photon_mib must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    pub fn alpha(&self) -> f32 {
+        self.alpha.unwrap_or(self.estimate.default_alpha())
+    }
+
+    /// The gather radius of `iteration` (from 0) on `scene`.
+    pub fn radius_at(&self, scene: &Scene, iteration: u64) -> f32 {
+        let r1 = self
+            .radius
+            .unwrap_or(self.radius_factor * scene.sphere.radius);
+        radius_schedule(r1, self.alpha(), self.estimate.kernel_dims(), iteration)
+    }
+}
+
+/// r_{j+1} for iteration j (from 0) of a kernel of dimension k: r_1 (prod_{i=1}^{j}
+/// (i + alpha) / (i + 1))^(1/k) [Knaus and Zwicker 2011, eqs. (15), (20)]. Summed in
+/// logarithms in f64, so the product neither underflows nor depends on anything but j;
+/// j logarithms per iteration is about 1 ms at j = 10^5, nothing next to an iteration.
+pub fn radius_schedule(r1: f32, alpha: f32, k: u32, iteration: u64) -> f32 {
+    let a = alpha as f64;
+    let log: f64 = (1..=iteration)
+        .map(|i| ((i as f64 + a) / (i as f64 + 1.0)).ln())
+        .sum();
+    (r1 as f64 * (log / k as f64).exp()) as f32
+}
+
+/// A photon stored at a scattering event in a medium.
+#[derive(Clone, Copy, Debug)]
+struct Photon {
+    p: Vec3,
+    /// Direction the light travelled before scattering here (the phase function's `d`).
+    d: Vec3,
+    /// Power: flux per emitted path, times the weight sigma_s T / pdf of the free flight
+    /// that ended here.
+    beta: Rgb,
+    medium: u32,
+    /// Scattering events on the photon path before this one.
+    depth: u32,
+}
+
+/// Photon paths per parallel task: fixed, so the split never depends on threads.
+const CHUNK: usize = 1024;
+/// Seed mix that keeps the photon streams apart from the camera streams.
+const PHOTON_STREAM: u64 = 0x5650_4D50_484F_5431;
+
+/// One chunk's photons, kept between iterations for its buffer.
+#[derive(Default)]
+struct Chunk {
+    photons: Vec<Photon>,
+    stats: RenderStats,
+    over_budget: bool,
+}
+
+/// What `iterate` reuses between iterations.
+#[derive(Default)]
+struct Workspace {
+    chunks: Vec<Chunk>,
+    photons: Vec<Photon>,
+    positions: Vec<Vec3>,
+    grid: HashGrid,
+    bvh: PointBvh,
+}
+
+/// A camera segment [0, tmax) of `ray` in `medium`, reached with throughput `beta`
+/// after `depth` surface events.
+#[derive(Clone, Copy)]
+struct Segment<'a> {
+    medium: u32,
+    ray: &'a Ray,
+    tmax: f32,
+    beta: Rgb,
+    depth: u32,
+}
+
+/// What the camera pass reads: this iteration's photons, indexed for the estimate.
+struct Gather<'a> {
+    photons: &'a [Photon],
+    grid: &'a HashGrid,
+    bvh: &'a PointBvh,
+    radius: f32,
+    /// 1 / photon paths emitted this iteration.
+    inv_paths: f32,
+}
+
+pub struct Vpm {
+    s: VpmSettings,
+    ws: Mutex<Workspace>,
+}
+
+impl Vpm {
+    pub fn new(s: VpmSettings) -> Self {
+        Vpm {
+            s,
+            ws: Mutex::new(Workspace::default()),
+        }
+    }
+
+    /// Photon paths per iteration for a scene with lights and media, else none.
+    fn paths_per_iteration(&self, scene: &Scene) -> usize {
+        if scene.lights.is_empty() || !scene.has_media {
+            return 0;
+        }
+        let px = scene.width() as f64 * scene.height() as f64;
+        (self.s.light_paths as f64 * px).ceil().max(1.0) as usize
+    }
+
+    /// The photon pass: fixed chunks in parallel, concatenated in chunk order.
+    fn trace_photons(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        paths: usize,
+        ws: &mut Workspace,
+    ) -> RenderStats {
+        let chunks = paths.div_ceil(CHUNK);
+        ws.chunks.resize_with(chunks, Chunk::default);
+        ws.chunks.truncate(chunks);
+        let budget = (self.s.max_photon_mib as f64 * 1048576.0
+            / std::mem::size_of::<Photon>() as f64
+            / chunks.max(1) as f64) as usize;
+        let stream = mix64(seed ^ PHOTON_STREAM);
+        ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
+            chunk.photons.clear();
+            chunk.stats = RenderStats::default();
+            chunk.over_budget = false;
+            for i in c * CHUNK..((c + 1) * CHUNK).min(paths) {
+                let mut rng = Rng::new(stream, iteration, i as u64);
+                self.trace_photon(scene, &mut rng, chunk, budget);
+            }
+        });
+        ws.photons.clear();
+        let mut stats = RenderStats::default();
+        for chunk in &ws.chunks {
+            ws.photons.extend_from_slice(&chunk.photons);
+            stats += chunk.stats;
+        }
+        if ws.chunks.iter().any(|c| c.over_budget) {
+            tracing::warn!(
+                "photons beyond max_photon_mib = {} were not stored this iteration; raise it or lower light_paths",
+                self.s.max_photon_mib
+            );
+        }
+        stats.light_vertices = ws.photons.len() as u64;
+        stats
+    }
+
+    /// One photon path: free flights through media, photons stored where they scatter
+    /// in one, BSDF sampling at surfaces.
+    fn trace_photon(&self, scene: &Scene, rng: &mut Rng, out: &mut Chunk, budget: usize) {
+        let Some((mut ray, beta, mut medium)) = emit(scene, rng) else {
+            return;
+        };
+        let mut walk = PhotonWalk { beta, depth: 0 };
+        let mut crossings = 0u32;
+        loop {
+            out.stats.rays += 1;
+            let hit = scene.intersect(&ray);
+            if let Some(mi) = medium {
+                let tmax = hit
+                    .as_ref()
+                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
+                match self.photon_flight(scene, mi, &ray, tmax, &mut walk, rng, out, budget) {
+                    Flown::Scattered(next) => {
+                        ray = next;
+                        crossings = 0;
+                        continue;
+                    }
+                    Flown::Passed => {}
+                    Flown::Ended => return,
+                }
+            }
+            let Some(it) = hit else {
+                return;
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                crossings += 1;
+                if crossings > MAX_NULL_CROSSINGS {
+                    return;
+                }
+                medium = scene.medium_after(&it, ray.d, medium);
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                continue;
+            }
+            // Photons stored after this bounce have k >= depth + 1.
+            if walk.depth + 3 > self.s.max_depth {
+                return;
+            }
+            let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
+                return;
+            };
+            if !walk.scatter(weight, rng) {
+                return;
+            }
+            medium = scene.medium_after(&it, wi, medium);
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            crossings = 0;
+        }
+    }
+
+    /// A photon's free flight over [0, tmax) of `ray` in medium `mi`; stores a photon
+    /// where it scatters.
+    #[allow(clippy::too_many_arguments)]
+    fn photon_flight(
+        &self,
+        scene: &Scene,
+        mi: u32,
+        ray: &Ray,
+        tmax: f32,
+        walk: &mut PhotonWalk,
+        rng: &mut Rng,
+        out: &mut Chunk,
+        budget: usize,
+    ) -> Flown {
+        let med = &scene.media[mi as usize];
+        let (t, weight) = match med.sample_flight(ray.o, ray.d, tmax, walk.beta, rng) {
+            Flight::Scatter { t, weight } => (t, weight),
+            Flight::Pass { weight } => {
+                walk.beta *= weight;
+                return Flown::Passed;
+            }
+            Flight::Absorbed => return Flown::Ended,
+        };
+        let p = ray.at(t);
+        let stored = walk.beta * weight;
+        // A camera segment reached directly (j = 0) needs k + 2 <= max_depth.
+        if walk.depth + 2 <= self.s.max_depth {
+            if out.photons.len() < budget {
+                out.photons.push(Photon {
+                    p,
+                    d: ray.d,
+                    beta: stored,
+                    medium: mi,
+                    depth: walk.depth,
+                });
+            } else {
+                out.over_budget = true;
+            }
+        }
+        if walk.depth + 3 > self.s.max_depth {
+            return Flown::Ended;
+        }
+        let (wi, _) = med.phase().sample(ray.d, rng.next_2d());
+        // The phase function is sampled exactly: its weight is 1.
+        if !walk.scatter(weight, rng) {
+            return Flown::Ended;
+        }
+        Flown::Scattered(Ray::new(p, wi))
+    }
+
+    /// Radiance along one camera ray (module notes: media from photons, surfaces path
+    /// traced with NEE).
+    fn li(
+        &self,
+        scene: &Scene,
+        g: &Gather,
+        mut ray: Ray,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32;
+        let mut specular = true;
+        let mut medium = scene.camera_medium;
+        let mut crossings = 0u32;
+        loop {
+            let hit = scene.intersect(&ray);
+            if let Some(mi) = medium {
+                let tmax = hit
+                    .as_ref()
+                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
+                let seg = Segment {
+                    medium: mi,
+                    ray: &ray,
+                    tmax,
+                    beta,
+                    depth,
+                };
+                let (lm, pass) = self.medium_segment(scene, g, &seg, rng, stats);
+                l += beta * lm;
+                match pass {
+                    Some(w) if w != Rgb::ZERO => beta *= w,
+                    _ => break,
+                }
+            }
+            let Some(it) = hit else {
+                if specular && !scene.env_lights.is_empty() {
+                    l += beta * scene.env_radiance(ray.d);
+                }
+                break;
+            };
+            let m = scene.material(&it);
+            if matches!(m, Material::Null) {
+                crossings += 1;
+                if crossings > MAX_NULL_CROSSINGS {
+                    break;
+                }
+                medium = scene.medium_after(&it, ray.d, medium);
+                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+                stats.rays += 1;
+                continue;
+            }
+            if specular {
+                if let Some((_, area)) = scene.area_light(&it) {
+                    l += beta * area.le(it.ng, -ray.d);
+                }
+            }
+            if depth + 1 >= self.s.max_depth {
+                break;
+            }
+            let frame = Frame::from_normal(it.ns);
+            let wo = frame.to_local(-ray.d);
+            if !m.is_delta() {
+                l += beta * direct(scene, &it, &frame, wo, m, medium, rng, stats);
+            }
+            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
+                break;
+            };
+            let wi = frame.to_world(s.wi);
+            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+                break;
+            }
+            beta *= s.weight;
+            specular = s.delta;
+            depth += 1;
+            if !self.camera_roulette(depth, &mut beta, rng) {
+                break;
+            }
+            medium = scene.medium_after(&it, wi, medium);
+            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            stats.rays += 1;
+            crossings = 0;
+        }
+        l
+    }
+
+    /// A camera segment in a medium: the radiance it adds (throughput not applied) and
+    /// the weight with which the path goes on to the segment's end (None: it ends).
+    fn medium_segment(
+        &self,
+        scene: &Scene,
+        g: &Gather,
+        seg: &Segment,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> (Rgb, Option<Rgb>) {
+        let Segment {
+            medium: mi,
+            ray,
+            tmax,
+            beta,
+            depth,
+        } = *seg;
+        let med = &scene.media[mi as usize];
+        let counts = depth + 2 <= self.s.max_depth;
+        match self.s.estimate {
+            Estimate::Beam => {
+                let l = if counts {
+                    self.beam(scene, g, mi, ray, tmax, depth, rng, stats)
+                } else {
+                    Rgb::ZERO
+                };
+                (l, Some(med.transmittance(ray.o, ray.d, tmax, rng)))
+            }
+            Estimate::Point => match med.sample_flight(ray.o, ray.d, tmax, beta, rng) {
+                Flight::Scatter { t, weight } => {
+                    if !counts {
+                        return (Rgb::ZERO, None);
+                    }
+                    let x = ray.at(t);
+                    // W / sigma_s(x) = T / pdf; a channel that does not scatter adds
+                    // nothing (and its W is 0 / 0).
+                    let ss = med.sigma_s_at(x);
+                    let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
+                    (w * self.point(scene, g, mi, x, -ray.d, depth, stats), None)
+                }
+                Flight::Pass { weight } => (Rgb::ZERO, Some(weight)),
+                Flight::Absorbed => (Rgb::ZERO, None),
+            },
+        }
+    }
+
+    /// Point query: (1 / (N (4/3) pi r^3)) sum_{|x_p - x| < r} f_p(d_p, wo) beta_p, the
+    /// in-scattered radiance sigma_s int f_p L dw at x [Jensen and Christensen 1998, the
+    /// volume radiance estimate, with sigma_s inside beta_p].
+    #[allow(clippy::too_many_arguments)]
+    fn point(
+        &self,
+        scene: &Scene,
+        g: &Gather,
+        mi: u32,
+        x: Vec3,
+        wo: Vec3,
+        cam_depth: u32,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let phase = scene.media[mi as usize].phase();
+        let mut sum = Rgb::ZERO;
+        g.grid.query(x, |i, _| {
+            let ph = &g.photons[i];
+            if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
+                return;
+            }
+            stats.merges += 1;
+            sum += ph.beta * phase.eval(ph.d, wo);
+        });
+        let r = g.radius;
+        sum * (g.inv_paths / (4.0 / 3.0 * PI * r * r * r))
+    }
+
+    /// Beam radiance estimate over the segment [0, tmax) of `ray`:
+    /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
+    /// within r of the segment [Jarosz et al. 2008, constant 2D kernel].
+    #[allow(clippy::too_many_arguments)]
+    fn beam(
+        &self,
+        scene: &Scene,
+        g: &Gather,
+        mi: u32,
+        ray: &Ray,
+        tmax: f32,
+        cam_depth: u32,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let med = &scene.media[mi as usize];
+        let phase = med.phase();
+        let homogeneous = med.as_homogeneous();
+        let wo = -ray.d;
+        let mut sum = Rgb::ZERO;
+        g.bvh
+            .query(g.photons, ray.o, ray.d, tmax, g.radius, |ph, t| {
+                if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
+                    return;
+                }
+                stats.merges += 1;
+                let tr = match homogeneous {
+                    Some(h) => h.transmittance(t),
+                    None => med.transmittance(ray.o, ray.d, t, rng),
+                };
+                sum += tr * ph.beta * phase.eval(ph.d, wo);
+            });
+        let r = g.radius;
+        sum * (g.inv_paths / (PI * r * r))
+    }
+
+    /// Russian roulette on the camera throughput after `rr_depth` events, as volpath.
+    #[inline]
+    fn camera_roulette(&self, depth: u32, beta: &mut Rgb, rng: &mut Rng) -> bool {
+        if depth >= self.s.rr_depth {
+            let q = max_component(*beta).min(0.95);
+            if rng.next_f32() >= q {
+                return false;
+            }
+            *beta /= q;
+        }
+        *beta != Rgb::ZERO
+    }
+}
+
+/// Where a photon path starts: its ray, power (Le cos / (p_pos p_dir p_select)) and the
+/// medium the light emits into.
+fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32>)> {
+    let (li, pmf, _) = scene.light_sampler.sample(rng.next_f32());
+    let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
+    let e = scene.lights[li].sample_le(&scene.sphere, u_pos, u_dir)?;
+    if !(e.pdf_pos > 0.0 && e.pdf_dir > 0.0 && pmf > 0.0) {
+        return None;
+    }
+    let beta = e.weight() / pmf;
+    if !is_valid_sample(beta) || beta == Rgb::ZERO {
+        return None;
+    }
+    // Points sampled on an area light carry a small relative error; leave the surface
+    // as a hit point would.
+    let ray = if e.n == Vec3::ZERO {
+        Ray::new(e.p, e.d)
+    } else {
+        let err = Vec3::splat(e.p.abs().max_element() * gamma(16));
+        spawn_ray(e.p, err, e.n, e.d)
+    };
+    Some((ray, beta, scene.light_media[li]))
+}
+
+/// A photon's BSDF sample at a surface: the new direction and the power factor, with
+/// the adjoint correction for shading normals |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)
+/// (Veach 1997, eq. (5.17)).
+fn photon_bounce(
+    it: &Interaction,
+    m: &Material,
+    wo_world: Vec3,
+    rng: &mut Rng,
+) -> Option<(Vec3, Rgb)> {
+    let frame = Frame::from_normal(it.ns);
+    let wo = frame.to_local(wo_world);
+    let s = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance)?;
+    let wi = frame.to_world(s.wi);
+    let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
+    if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
+        return None;
+    }
+    let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
+    corr.is_finite().then_some((wi, s.weight * corr))
+}
+
+/// How a photon's free flight through a medium ended.
+enum Flown {
+    /// It scattered (a photon was stored) and goes on along this ray.
+    Scattered(Ray),
+    /// It reached the end of the segment (the next surface, or nothing).
+    Passed,
+    /// It was absorbed, rouletted away or reached the depth limit.
+    Ended,
+}
+
+/// A photon path between events: its power and the scattering events so far.
+struct PhotonWalk {
+    beta: Rgb,
+    depth: u32,
+}
+
+impl PhotonWalk {
+    /// A scattering event multiplies the power by `weight`, then Russian roulette with
+    /// survival (new power) / (old power) lets survivors keep about the power they had
+    /// (the best case for a density estimate); false ends the path.
+    #[inline]
+    fn scatter(&mut self, weight: Rgb, rng: &mut Rng) -> bool {
+        let new = self.beta * weight;
+        self.depth += 1;
+        let q = (max_component(new) / max_component(self.beta)).min(1.0);
+        if q.is_nan() || rng.next_f32() >= q {
+            return false;
+        }
+        self.beta = new / q;
+        self.beta != Rgb::ZERO && self.beta.is_finite()
+    }
+}
+
+/// Next-event estimation at a surface: one light, one shadow ray through media. Light
+/// sampling alone: the camera path counts emitters only after specular events.
+#[allow(clippy::too_many_arguments)]
+fn direct(
+    scene: &Scene,
+    it: &Interaction,
+    frame: &Frame,
+    wo: Vec3,
+    m: &Material,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    if scene.lights.is_empty() {
+        return Rgb::ZERO;
+    }
+    let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+    let Some(ls) = scene.lights[li].sample_li(it.p, rng.next_2d()) else {
+        return Rgb::ZERO;
+    };
+    let wi = frame.to_local(ls.wi);
+    if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
+        return Rgb::ZERO;
+    }
+    let f = m.eval(wo, wi, Mode::Radiance);
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let ray = if ls.dist.is_finite() {
+        spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+    } else {
+        spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+    };
+    stats.shadow_rays += 1;
+    stats.connections += 1;
+    let start = scene.medium_after(it, ls.wi, medium);
+    let tr = scene.transmittance(&ray, start, rng, &mut stats.shadow_rays);
+    f * tr * ls.li / (sel_pdf * ls.pdf)
+}
+
+impl Integrator for Vpm {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        let radius = self.s.radius_at(scene, iteration);
+        let paths = self.paths_per_iteration(scene);
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = &mut *guard;
+        let mut stats = self.trace_photons(scene, seed, iteration, paths, ws);
+        let index_bytes = match self.s.estimate {
+            Estimate::Beam => {
+                ws.bvh.build(&mut ws.photons);
+                ws.bvh.bytes()
+            }
+            Estimate::Point => {
+                ws.positions.clear();
+                ws.positions.extend(ws.photons.iter().map(|p| p.p));
+                ws.grid.build(&ws.positions, radius);
+                ws.grid.bytes() + ws.positions.capacity() * std::mem::size_of::<Vec3>()
+            }
+        };
+        let g = Gather {
+            photons: &ws.photons,
+            grid: &ws.grid,
+            bvh: &ws.bvh,
+            radius,
+            inv_paths: 1.0 / paths.max(1) as f32,
+        };
+        stats += render_pixels(scene, seed, iteration, film, |ray, rng, st| {
+            self.li(scene, &g, ray, rng, st)
+        });
+        stats.merge_radius = radius;
+        let chunk_bytes: usize = ws
+            .chunks
+            .iter()
+            .map(|c| c.photons.capacity())
+            .sum::<usize>()
+            * std::mem::size_of::<Photon>();
+        stats.vertex_bytes = (ws.photons.capacity() * std::mem::size_of::<Photon>()
+            + chunk_bytes
+            + index_bytes) as u64;
+        stats
+    }
+}
+
+// -------------------------------------------------------------------------------------
+// Beam queries: a BVH over photon points
+// -------------------------------------------------------------------------------------
+
+/// Photons per leaf: a few point tests cost less than more box tests. Measured on 84k
+/// uniform photons in a cube of side 2 (rays of length 3, r = 0.04): 7.8 us per ray
+/// with 8, 7.5 with 16, 9.3 with 4, and 21.7 for index-middle splits with 4.
+const LEAF: usize = 8;
+
+/// A binary BVH over points in Morton order (module notes). `keys` keeps the sorted
+/// (code, index) pairs of the last build for the splits. Node 0 is the root; an
+/// inner node's first child follows it, `index` names the second.
+#[derive(Default)]
+struct PointBvh {
+    nodes: Vec<BvhNode>,
+    keys: Vec<u64>,
+    scratch: Vec<Photon>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct BvhNode {
+    lo: Vec3,
+    hi: Vec3,
+    /// Leaf: the first photon; inner: the second child.
+    index: u32,
+    /// Photons in a leaf; 0 for inner nodes.
+    count: u32,
+}
+
+impl PointBvh {
+    /// Reorders `photons` along a Morton curve and builds the tree over them.
+    fn build(&mut self, photons: &mut Vec<Photon>) {
+        assert!(
+            photons.len() < u32::MAX as usize,
+            "too many photons for the BVH"
+        );
+        self.nodes.clear();
+        if photons.is_empty() {
+            return;
+        }
+        let (lo, hi) = photons.par_iter().map(|p| (p.p, p.p)).reduce(
+            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+        let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+        self.keys.clear();
+        self.keys
+            .par_extend(photons.par_iter().enumerate().map(|(i, p)| {
+                let c = ((p.p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+                (morton3(c.x as u32, c.y as u32, c.z as u32) as u64) << 32 | i as u64
+            }));
+        // Keys are unique (they hold the index): the sorted order is the same for any
+        // number of threads.
+        self.keys.par_sort_unstable();
+        self.scratch.clear();
+        self.scratch
+            .par_extend(self.keys.par_iter().map(|k| photons[*k as u32 as usize]));
+        std::mem::swap(photons, &mut self.scratch);
+        self.node(photons, 0, photons.len());
+    }
+
+    /// Appends the subtree over `photons[a..b]`; returns its root's index.
+    fn node(&mut self, photons: &[Photon], a: usize, b: usize) -> u32 {
+        let at = self.nodes.len();
+        if b - a <= LEAF {
+            let (lo, hi) = photons[a..b].iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(p.p), hi.max(p.p)),
+            );
+            self.nodes.push(BvhNode {
+                lo,
+                hi,
+                index: a as u32,
+                count: (b - a) as u32,
+            });
+            return at as u32;
+        }
+        self.nodes.push(BvhNode {
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+            index: 0,
+            count: 0,
+        });
+        let mid = self.split(a, b);
+        let left = self.node(photons, a, mid) as usize;
+        let right = self.node(photons, mid, b);
+        let (l, r) = (self.nodes[left], self.nodes[right as usize]);
+        self.nodes[at] = BvhNode {
+            lo: l.lo.min(r.lo),
+            hi: l.hi.max(r.hi),
+            index: right,
+            count: 0,
+        };
+        at as u32
+    }
+
+    /// Where `[a, b)` divides: at the first photon whose Morton code has the highest bit
+    /// in which the range's first and last codes differ, i.e. the spatial middle of the
+    /// range's octree cell (Karras 2012, "Maximizing parallelism in the construction of
+    /// BVHs, octrees, and k-d trees"), which keeps node boxes tight where an index
+    /// middle would straddle jumps of the curve; the index middle when every code is
+    /// equal.
+    fn split(&self, a: usize, b: usize) -> usize {
+        let code = |k: u64| (k >> 32) as u32;
+        let (first, last) = (code(self.keys[a]), code(self.keys[b - 1]));
+        if first == last {
+            return a + (b - a) / 2;
+        }
+        // The codes in [a, b) share every bit above `bit`, so it is 0 then 1 along it.
+        let bit = 31 - (first ^ last).leading_zeros();
+        a + self.keys[a..b].partition_point(|&k| code(k) >> bit & 1 == 0)
+    }
+
+    /// Calls `f(photon, t)` for every photon within `r` of the segment o + t d, t in
+    /// [0, tmax) (unit d), t being its projection on the ray; in a fixed order.
+    #[inline]
+    fn query(
+        &self,
+        photons: &[Photon],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        r: f32,
+        mut f: impl FnMut(&Photon, f32),
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv = d.recip();
+        let (grow, r2) = (Vec3::splat(r), r * r);
+        // Depth is at most 30 Morton levels plus log2(n) middle splits of equal codes.
+        let mut stack = [0u32; 96];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let at = stack[top] as usize;
+            let n = self.nodes[at];
+            if !slab_hit(n.lo - grow, n.hi + grow, o, inv, tmax) {
+                continue;
+            }
+            if n.count == 0 {
+                stack[top] = n.index;
+                stack[top + 1] = at as u32 + 1;
+                top += 2;
+                continue;
+            }
+            let start = n.index as usize;
+            for ph in &photons[start..start + n.count as usize] {
+                let v = ph.p - o;
+                let t = v.dot(d);
+                if !(0.0..tmax).contains(&t) {
+                    continue;
+                }
+                if (v - d * t).length_squared() <= r2 {
+                    f(ph, t);
+                }
+            }
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<BvhNode>()
+            + self.keys.capacity() * 8
+            + self.scratch.capacity() * std::mem::size_of::<Photon>()
+    }
+}
+
+/// Whether the segment t in [0, tmax] of o + t d (inv = 1 / d) meets the box. NaN from
+/// 0 * inf (a ray in a slab's plane) is ignored by min/max, which only widens the
+/// interval: the test stays conservative.
+#[inline]
+fn slab_hit(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, tmax: f32) -> bool {
+    let a = (lo - o) * inv;
+    let b = (hi - o) * inv;
+    let near = a.min(b).max_element().max(0.0);
+    let far = a.max(b).min_element().min(tmax);
+    near <= far
+}
+
+/// Interleaves the low 10 bits of x, y and z (x in the lowest position).
+#[inline]
+fn morton3(x: u32, y: u32, z: u32) -> u32 {
+    spread(x) | spread(y) << 1 | spread(z) << 2
+}
+
+/// Puts two zero bits between each of the low 10 bits of v.
+#[inline]
+fn spread(v: u32) -> u32 {
+    let mut v = v & 0x3ff;
+    v = (v | v << 16) & 0x030000ff;
+    v = (v | v << 8) & 0x0300f00f;
+    v = (v | v << 4) & 0x030c30c3;
+    (v | v << 2) & 0x09249249
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn photon_at(p: Vec3, i: u32) -> Photon {
+        Photon {
+            p,
+            d: Vec3::Z,
+            beta: Rgb::ONE,
+            medium: 0,
+            depth: i,
+        }
+    }
+
+    #[test]
+    fn beam_query_finds_exactly_the_photons_near_the_segment() {
+        let mut rng = Rng::new(3, 1, 4);
+        let mut photons: Vec<Photon> = (0..4000)
+            .map(|i| {
+                let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32() * 0.2);
+                photon_at(p * 2.0 - 1.0, i)
+            })
+            .collect();
+        let original = photons.clone();
+        let mut bvh = PointBvh::default();
+        bvh.build(&mut photons);
+        for q in 0..300 {
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 - 1.5;
+            let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+            // Axis-parallel rays exercise the slab test's 0 * inf case.
+            let d = if q % 7 == 0 { Vec3::X } else { d.normalize() };
+            let tmax = if q % 5 == 0 {
+                f32::INFINITY
+            } else {
+                2.0 * rng.next_f32()
+            };
+            let r = 0.02 + 0.2 * rng.next_f32();
+            let mut found = Vec::new();
+            bvh.query(&photons, o, d, tmax, r, |ph, _| found.push(ph.depth));
+            let mut expect: Vec<u32> = original
+                .iter()
+                .filter(|ph| {
+                    let v = ph.p - o;
+                    let t = v.dot(d);
+                    (0.0..tmax).contains(&t) && (v - d * t).length_squared() <= r * r
+                })
+                .map(|ph| ph.depth)
+                .collect();
+            found.sort_unstable();
+            expect.sort_unstable();
+            assert_eq!(found, expect, "query {q}");
+        }
+    }
+
+    #[test]
+    fn bvh_of_nothing_or_one_photon() {
+        let mut bvh = PointBvh::default();
+        let mut none = Vec::new();
+        bvh.build(&mut none);
+        let mut n = 0;
+        bvh.query(&none, Vec3::ZERO, Vec3::X, 1.0, 1.0, |_, _| n += 1);
+        assert_eq!(n, 0);
+        let mut one = vec![photon_at(Vec3::new(0.5, 0.1, 0.0), 0)];
+        bvh.build(&mut one);
+        bvh.query(&one, Vec3::ZERO, Vec3::X, 1.0, 0.2, |_, t| {
+            assert!((t - 0.5).abs() < 1e-6);
+            n += 1;
+        });
+        assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn bvh_splits_ranges_of_equal_morton_codes() {
+        // 1000 photons on one point (one Morton code) among a few others.
+        let mut photons: Vec<Photon> = (0..1000)
+            .map(|i| photon_at(Vec3::splat(0.25), i))
+            .chain((0..50).map(|i| photon_at(Vec3::new(i as f32 * 0.02, 0.0, 0.0), 1000 + i)))
+            .collect();
+        let mut bvh = PointBvh::default();
+        bvh.build(&mut photons);
+        let mut found = Vec::new();
+        let d = Vec3::new(1.0, 1.0, 1.0).normalize();
+        bvh.query(&photons, Vec3::ZERO, d, 1.0, 0.01, |ph, _| {
+            found.push(ph.depth)
+        });
+        // The 1000 coincident photons and the one at the origin, each once.
+        found.sort_unstable();
+        assert_eq!(found, (0..=1000).collect::<Vec<u32>>());
+    }
+
+    #[test]
+    fn radius_follows_knaus_and_zwicker() {
+        // r_{i+1}^k / r_i^k = (i + alpha) / (i + 1), i from 1.
+        for k in [2u32, 3] {
+            let alpha = 0.6f32;
+            let mut prev = radius_schedule(0.5, alpha, k, 0) as f64;
+            assert!((prev - 0.5).abs() < 1e-7);
+            for j in 1..50u64 {
+                let r = radius_schedule(0.5, alpha, k, j) as f64;
+                let ratio = (r / prev).powi(k as i32);
+                let expect = (j as f64 + alpha as f64) / (j as f64 + 1.0);
+                assert!((ratio - expect).abs() < 1e-5, "k {k}, j {j}: {ratio}");
+                prev = r;
+            }
+        }
+        assert_eq!(radius_schedule(0.3, 1.0, 3, 1000), 0.3);
+    }
+
+    #[test]
+    fn settings_validate() {
+        assert!(VpmSettings::default().validate().is_ok());
+        assert_eq!(VpmSettings::default().alpha(), 2.0 / 3.0);
+        let point = VpmSettings {
+            estimate: Estimate::Point,
+            ..Default::default()
+        };
+        assert_eq!(point.alpha(), 4.0 / 7.0);
+        for bad in [
+            VpmSettings {
+                alpha: Some(0.0),
+                ..Default::default()
+            },
+            VpmSettings {
+                light_paths: 0.0,
+                ..Default::default()
+            },
+            VpmSettings {
+                radius: Some(f32::INFINITY),
+                ..Default::default()
+            },
+            VpmSettings {
+                max_depth: 0,
+                ..Default::default()
+            },
+            VpmSettings {
+                max_photon_mib: 0,
+                ..Default::default()
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+    }
+}
