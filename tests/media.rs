@@ -110,6 +110,14 @@ fn transmittance_estimators_match_the_closed_form() {
         exact,
     );
 
+    // A long segment, which free flights pass with probability below 0.3.
+    let long = 6.0;
+    assert_close(
+        "homogeneous free flight, long segment",
+        estimate(n, || pass(h.sample_flight(long, beta, &mut rng))),
+        (-sigma * long).exp(),
+    );
+
     // A constant grid: ratio tracking, spectral tracking and grey delta tracking.
     let g = grid_medium([5, 4, 3], sigma, |_| 1.0);
     assert_close(

@@ -80,10 +80,14 @@ impl Homogeneous {
                 weight: tr * self.sigma_s / pdf,
             }
         } else {
+            // Passing has probability sum_c p_c T_c: dividing by anything else (such
+            // as a floor on it) would bias every long segment.
             let tr = self.transmittance(tmax);
             let pass = (p * tr).element_sum();
-            Flight::Pass {
-                weight: tr / pass.max(0.3),
+            if pass > 0.0 {
+                Flight::Pass { weight: tr / pass }
+            } else {
+                Flight::Absorbed
             }
         }
     }
