@@ -212,16 +212,23 @@ impl Settings {
         Ok(settings)
     }
 
-    /// Refuses algorithms that cannot render what the scene holds (media, for now, are
-    /// rendered by `pt`/`volpath` only; the others would silently ignore them).
+    /// Refuses algorithms that cannot render what the scene holds: media are rendered
+    /// by `pt`/`volpath` and by the connection techniques `lt` and `bpt`; merging
+    /// (`bpm`, `vcm`, `ppm`, `sppm`) has no volume estimator yet and would silently
+    /// ignore them.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
         let media_ok = matches!(
             self,
-            Settings::Pt(_) | Settings::Volpath(_) | Settings::Normals {} | Settings::Albedo {}
+            Settings::Pt(_)
+                | Settings::Volpath(_)
+                | Settings::Lt(_)
+                | Settings::Bpt(_)
+                | Settings::Normals {}
+                | Settings::Albedo {}
         );
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt or volpath)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt or bpt)",
                 self.name()
             )));
         }

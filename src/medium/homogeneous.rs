@@ -30,6 +30,16 @@ impl Homogeneous {
         }
     }
 
+    /// sigma_s / sigma_t per channel, zero where sigma_t is.
+    #[inline]
+    pub fn albedo(&self) -> Rgb {
+        Rgb::select(
+            self.sigma_t.cmpgt(Rgb::ZERO),
+            self.sigma_s / self.sigma_t,
+            Rgb::ZERO,
+        )
+    }
+
     #[inline]
     pub fn transmittance(&self, dist: f32) -> Rgb {
         if dist == f32::INFINITY {
