@@ -255,9 +255,21 @@ fn scene_integrator_must_name_its_algorithm() {
 }
 
 #[test]
-fn media_references_are_refused_until_media_render() {
+fn unknown_media_references_are_refused() {
     let mut v = base();
     v["media"] = json!({"fog": {"type": "homogeneous", "sigma_a": [0.1, 0.1, 0.1], "sigma_s": [0.5, 0.5, 0.5]}});
+    v["shapes"][0]["exterior"] = json!("fgo");
+    expect(v.clone(), "shapes[0].exterior", "unknown medium");
     v["shapes"][0]["exterior"] = json!("fog");
-    expect(v, "shapes[0].exterior", "not rendered yet");
+    v["camera"]["medium"] = json!("smoke");
+    expect(v, "camera.medium", "unknown medium");
+}
+
+#[test]
+fn null_boundaries_cannot_emit() {
+    let mut v = base();
+    v["materials"]["b"] = json!({"type": "null"});
+    v["shapes"][0]["material"] = json!("b");
+    v["shapes"][0]["emission"] = json!({"radiance": [1, 1, 1]});
+    expect(v, "shapes[0].emission", "cannot emit");
 }

@@ -171,6 +171,7 @@ impl VolPath {
     }
 
     /// Next-event estimation: one light, transmittance to it, MIS.
+    #[inline(always)]
     fn direct(
         &self,
         scene: &Scene,
@@ -297,6 +298,8 @@ impl VolPath {
     }
 
     /// Radiance along one camera ray.
+    // Forced inline, like pt's kernel, so the AVX2 copy of the tile loop holds it.
+    #[inline(always)]
     fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let equi = self.s.equiangular
             && scene
@@ -312,12 +315,11 @@ impl VolPath {
         let mut medium = scene.camera_medium;
         let mut crossings = 0u32;
         loop {
-            let hit = scene.intersect(&ray);
+            let hit = scene.hit(&ray);
             if let Some(mi) = medium {
                 let med = &scene.media[mi as usize];
-                let tmax = hit
-                    .as_ref()
-                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
+                // Unit directions: the hit's t is the distance.
+                let tmax = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
                 let homog = med.as_homogeneous();
                 if let (true, Some(h)) = (equi && depth + 1 < self.s.max_depth, homog) {
                     l += self.equiangular(scene, h, medium, &ray, tmax, beta, rng, stats);
@@ -364,7 +366,7 @@ impl VolPath {
                     Flight::Absorbed => break,
                 }
             }
-            let Some(it) = hit else {
+            let Some(it) = hit.map(|h| scene.interaction(&ray, &h)) else {
                 if !scene.env_lights.is_empty() {
                     let le = scene.env_radiance(ray.d);
                     let w = if specular {
@@ -453,8 +455,13 @@ impl VolPath {
 
 impl Integrator for VolPath {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
-        render_pixels(scene, seed, iteration, film, |ray, rng, stats| {
-            self.li(scene, ray, rng, stats)
-        })
+        render_pixels(
+            scene,
+            seed,
+            iteration,
+            film,
+            #[inline(always)]
+            |ray, rng, stats| self.li(scene, ray, rng, stats),
+        )
     }
 }

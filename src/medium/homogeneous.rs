@@ -46,6 +46,9 @@ impl Homogeneous {
             // exp(-0 * inf) would be NaN; a channel without extinction passes everything.
             return Rgb::select(self.sigma_t.cmpgt(Rgb::ZERO), Rgb::ZERO, Rgb::ONE);
         }
+        if self.grey {
+            return Rgb::splat((-self.sigma_t.x * dist).exp());
+        }
         (-self.sigma_t * dist).exp()
     }
 

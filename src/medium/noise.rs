@@ -2,10 +2,11 @@
 //! fade, twelve edge gradients), summed over octaves (fractional Brownian motion).
 //!
 //! Density in the local unit cube: with v the octave sum divided by the sum of the
-//! octave amplitudes (so |v| <= ~1), n = (1 + v) / 2 and
+//! octave amplitudes (in practice |v| < ~0.6), n = 1/2 + v and
 //! density = clamp((n - threshold) / (1 - threshold), 0, 1).
 
 use crate::math::{Rng, Vec3};
+use rayon::prelude::*;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct FbmParams {
@@ -42,11 +43,12 @@ const GRADIENTS: [[f32; 3]; 12] = [
     [0.0, -1.0, -1.0],
 ];
 
-/// Bound on |grad| of one octave of unit frequency. The quintic fade has slope at most
-/// 15/8, each of the eight corner terms is a gradient (norm sqrt 2) dotted with an
-/// offset of norm <= sqrt 3; a crude product bound over the interpolation keeps this
-/// safely above the true maximum (about 2.2 measured by finite differences).
-const OCTAVE_LIPSCHITZ: f32 = 6.0;
+/// Bound on |grad| of one octave of unit frequency: the largest gradient measured by
+/// finite differences at 400k random points is 2.93 (the test below keeps checking);
+/// 4 leaves a third of margin. Should a bound ever be exceeded somewhere, tracking
+/// clamps the density to its cell's majorant, so the image stays an unbiased render of
+/// that (clamped) field rather than a biased one of the raw noise.
+const OCTAVE_LIPSCHITZ: f32 = 4.0;
 
 impl Fbm {
     pub fn new(p: FbmParams) -> Self {
@@ -69,8 +71,8 @@ impl Fbm {
             amp *= p.gain;
             freq *= p.lacunarity;
         }
-        // d density / d n = 1 / (1 - threshold); n = (1 + v) / 2.
-        let lipschitz = 0.5 * lip / norm / (1.0 - p.threshold);
+        // d density / d v = 1 / (1 - threshold), as n = 1/2 + v.
+        let lipschitz = lip / norm / (1.0 - p.threshold);
         Fbm {
             p,
             perm,
@@ -80,9 +82,14 @@ impl Fbm {
     }
 
     fn perlin(&self, q: Vec3) -> f32 {
-        let fl = q.floor();
-        let f = q - fl;
-        let i = [fl.x as i64 & 255, fl.y as i64 & 255, fl.z as i64 & 255].map(|v| v as usize);
+        // floor by truncation and correction: libm's floorf is a call on baseline x86-64.
+        let floor = |x: f32| {
+            let t = x as i32;
+            t - (x < t as f32) as i32
+        };
+        let fl = [floor(q.x), floor(q.y), floor(q.z)];
+        let f = q - Vec3::new(fl[0] as f32, fl[1] as f32, fl[2] as f32);
+        let i = fl.map(|v| (v & 255) as usize);
         let fade = |t: f32| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
         let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
         let hash = |x: usize, y: usize, z: usize| {
@@ -133,25 +140,40 @@ impl Fbm {
 
     #[inline]
     pub fn density(&self, p: Vec3) -> f32 {
-        let n = 0.5 * (1.0 + self.value(p));
+        let n = 0.5 + self.value(p);
         ((n - self.p.threshold) / (1.0 - self.p.threshold)).clamp(0.0, 1.0)
     }
 
-    /// An upper bound of the density over the box: the largest of a lattice of samples
-    /// plus the Lipschitz bound times the farthest any point is from the lattice.
-    pub fn bound_over(&self, lo: Vec3, hi: Vec3) -> f32 {
-        const K: usize = 6;
-        let step = (hi - lo) / K as f32;
-        let mut m = 0.0f32;
-        for z in 0..=K {
-            for y in 0..=K {
-                for x in 0..=K {
-                    let p = lo + step * Vec3::new(x as f32, y as f32, z as f32);
-                    m = m.max(self.density(p));
+    /// Upper bounds of the density over the cells of a `res`^3 grid on the unit cube:
+    /// the largest of the samples on a lattice `k` times finer (shared between
+    /// neighbouring cells, so each point is evaluated once), plus the Lipschitz bound
+    /// times the farthest any point of a cell is from the lattice.
+    pub fn cell_bounds(&self, res: usize, k: usize) -> Vec<f32> {
+        let n = res * k + 1;
+        let h = 1.0 / (res * k) as f32;
+        let lattice: Vec<f32> = (0..n * n * n)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y, z) = (i % n, (i / n) % n, i / (n * n));
+                self.density(Vec3::new(x as f32, y as f32, z as f32) * h)
+            })
+            .collect();
+        let margin = self.lipschitz * 0.5 * h * 3f32.sqrt();
+        (0..res * res * res)
+            .into_par_iter()
+            .map(|c| {
+                let (cx, cy, cz) = (c % res, (c / res) % res, c / (res * res));
+                let mut m = 0.0f32;
+                for z in cz * k..=(cz + 1) * k {
+                    for y in cy * k..=(cy + 1) * k {
+                        for x in cx * k..=(cx + 1) * k {
+                            m = m.max(lattice[x + n * (y + n * z)]);
+                        }
+                    }
                 }
-            }
-        }
-        (m + self.lipschitz * 0.5 * step.length()).min(1.0)
+                (m + margin).min(1.0)
+            })
+            .collect()
     }
 }
 
@@ -176,7 +198,7 @@ mod tests {
         let mut rng = Rng::new(9, 9, 9);
         let h = 1e-3;
         let mut worst = 0.0f32;
-        for _ in 0..50_000 {
+        for _ in 0..400_000 {
             let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 40.0;
             let g = Vec3::new(
                 f.perlin(p + Vec3::X * h) - f.perlin(p - Vec3::X * h),
@@ -193,16 +215,20 @@ mod tests {
     fn bounds_hold_and_seeds_differ() {
         let f = fbm(7);
         let mut rng = Rng::new(1, 2, 3);
-        for _ in 0..200 {
-            let lo = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.9;
-            let hi = lo + Vec3::splat(0.0625);
-            let b = f.bound_over(lo, hi);
-            for _ in 0..50 {
-                let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-                let p = lo + (hi - lo) * t;
-                assert!(f.density(p) <= b + 1e-6);
-            }
+        let res = 16;
+        let bounds = f.cell_bounds(res, 4);
+        let mut below_one = 0;
+        for _ in 0..100_000 {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let c = p
+                .to_array()
+                .map(|v| ((v * res as f32) as usize).min(res - 1));
+            let b = bounds[c[0] + res * (c[1] + res * c[2])];
+            assert!(f.density(p) <= b + 1e-6, "{p}: {} > {b}", f.density(p));
+            below_one += (b < 1.0) as u32;
         }
+        // The bounds must also be useful, not all 1.
+        assert!(below_one > 10_000, "{below_one}");
         let g = fbm(8);
         let p = Vec3::new(0.31, 0.52, 0.77);
         assert_ne!(f.value(p), g.value(p));

@@ -92,11 +92,11 @@ impl DensityField {
     }
 
     /// Majorant-grid resolution: about four voxels per cell for grids (pbrt-v4 uses a
-    /// fixed 16^3), 16^3 for noise.
+    /// fixed 16^3), 32^3 for noise.
     fn majorant_res(&self) -> [usize; 3] {
         match self {
             DensityField::Grid(g) => g.dims.map(|n| n.div_ceil(4).clamp(1, 64)),
-            DensityField::Noise(_) => [16; 3],
+            DensityField::Noise(_) => [32; 3],
         }
     }
 }
@@ -112,20 +112,10 @@ pub struct MajorantGrid {
 impl MajorantGrid {
     pub fn build(field: &DensityField) -> Self {
         let res = field.majorant_res();
-        let n = res[0] * res[1] * res[2];
-        let max = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let c = [i % res[0], (i / res[0]) % res[1], i / (res[0] * res[1])];
-                let lo = Vec3::from_array(std::array::from_fn(|a| c[a] as f32 / res[a] as f32));
-                let hi =
-                    Vec3::from_array(std::array::from_fn(|a| (c[a] + 1) as f32 / res[a] as f32));
-                match field {
-                    DensityField::Grid(g) => g.max_over(lo, hi),
-                    DensityField::Noise(f) => f.bound_over(lo, hi),
-                }
-            })
-            .collect();
+        let max = match field {
+            DensityField::Grid(g) => grid_cell_bounds(g, res),
+            DensityField::Noise(f) => f.cell_bounds(res[0], 4),
+        };
         MajorantGrid { res, max }
     }
 
@@ -137,6 +127,19 @@ impl MajorantGrid {
     pub fn global_max(&self) -> f32 {
         self.max.iter().copied().fold(0.0, f32::max)
     }
+}
+
+/// Exact per-cell maxima of a voxel grid (see [`VoxelGrid::max_over`]).
+fn grid_cell_bounds(g: &VoxelGrid, res: [usize; 3]) -> Vec<f32> {
+    (0..res[0] * res[1] * res[2])
+        .into_par_iter()
+        .map(|i| {
+            let c = [i % res[0], (i / res[0]) % res[1], i / (res[0] * res[1])];
+            let lo = Vec3::from_array(std::array::from_fn(|a| c[a] as f32 / res[a] as f32));
+            let hi = Vec3::from_array(std::array::from_fn(|a| (c[a] + 1) as f32 / res[a] as f32));
+            g.max_over(lo, hi)
+        })
+        .collect()
 }
 
 /// Segments (t0, t1, majorant) of a local-space ray o + t d through the majorant

@@ -221,8 +221,8 @@ pub enum MediumDesc {
         #[serde(default)]
         phase: PhaseDesc,
     },
-    /// Fractal Perlin noise: density = clamp(((1 + v) / 2 - threshold) /
-    /// (1 - threshold), 0, 1), v the octave sum normalised to about [-1, 1].
+    /// Fractal Perlin noise: density = clamp((1/2 + v - threshold) / (1 - threshold),
+    /// 0, 1), v the octave sum divided by the sum of octave amplitudes (|v| < ~0.6).
     Procedural {
         sigma_t: V3,
         #[serde(default = "one3")]

@@ -12,7 +12,7 @@ pub use error::SceneError;
 pub use format::SceneFile;
 
 use crate::camera::Camera;
-use crate::geometry::{Accel, Interaction, Ray};
+use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};
@@ -84,7 +84,9 @@ pub struct Scene {
     /// Default integrator settings from the scene file.
     pub integrator: Option<serde_json::Value>,
     pub stats: SceneStats,
-    /// Any shape has the `null` material (shadow rays must look through it).
+    /// The tree holds index-matched (`null`) boundaries (only scenes with media keep
+    /// them: elsewhere they change nothing and are left out), so shadow rays must
+    /// look through them.
     pub has_null: bool,
     /// Participating media, indexed by `ShapeInfo::interior` / `exterior`.
     pub media: Vec<Medium>,
@@ -114,8 +116,21 @@ impl Scene {
     /// Closest surface along the ray, with normals on the shape's front side.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<Interaction> {
-        let hit = self.accel.intersect(ray)?;
-        let mut it = self.accel.interaction(ray, &hit);
+        let hit = self.hit(ray)?;
+        Some(self.interaction(ray, &hit))
+    }
+
+    /// Distance and primitive of the closest hit only; [`Scene::interaction`] makes
+    /// the surface point when it is needed (a free flight often ends before it).
+    #[inline(always)]
+    pub fn hit(&self, ray: &Ray) -> Option<Hit> {
+        self.accel.intersect(ray)
+    }
+
+    /// The surface point of a hit, with the shape's normal flip and shading normals.
+    #[inline(always)]
+    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> Interaction {
+        let mut it = self.accel.interaction(ray, hit);
         let shape = &self.shapes[it.shape as usize];
         if shape.flip {
             it.ng = -it.ng;
@@ -124,7 +139,7 @@ impl Scene {
             Some(s) => s.normal(it.local, hit.uv, it.ng),
             None => it.ng,
         };
-        Some(it)
+        it
     }
 
     /// The next point where `ray` scatters: the closest hit that is not an
@@ -266,10 +281,10 @@ impl Scene {
         let mut tr = Rgb::ONE;
         let mut depth = 0.0f32;
         for _ in 0..MAX_NULL_CROSSINGS {
-            let hit = self.intersect(&r);
+            let hit = self.hit(&r);
             if let Some(m) = medium {
                 let len = r.d.length();
-                let t_end = hit.as_ref().map_or(r.tmax, |h| (h.p - r.o).length() / len);
+                let t_end = hit.as_ref().map_or(r.tmax, |h| h.t);
                 let med = &self.media[m as usize];
                 tr *= med.transmittance(r.o, r.d / len, t_end * len, rng);
                 if tr == Rgb::ZERO {
@@ -279,9 +294,10 @@ impl Scene {
                     depth += s * t_end * len;
                 }
             }
-            let Some(it) = hit else {
+            let Some(hit) = hit else {
                 return (tr, depth);
             };
+            let it = self.interaction(&r, &hit);
             if !matches!(self.material(&it), Material::Null) {
                 return (Rgb::ZERO, depth);
             }

@@ -443,7 +443,17 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
             "degenerate triangles dropped"
         );
     }
-    let accel = Accel::build(b.prims, b.meta);
+    let camera_medium = medium_ref(&file.camera.medium);
+    let has_media = camera_medium.is_some()
+        || shapes
+            .iter()
+            .any(|s: &ShapeInfo| s.interior.is_some() || s.exterior.is_some());
+    let (prims, meta) = if has_media {
+        (b.prims, b.meta)
+    } else {
+        drop_null_boundaries(b.prims, b.meta, &shapes, &materials)
+    };
+    let accel = Accel::build(prims, meta);
     b.stats.bvh_build = accel.build_time;
     b.stats.bvh_bytes = accel.memory_bytes();
     let camera = camera(file);
@@ -466,18 +476,14 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         .filter(|(_, l)| matches!(l, Light::Constant { .. } | Light::EnvMap(_)))
         .map(|(i, _)| i as u32)
         .collect();
-    let camera_medium = medium_ref(&file.camera.medium);
-    let has_media = camera_medium.is_some()
-        || shapes
-            .iter()
-            .any(|s| s.interior.is_some() || s.exterior.is_some());
     let mut scene = Scene {
         media,
         camera_medium,
         has_media,
-        has_null: shapes
-            .iter()
-            .any(|s| matches!(materials[s.material as usize], Material::Null)),
+        has_null: has_media
+            && shapes
+                .iter()
+                .any(|s| matches!(materials[s.material as usize], Material::Null)),
         accel,
         shapes,
         materials,
@@ -494,6 +500,24 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
         .map(|i| light_medium(&scene, i))
         .collect();
     Ok(scene)
+}
+
+/// Without media an index-matched (`null`) boundary changes nothing, so it is left
+/// out of the tree: rays never stop at it and shadow rays keep the plain any-hit test.
+fn drop_null_boundaries(
+    prims: Vec<Prim>,
+    meta: Vec<PrimMeta>,
+    shapes: &[ShapeInfo],
+    materials: &[Material],
+) -> (Vec<Prim>, Vec<PrimMeta>) {
+    prims
+        .into_iter()
+        .zip(meta)
+        .filter(|(_, m)| {
+            let material = shapes[m.shape as usize].material as usize;
+            !matches!(materials[material], Material::Null)
+        })
+        .unzip()
 }
 
 /// The medium a light emits into: an area light on a medium boundary emits into the

@@ -404,6 +404,15 @@ fn validate_shape(scene: &SceneFile, path: &str, s: &ShapeDesc) -> Result<()> {
     }
     if let Some(e) = &c.emission {
         non_negative3(&format!("{path}.emission.radiance"), e.radiance)?;
+        if matches!(
+            scene.materials.get(&c.material),
+            Some(MaterialDesc::Null {})
+        ) {
+            return Err(SceneError::new(
+                format!("{path}.emission"),
+                "a `null` (index-matched) boundary cannot emit: rays pass through it unseen",
+            ));
+        }
     }
     if let Some(m) = &c.interior {
         medium_ref(scene, &format!("{path}.interior"), m)?;
