@@ -144,3 +144,23 @@ fn extreme_media_render_without_dropped_samples() {
         }
     }
 }
+
+#[test]
+fn glass_sphere_in_fog() {
+    // A dielectric whose outside is fog and inside vacuum: paths switch media at a
+    // specular interface. Light tracing cannot see through the glass (no connection
+    // passes a specular surface), so only bpt is compared.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/media/glass-sphere-fog.json"
+    );
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    v["film"] = json!({"width": SIZE, "height": SIZE});
+    let scene = compile(v);
+    let regions: Vec<Rect> = blocks(SIZE, SIZE, BLOCK);
+    let p = json!({"max_depth": 8});
+    let a = run(&scene, &settings("volpath", p.clone()), 21, 1200, &regions);
+    let b = run(&scene, &settings("bpt", p), 22, 800, &regions);
+    assert_eq!(a.dropped + b.dropped, 0);
+    assert_agree(&a, &b, &regions);
+}
