@@ -110,6 +110,14 @@ fn transmittance_estimators_match_the_closed_form() {
         exact,
     );
 
+    // A long segment, which free flights pass with probability below 0.3.
+    let long = 6.0;
+    assert_close(
+        "homogeneous free flight, long segment",
+        estimate(n, || pass(h.sample_flight(long, beta, &mut rng))),
+        (-sigma * long).exp(),
+    );
+
     // A constant grid: ratio tracking, spectral tracking and grey delta tracking.
     let g = grid_medium([5, 4, 3], sigma, |_| 1.0);
     assert_close(
@@ -428,14 +436,14 @@ fn algorithms_without_media_support_refuse_media_scenes() {
         8,
         json!({"type": "homogeneous", "sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5]}),
     );
-    for alg in ["lt", "bpt", "vcm", "bpm", "ppm", "sppm"] {
+    for alg in ["vcm", "bpm", "ppm", "sppm"] {
         let err = settings(alg, json!({})).check_scene(&scene).unwrap_err();
         assert!(
             err.to_string().contains("participating media"),
             "{alg}: {err}"
         );
     }
-    for alg in ["pt", "volpath", "normals"] {
+    for alg in ["pt", "volpath", "lt", "bpt", "vpm", "normals"] {
         settings(alg, json!({})).check_scene(&scene).unwrap();
     }
 }

@@ -216,20 +216,24 @@ impl Settings {
         Ok(settings)
     }
 
-    /// Refuses algorithms that cannot render what the scene holds (media, for now, are
-    /// rendered by `pt`/`volpath`/`vpm` only; the others would silently ignore them).
+    /// Refuses algorithms that cannot render what the scene holds: media are rendered
+    /// by `pt`/`volpath`, the connection techniques `lt` and `bpt`, and `vpm`; the
+    /// other merging methods (`bpm`, `vcm`, `ppm`, `sppm`) have no volume estimator
+    /// and would silently ignore them.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
         let media_ok = matches!(
             self,
             Settings::Pt(_)
                 | Settings::Volpath(_)
                 | Settings::Vpm(_)
+                | Settings::Lt(_)
+                | Settings::Bpt(_)
                 | Settings::Normals {}
                 | Settings::Albedo {}
         );
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt, volpath or vpm)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt or vpm)",
                 self.name()
             )));
         }

@@ -101,6 +101,15 @@ impl Heterogeneous {
         self.coefficients(l, f32::INFINITY).1
     }
 
+    /// Single-scattering albedo at world point `p`.
+    #[inline]
+    pub fn albedo_at(&self, p: Vec3) -> Rgb {
+        match &self.albedo_grid {
+            Some(g) => self.albedo * g.eval(self.to_local.transform_point3(p)).clamp(0.0, 1.0),
+            None => self.albedo,
+        }
+    }
+
     /// Spectral tracking; see the module notes.
     pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
         let Some(r) = self.clip(o, d, tmax) else {

@@ -30,6 +30,16 @@ impl Homogeneous {
         }
     }
 
+    /// sigma_s / sigma_t per channel, zero where sigma_t is.
+    #[inline]
+    pub fn albedo(&self) -> Rgb {
+        Rgb::select(
+            self.sigma_t.cmpgt(Rgb::ZERO),
+            self.sigma_s / self.sigma_t,
+            Rgb::ZERO,
+        )
+    }
+
     #[inline]
     pub fn transmittance(&self, dist: f32) -> Rgb {
         if dist == f32::INFINITY {
@@ -83,10 +93,14 @@ impl Homogeneous {
                 weight: tr * self.sigma_s / pdf,
             }
         } else {
+            // Passing has probability sum_c p_c T_c: dividing by anything else (such
+            // as a floor on it) would bias every long segment.
             let tr = self.transmittance(tmax);
             let pass = (p * tr).element_sum();
-            Flight::Pass {
-                weight: tr / pass.max(0.3),
+            if pass > 0.0 {
+                Flight::Pass { weight: tr / pass }
+            } else {
+                Flight::Absorbed
             }
         }
     }

@@ -74,6 +74,29 @@ impl Medium {
         }
     }
 
+    /// Single-scattering albedo sigma_s / sigma_t at `p` (zero in channels that do not
+    /// scatter); a point where the medium has no density gets the medium's nominal
+    /// albedo. Bidirectional subpaths continue with probability max(albedo).
+    #[inline]
+    pub fn albedo_at(&self, p: Vec3) -> Rgb {
+        match self {
+            Medium::Homogeneous(m) => m.albedo(),
+            Medium::Heterogeneous(m) => m.albedo_at(p),
+        }
+    }
+
+    /// The grey extinction coefficient bidirectional MIS assumes for distance sampling
+    /// in this medium: the channel mean of sigma_t when homogeneous (exact for grey
+    /// media), None when heterogeneous (no closed form; MIS leaves the medium's
+    /// densities out, see `integrator::vcm::mis`).
+    #[inline]
+    pub fn mis_sigma_t(&self) -> Option<f32> {
+        match self {
+            Medium::Homogeneous(m) => Some(m.sigma_t.element_sum() / 3.0),
+            Medium::Heterogeneous(_) => None,
+        }
+    }
+
     pub fn as_homogeneous(&self) -> Option<&Homogeneous> {
         match self {
             Medium::Homogeneous(m) => Some(m),

@@ -249,37 +249,57 @@ impl Scene {
     pub fn transmittance(
         &self,
         ray: &Ray,
-        mut medium: Option<u32>,
+        medium: Option<u32>,
         rng: &mut Rng,
         rays: &mut u64,
     ) -> Rgb {
+        self.transmittance_mis(ray, medium, rng, rays).0
+    }
+
+    /// [`Scene::transmittance`], and the grey optical depth that bidirectional MIS
+    /// assigns the segment: the sum of `Medium::mis_sigma_t` times the length over the
+    /// media it crosses (heterogeneous media count zero). A deterministic function of
+    /// the segment, unlike the estimate; only meaningful when the estimate is not zero.
+    pub fn transmittance_mis(
+        &self,
+        ray: &Ray,
+        mut medium: Option<u32>,
+        rng: &mut Rng,
+        rays: &mut u64,
+    ) -> (Rgb, f32) {
         if !self.has_media {
-            return if self.visible(ray) {
+            let tr = if self.visible(ray) {
                 Rgb::ONE
             } else {
                 Rgb::ZERO
             };
+            return (tr, 0.0);
         }
         let end = ray.at(ray.tmax);
         let finite = ray.tmax.is_finite();
         let mut r = *ray;
         let mut tr = Rgb::ONE;
+        let mut depth = 0.0f32;
         for _ in 0..MAX_NULL_CROSSINGS {
             let hit = self.hit(&r);
             if let Some(m) = medium {
                 let len = r.d.length();
                 let t_end = hit.as_ref().map_or(r.tmax, |h| h.t);
-                tr *= self.media[m as usize].transmittance(r.o, r.d / len, t_end * len, rng);
+                let med = &self.media[m as usize];
+                tr *= med.transmittance(r.o, r.d / len, t_end * len, rng);
                 if tr == Rgb::ZERO {
-                    return tr;
+                    return (tr, depth);
+                }
+                if let Some(s) = med.mis_sigma_t().filter(|&s| s > 0.0) {
+                    depth += s * t_end * len;
                 }
             }
             let Some(hit) = hit else {
-                return tr;
+                return (tr, depth);
             };
             let it = self.interaction(&r, &hit);
             if !matches!(self.material(&it), Material::Null) {
-                return Rgb::ZERO;
+                return (Rgb::ZERO, depth);
             }
             medium = self.medium_after(&it, r.d, medium);
             *rays += 1;
@@ -294,7 +314,7 @@ impl Scene {
                 Ray::new(o, r.d)
             };
         }
-        Rgb::ZERO
+        (Rgb::ZERO, depth)
     }
 
     /// Solid-angle density with which next-event estimation picks an escaping

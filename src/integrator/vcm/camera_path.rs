@@ -1,18 +1,37 @@
 //! Camera subpaths: emitter hits, light sampling, connections to the paired light
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
-use super::light_path::{scatter, Surface, Walk, MIN_COS};
+use super::light_path::{Surface, Walk, MIN_COS};
+use super::media::{next_event, shadow, Event};
+use super::vertex::{Media, NoMedia, Vertex, WithMedia};
 use super::{Pass, Workspace};
-use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::geometry::Ray;
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
-use crate::math::{Frame, Rgb, Rng, Vec3};
-use crate::scene::Surfacing;
+use crate::math::{Rgb, Rng, Vec3};
 
 /// Radiance along one camera ray of pixel `pixel`.
 #[inline(always)]
 pub(super) fn radiance(
+    pass: &Pass,
+    ws: &Workspace,
+    pixel: usize,
+    ray: Ray,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+    layers: &mut [Rgb],
+) -> Rgb {
+    if pass.scene.has_media {
+        radiance_in::<WithMedia>(pass, ws, pixel, ray, rng, stats, layers)
+    } else {
+        radiance_in::<NoMedia>(pass, ws, pixel, ray, rng, stats, layers)
+    }
+}
+
+/// [`radiance`], compiled with and without media (`M`, decided once per path).
+#[inline(always)]
+fn radiance_in<M: Media>(
     pass: &Pass,
     ws: &Workspace,
     pixel: usize,
@@ -28,62 +47,58 @@ pub(super) fn radiance(
         len: 1,
         q: pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
         specular: true,
+        medium: if M::ON { scene.camera_medium } else { None },
     };
     let mut l = Rgb::ZERO;
     loop {
-        let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
-            Surfacing::Hit(it, m) => (it, m),
-            Surfacing::Escaped => {
+        let (event, tr) = next_event::<M>(scene, &mut ray, &mut walk, rng, &mut stats.rays);
+        let v = match event {
+            Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
+            Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
+            Event::Escaped => {
+                if M::ON {
+                    // The escaping segment's T enters the density of the vertex at
+                    // infinity; there is no distance and no cosine (mis.rs).
+                    walk.q = pass.mis.on_hit(walk.q, 1.0 / tr, 1.0);
+                }
                 let v = walk.throughput * escaped(pass, &walk, ray.d);
                 record(layers, pass.layers.connection(0, walk.len + 1), v);
                 l += v;
                 break;
             }
-            Surfacing::Lost => break,
+            Event::End => break,
         };
-        let cos_in = it.ns.dot(ray.d).abs();
-        if cos_in < MIN_COS {
+        let Some(v) = v else {
             break;
+        };
+        let dist2 = (v.p() - walk.origin).length_squared();
+        walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
+        if let Vertex::Surface { it, .. } = &v {
+            let e = walk.throughput * emitter_hit(pass, &walk, it, ray.d, dist2);
+            record(layers, pass.layers.connection(0, walk.len + 1), e);
+            l += e;
         }
-        let dist2 = (it.p - walk.origin).length_squared();
-        walk.q = pass.mis.on_hit(walk.q, Some(dist2), cos_in);
-        let v = walk.throughput * emitter_hit(pass, &walk, &it, ray.d, dist2);
-        record(layers, pass.layers.connection(0, walk.len + 1), v);
-        l += v;
         if walk.len >= pass.s.max_depth {
             break;
         }
-        let frame = Frame::from_normal(it.ns);
-        let surface = Surface {
-            m,
-            frame,
-            ng: it.ng,
-            wo: frame.to_local(-ray.d),
-            cont: pass.continuation(m),
-        };
-        if !m.is_delta() {
+        if !v.is_delta() {
             if pass.technique.connects() {
-                let v = walk.throughput * light_sample(pass, &walk, &it, &surface, rng, stats);
-                record(layers, pass.layers.connection(1, walk.len + 1), v);
-                l += v;
-                l += connect(pass, ws, pixel, &walk, &it, &surface, stats, layers);
+                let e = walk.throughput * light_sample(pass, &walk, &v, rng, stats);
+                record(layers, pass.layers.connection(1, walk.len + 1), e);
+                l += e;
+                l += connect(pass, ws, pixel, &walk, &v, rng, stats, layers);
             }
-            if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
-                let v = walk.throughput * merge(pass, ws, &walk, &it, &surface, stats);
-                record(layers, pass.layers.merge(), v);
-                l += v;
+            // Merging is not offered in media (Settings::check_scene): surfaces only.
+            if let Vertex::Surface { it, s: surface, .. } = &v {
+                if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
+                    let e = walk.throughput * merge(pass, ws, &walk, it, surface, stats);
+                    record(layers, pass.layers.merge(), e);
+                    l += e;
+                }
             }
         }
         let len = walk.len;
-        let Some(next) = scatter(
-            pass,
-            rng,
-            &mut walk,
-            &it,
-            &surface,
-            Mode::Radiance,
-            Some(len),
-        ) else {
+        let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Radiance, Some(len)) else {
             break;
         };
         ray = next;
@@ -115,8 +130,14 @@ fn own_weight(pass: &Pass, walk: &Walk, direct: impl FnOnce() -> (f32, f32)) -> 
 }
 
 /// An area light reached by the camera subpath ([TR] eqs. 42-43).
-#[inline]
-fn emitter_hit(pass: &Pass, walk: &Walk, it: &Interaction, d: Vec3, dist2: f32) -> Rgb {
+#[inline(always)]
+fn emitter_hit(
+    pass: &Pass,
+    walk: &Walk,
+    it: &crate::geometry::Interaction,
+    d: Vec3,
+    dist2: f32,
+) -> Rgb {
     let scene = pass.scene;
     let Some((li, area)) = scene.area_light(it) else {
         return Rgb::ZERO;
@@ -157,13 +178,14 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
     l
 }
 
-/// Light sampling from a camera vertex ([TR] eqs. 44-45).
+/// Light sampling from a camera vertex through the media on the way ([TR] eqs.
+/// 44-45, with the segment's MIS transmittance dividing the light's density as it
+/// divides d^2, mis.rs).
 #[inline]
-fn light_sample(
+fn light_sample<M: Media>(
     pass: &Pass,
     walk: &Walk,
-    it: &Interaction,
-    surface: &Surface,
+    v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
 ) -> Rgb {
@@ -174,10 +196,21 @@ fn light_sample(
     let (li, pick, _) = scene.light_sampler.sample(rng.next_f32());
     let u = rng.next_2d();
     let light = &scene.lights[li];
-    let Some(ls) = light.sample_li(it.p, u) else {
+    let Some(ls) = light.sample_li(v.p(), u) else {
         return Rgb::ZERO;
     };
-    let Some(e) = surface.eval(ls.wi, Mode::Radiance) else {
+    let Some(e) = v.eval(ls.wi, Mode::Radiance) else {
+        return Rgb::ZERO;
+    };
+    stats.connections += 1;
+    stats.shadow_rays += 1;
+    let (ray, medium) = if ls.dist.is_finite() {
+        v.ray_to(pass, walk.medium, ls.p, Vec3::ZERO, Vec3::ZERO)
+    } else {
+        v.ray_along(pass, walk.medium, ls.wi)
+    };
+    let rays = &mut stats.shadow_rays;
+    let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
         return Rgb::ZERO;
     };
     // SmallVCM's conventions: point-like lights have unit area density, so their
@@ -188,46 +221,37 @@ fn light_sample(
         _ => (ls.pdf, 1.0),
     };
     let (pos, dir) = light.pdf_le(&scene.sphere, ls.n, -ls.wi);
+    let cont = v.cont();
     let bsdf_dir = if light.is_delta() {
         0.0
     } else {
-        e.pdf_dir * surface.cont
+        e.pdf_dir * cont
     };
     let w = pass.mis.weight_light_sample(
         walk.q,
         walk.len,
         pick,
-        direct,
+        direct / tr_mis,
         pos * dir,
         cos_light,
         e.cos,
         bsdf_dir,
-        e.pdf_rev * surface.cont,
+        e.pdf_rev * cont,
     );
-    stats.connections += 1;
-    stats.shadow_rays += 1;
-    let ray = if ls.dist.is_finite() {
-        spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
-    } else {
-        spawn_ray(it.p, it.p_err, it.ng, ls.wi)
-    };
-    if !scene.visible(&ray) {
-        return Rgb::ZERO;
-    }
-    e.f * ls.li * (w / (pick * ls.pdf))
+    e.f * ls.li * tr * (w / (pick * ls.pdf))
 }
 
-/// Connections to the vertices of the light subpath paired with this pixel
-/// ([TR] eqs. 40-41), throughput included.
+/// Connections to the vertices of the light subpath paired with this pixel, through
+/// the media between them ([TR] eqs. 40-41 with d^2 / T, mis.rs), throughput included.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn connect(
+fn connect<M: Media>(
     pass: &Pass,
     ws: &Workspace,
     pixel: usize,
     walk: &Walk,
-    it: &Interaction,
-    surface: &Surface,
+    v: &Vertex<M>,
+    rng: &mut Rng,
     stats: &mut RenderStats,
     layers: &mut [Rgb],
 ) -> Rgb {
@@ -237,51 +261,47 @@ fn connect(
         return Rgb::ZERO;
     };
     let begin = if path == 0 { 0 } else { ws.path_ends[path - 1] };
+    let cont = v.cont();
     let mut l = Rgb::ZERO;
     for y in &ws.vertices[begin as usize..end as usize] {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
             break;
         }
-        let to_light = y.p - it.p;
+        let to_light = y.p - v.p();
         let dist2 = to_light.length_squared();
         if dist2 <= 0.0 {
             continue;
         }
         let dir = to_light / dist2.sqrt();
-        let Some(ec) = surface.eval(dir, Mode::Radiance) else {
+        let Some(ec) = v.eval(dir, Mode::Radiance) else {
             continue;
         };
-        let ym = &scene.materials[y.material as usize];
-        let yframe = Frame::from_normal(y.ns);
-        let ys = Surface {
-            m: ym,
-            frame: yframe,
-            ng: y.ng,
-            wo: yframe.to_local(y.wo),
-            cont: y.cont,
-        };
+        let ys = y.scatterer::<M>(pass);
         let Some(el) = ys.eval(-dir, Mode::Importance) else {
             continue;
         };
+        stats.connections += 1;
+        stats.shadow_rays += 1;
+        let (ray, medium) = v.ray_to(pass, walk.medium, y.p, y.p_err, y.ng);
+        let rays = &mut stats.shadow_rays;
+        let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
+            continue;
+        };
+        let seg = dist2 / tr_mis;
+        let y_cont = ys.cont();
         let w = pass.mis.weight_connection(
             y.q,
             walk.q,
             walk.len,
-            ec.pdf_dir * surface.cont * el.cos / dist2,
-            el.pdf_dir * ys.cont * ec.cos / dist2,
-            el.pdf_rev * ys.cont,
-            ec.pdf_rev * surface.cont,
+            ec.pdf_dir * cont * el.cos / seg,
+            el.pdf_dir * y_cont * ec.cos / seg,
+            el.pdf_rev * y_cont,
+            ec.pdf_rev * cont,
         );
-        stats.connections += 1;
-        stats.shadow_rays += 1;
-        let ray = spawn_ray_to(it.p, it.p_err, it.ng, y.p, y.p_err, y.ng);
-        if !scene.visible(&ray) {
-            continue;
-        }
-        let v = walk.throughput * y.throughput * ec.f * el.f * (w / dist2);
-        record(layers, pass.layers.connection(y.len + 1, walk.len + 1), v);
-        l += v;
+        let c = walk.throughput * y.throughput * ec.f * el.f * tr * (w / dist2);
+        record(layers, pass.layers.connection(y.len + 1, walk.len + 1), c);
+        l += c;
     }
     l
 }
@@ -293,7 +313,7 @@ fn merge(
     pass: &Pass,
     ws: &Workspace,
     walk: &Walk,
-    it: &Interaction,
+    it: &crate::geometry::Interaction,
     surface: &Surface,
     stats: &mut RenderStats,
 ) -> Rgb {

@@ -1,14 +1,16 @@
-//! Light subpaths: emission, random walk with importance transport, storage of
-//! non-specular vertices, and connections to the camera (splats).
+//! Light subpaths: emission, random walk with importance transport (through media
+//! when the scene has them), storage of non-specular vertices, and connections to the
+//! camera (splats).
 
+use super::media::{next_event, shadow, Event};
 use super::mis::Partial;
+use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::{Pass, Splat, Workspace};
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
-use crate::scene::Surfacing;
 use rayon::prelude::*;
 
 /// Light paths per parallel chunk: fixed, so the split never depends on threads.
@@ -20,18 +22,30 @@ pub(super) const MIN_COS: f32 = 1e-6;
 /// Seed offset that separates light-path streams from camera-path streams.
 const LIGHT_STREAM: u64 = 0x5DEE_CE66_D1CE_4E5B;
 
+/// `LightVertex::material` of a scattering point in a medium.
+pub(crate) const MEDIUM_VERTEX: u32 = u32::MAX;
+
+/// `LightVertex::medium` of a vertex in vacuum.
+const NO_MEDIUM: u32 = u32::MAX;
+
 /// A stored light-subpath vertex (where connections and merges attach).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LightVertex {
     pub p: Vec3,
+    /// Error bound and normals of a surface vertex (zero for a medium vertex).
     pub p_err: Vec3,
     pub ng: Vec3,
     pub ns: Vec3,
     /// Towards the previous vertex (where the light came from), world space.
     pub wo: Vec3,
     pub throughput: Rgb,
+    /// The surface's material, or MEDIUM_VERTEX.
     pub material: u32,
-    /// Russian-roulette continuation probability of the material.
+    /// The medium the light arrived in (NO_MEDIUM: vacuum): a medium vertex's own,
+    /// and at a surface the one on the side `wo` points to.
+    pub medium: u32,
+    /// Russian-roulette continuation probability of the material (or of the medium's
+    /// albedo there).
     pub cont: f32,
     /// Segments from the light to this vertex.
     pub len: u32,
@@ -47,6 +61,33 @@ pub(crate) struct MergeVertex {
     pub len: u32,
     pub cont: f32,
     pub q: Partial,
+}
+
+impl LightVertex {
+    /// What scatters at the vertex, for connections (only surfaces without media).
+    #[inline(always)]
+    pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
+        if M::ON && self.material == MEDIUM_VERTEX {
+            let medium = &pass.scene.media[self.medium as usize];
+            let m = MediumPoint {
+                phase: medium.phase(),
+                wo: self.wo,
+                sigma: mis_sigma(pass, self.medium),
+                cont: self.cont,
+            };
+            if let Some(m) = M::wrap(m) {
+                return Scatterer::Medium(m);
+            }
+        }
+        let frame = Frame::from_normal(self.ns);
+        Scatterer::Surface(Surface {
+            m: &pass.scene.materials[self.material as usize],
+            frame,
+            ng: self.ng,
+            wo: frame.to_local(self.wo),
+            cont: self.cont,
+        })
+    }
 }
 
 impl From<&LightVertex> for MergeVertex {
@@ -85,7 +126,8 @@ pub(crate) struct Surface<'a> {
 }
 
 /// f |cos| towards a direction, with both solid-angle densities (continuation
-/// probability not included).
+/// probability not included). At a medium vertex f is the phase function and `cos` the
+/// MIS factor D (see `mis`).
 pub(crate) struct Eval {
     pub f: Rgb,
     pub cos: f32,
@@ -126,6 +168,8 @@ pub(crate) struct Walk {
     pub q: Partial,
     /// Every scattering event so far was specular.
     pub specular: bool,
+    /// The medium the path travels in (always None in scenes without media).
+    pub medium: Option<u32>,
 }
 
 pub(super) fn trace_light_paths(
@@ -215,7 +259,11 @@ fn trace_chunk_body(
 ) {
     for i in paths {
         let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
-        trace_one(pass, &mut rng, chunk, budget);
+        if pass.scene.has_media {
+            trace_one::<WithMedia>(pass, &mut rng, chunk, budget);
+        } else {
+            trace_one::<NoMedia>(pass, &mut rng, chunk, budget);
+        }
         chunk.ends.push(chunk.vertices.len() as u32);
     }
 }
@@ -269,6 +317,7 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
         len: 1,
         q,
         specular: true,
+        medium: None,
     };
     Some((
         Start {
@@ -283,15 +332,16 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
     ))
 }
 
+/// One light subpath; `M` (whether the scene has media) is decided once per path.
 #[inline(always)]
-fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
+fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
     let scene = pass.scene;
     let Some((st, es, li, pick)) = start(pass, rng) else {
         return;
     };
     chunk.stats.samples += 1;
     if pass.technique == super::Technique::Lt {
-        splat_emitter(pass, rng, chunk, &es, li, pick);
+        splat_emitter::<M>(pass, rng, chunk, &es, li, pick);
     }
     let Start {
         mut ray,
@@ -299,65 +349,105 @@ fn trace_one(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
         finite,
         area,
     } = st;
+    if M::ON {
+        walk.medium = emission_medium(scene, li, &es);
+    }
     let store = pass.technique.connects() || pass.technique.merges();
     let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
     loop {
         chunk.stats.rays += 1;
-        let Surfacing::Hit(it, m) = scene.next_scattering(&mut ray, &mut chunk.stats.rays) else {
+        let (event, tr) = next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays);
+        let v = match event {
+            Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
+            Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
+            Event::Escaped | Event::End => return,
+        };
+        let Some(v) = v else {
             return;
         };
-        let cos_in = it.ns.dot(ray.d).abs();
-        if cos_in < MIN_COS {
-            return;
-        }
-        let dist2 = (it.p - walk.origin).length_squared();
+        let dist2 = (v.p() - walk.origin).length_squared();
         if walk.len == 1 {
             if let Some((l, pick, emission, p0, n0, cos0)) = area {
                 // The density with which light sampling from this point picks the
-                // origin, in area measure ([TR] eq. 31).
-                let pdf_w = scene.lights[l].pdf_li(it.p, -ray.d, p0, n0);
+                // origin, in area measure ([TR] eq. 31); geometric, no transmittance.
+                let pdf_w = scene.lights[l].pdf_li(v.p(), -ray.d, p0, n0);
                 walk.q.dvcm = pass.mis.f(pick * pdf_w * cos0 / dist2 / emission);
             }
         }
-        let d2 = (walk.len > 1 || finite).then_some(dist2);
-        walk.q = pass.mis.on_hit(walk.q, d2, cos_in);
-        let frame = Frame::from_normal(it.ns);
-        let surface = Surface {
-            m,
-            frame,
-            ng: it.ng,
-            wo: frame.to_local(-ray.d),
-            cont: pass.continuation(m),
-        };
-        if !m.is_delta() {
+        // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
+        let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
+        walk.q = pass.mis.on_hit(walk.q, d2 / tr, v.d_in());
+        if !v.is_delta() {
             if store && chunk.vertices.len() >= budget {
                 chunk.over_budget = true;
             } else if store {
-                chunk.vertices.push(LightVertex {
-                    p: it.p,
-                    p_err: it.p_err,
-                    ng: it.ng,
-                    ns: it.ns,
-                    wo: -ray.d,
-                    throughput: walk.throughput,
-                    material: scene.shapes[it.shape as usize].material,
-                    cont: surface.cont,
-                    len: walk.len,
-                    q: walk.q,
-                });
+                chunk.vertices.push(stored(&v, &walk, ray.d, scene));
             }
             if to_camera {
-                connect_to_camera(pass, rng, chunk, &walk, &it, &surface);
+                connect_to_camera(pass, rng, chunk, &walk, &v);
             }
         }
         if walk.len + 2 > pass.s.max_depth {
             return;
         }
-        let Some(next) = scatter(pass, rng, &mut walk, &it, &surface, Mode::Importance, None)
-        else {
+        let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None) else {
             return;
         };
         ray = next;
+    }
+}
+
+/// The medium light emitted as `es` by light `li` starts in: the light's, except that
+/// a two-sided emitter on a medium boundary emits into the medium on the side the
+/// light leaves by.
+#[inline]
+fn emission_medium(
+    scene: &crate::scene::Scene,
+    li: usize,
+    es: &crate::light::EmissionSample,
+) -> Option<u32> {
+    if let Light::Area(a) = &scene.lights[li] {
+        let shape = &scene.shapes[a.shape as usize];
+        if shape.is_medium_boundary() {
+            return if es.d.dot(es.n) > 0.0 {
+                shape.exterior
+            } else {
+                shape.interior
+            };
+        }
+    }
+    scene.light_media[li]
+}
+
+/// The stored form of vertex `v`, reached along `d`.
+#[inline(always)]
+fn stored<M: Media>(
+    v: &Vertex<M>,
+    walk: &Walk,
+    d: Vec3,
+    scene: &crate::scene::Scene,
+) -> LightVertex {
+    let (p_err, ng, ns, material) = match v {
+        Vertex::Surface { it, .. } => (
+            it.p_err,
+            it.ng,
+            it.ns,
+            scene.shapes[it.shape as usize].material,
+        ),
+        Vertex::Medium { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, MEDIUM_VERTEX),
+    };
+    LightVertex {
+        p: v.p(),
+        p_err,
+        ng,
+        ns,
+        wo: -d,
+        throughput: walk.throughput,
+        material,
+        medium: walk.medium.unwrap_or(NO_MEDIUM),
+        cont: v.cont(),
+        len: walk.len,
+        q: walk.q,
     }
 }
 
@@ -405,15 +495,14 @@ pub(super) fn scatter(
     Some(spawn_ray(it.p, it.p_err, it.ng, wi))
 }
 
-/// Connects a light vertex to a point on the lens and splats the result
-/// ([TR] eqs. 46-47; SmallVCM's ConnectToCamera).
-fn connect_to_camera(
+/// Connects a light vertex to a point on the lens and splats the result, through
+/// the media between them ([TR] eqs. 46-47; SmallVCM's ConnectToCamera).
+fn connect_to_camera<M: Media>(
     pass: &Pass,
     rng: &mut Rng,
     chunk: &mut Chunk,
     walk: &Walk,
-    it: &Interaction,
-    surface: &Surface,
+    v: &Vertex<M>,
 ) {
     let Some(LensLink {
         lens,
@@ -421,31 +510,32 @@ fn connect_to_camera(
         dir,
         dist2,
         camera_pdf,
-    }) = lens_link(pass, rng, it.p)
+    }) = lens_link(pass, rng, v.p())
     else {
         return;
     };
-    let Some(e) = surface.eval(dir, Mode::Importance) else {
+    let Some(e) = v.eval(dir, Mode::Importance) else {
         return;
     };
-    let camera_a = camera_pdf * e.cos / dist2;
+    chunk.stats.connections += 1;
+    chunk.stats.shadow_rays += 1;
+    let (ray, medium) = v.ray_to(pass, walk.medium, lens, Vec3::ZERO, Vec3::ZERO);
+    let rays = &mut chunk.stats.shadow_rays;
+    let Some((tr, tr_mis)) = shadow::<M>(pass.scene, &ray, medium, rng, rays) else {
+        return;
+    };
+    let camera_a = camera_pdf * e.cos / (dist2 / tr_mis);
     let w = if pass.technique == super::Technique::Lt {
         1.0
     } else {
         pass.mis
-            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * surface.cont)
+            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * v.cont())
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.
-    let v = walk.throughput * e.f * (w * camera_pdf / dist2 / pass.light_paths as f32);
-    chunk.stats.connections += 1;
-    chunk.stats.shadow_rays += 1;
-    let ray = spawn_ray_to(it.p, it.p_err, it.ng, lens, Vec3::ZERO, Vec3::ZERO);
-    if !pass.scene.visible(&ray) {
-        return;
-    }
+    let value = walk.throughput * e.f * (w * camera_pdf / dist2 / pass.light_paths as f32) * tr;
     let layer = pass.layers.connection(walk.len + 1, 1);
-    push_splat(pass, chunk, raster, v, layer);
+    push_splat(pass, chunk, raster, value, layer);
 }
 
 /// A point connected to a sampled lens point.
@@ -477,8 +567,9 @@ fn lens_link(pass: &Pass, rng: &mut Rng, p: Vec3) -> Option<LensLink> {
 }
 
 /// Light tracing alone sees emitters through their own emission: connect the light
-/// path's origin to the lens (other techniques see emitters from the camera side).
-fn splat_emitter(
+/// path's origin to the lens (other techniques see emitters from the camera side),
+/// through the media from the camera's.
+fn splat_emitter<M: Media>(
     pass: &Pass,
     rng: &mut Rng,
     chunk: &mut Chunk,
@@ -514,8 +605,11 @@ fn splat_emitter(
         es.p.abs() * gamma(6),
         es.n,
     );
-    if pass.scene.visible(&ray) {
-        push_splat(pass, chunk, raster, v, pass.layers.connection(1, 1));
+    let scene = pass.scene;
+    let medium = scene.camera_medium;
+    let rays = &mut chunk.stats.shadow_rays;
+    if let Some((tr, _)) = shadow::<M>(scene, &ray, medium, rng, rays) {
+        push_splat(pass, chunk, raster, v * tr, pass.layers.connection(1, 1));
     }
 }
 

@@ -9,6 +9,38 @@
 //!
 //! Densities follow [TR]: solid-angle pdfs of the BSDF include the Russian-roulette
 //! continuation probability; "emission" pdfs include the light selection probability.
+//!
+//! Media. [TR] has surface vertices only. With distance sampling, the area-measure
+//! density of a vertex x reached along a segment from x' is
+//!
+//!   p_A(x) = p_w(x' -> x) D(x) T(x', x) / |x - x'|^2,
+//!   D(x) = |cos theta_x| at a surface, sigma_t(x) at a medium vertex,
+//!
+//! (volume measure at medium vertices, no cosine there, as in the path space of Pauly
+//! et al. 2000, "Metropolis light transport for participating media"): T is the
+//! probability that a free flight passes the segment, and sigma_t T the density of
+//! stopping at x. T(x', x)
+//! enters the density of whichever endpoint the segment is traced towards, exactly as
+//! 1 / d^2 does, and D(x) stands where [TR] has the cosine at x. Every recursive formula
+//! of [TR] therefore holds with d^2 replaced by d^2 / T and cos by D, in the MIS
+//! quantities only (contributions keep the true d^2 and cosines): callers pass
+//! `seg = d^2 / T` to [`Mis::on_hit`], divide light-sampling and connection densities'
+//! d^2 by the connecting segment's T, and give D as the cosine of medium vertices.
+//!
+//! Which sigma_t and T: free flights pick a channel's exponential with probability
+//! proportional to the path throughput, so their true density depends on the subpath's
+//! history, is different from the two sides, and is no function of the path. MIS uses
+//! a grey proxy, the same from both sides: sigma = the channel mean of sigma_t in
+//! homogeneous media and T = exp(-sigma length), in closed form (exact for grey media).
+//! Heterogeneous media have no closed form (T is estimated by ratio tracking, and a
+//! random estimate in a weight would bias it): their pieces of a segment get T = 1 and
+//! their vertices D = 1. Weights built from any positive, deterministic function of the
+//! path that every technique evaluates alike still sum to one over the techniques,
+//! which is all unbiasedness needs; the proxies only rank techniques less well where a
+//! medium is dense or strongly chromatic. (D at a medium vertex is a factor of every
+//! connection technique's density, so it cancels in `lt` and `bpt`; merging, where it
+//! would not, is not offered in media.) T is clamped below at exp(-MAX_MIS_DEPTH) so
+//! that 1 / T stays finite under the power heuristic's squares.
 
 use crate::integrator::pt::Heuristic;
 
@@ -25,6 +57,16 @@ pub struct Mis {
     /// Merging at the first camera vertex is a technique; when false it is removed
     /// from every denominator as well as from the estimator.
     pub merge_first: bool,
+}
+
+/// Optical depth beyond which the MIS transmittance of a segment stops falling.
+pub const MAX_MIS_DEPTH: f32 = 20.0;
+
+/// The MIS transmittance of a segment from its grey optical depth (see the module
+/// notes): exp(-depth), clamped so that its inverse stays finite.
+#[inline]
+pub fn transmittance(depth: f32) -> f32 {
+    (-depth.min(MAX_MIS_DEPTH)).exp()
 }
 
 /// The three partial weights of a subpath vertex.
@@ -111,14 +153,12 @@ impl Mis {
         }
     }
 
-    /// Completes the update after a segment of squared length `dist2` reaches a vertex
-    /// at |cos| `cos`; rays from lights at infinity skip the distance ([TR] sec. 5.1).
+    /// Completes the update after a segment reaches a vertex with |cos| (or, in a
+    /// medium, D) `cos`. `seg` is d^2 / T of the segment, or 1 / T for a ray from a
+    /// light at infinity, which has no distance ([TR] sec. 5.1); T is 1 without media.
     #[inline]
-    pub fn on_hit(&self, q: Partial, dist2: Option<f32>, cos: f32) -> Partial {
-        let mut dvcm = q.dvcm;
-        if let Some(d2) = dist2 {
-            dvcm *= self.f(d2);
-        }
+    pub fn on_hit(&self, q: Partial, seg: f32, cos: f32) -> Partial {
+        let dvcm = q.dvcm * self.f(seg);
         let c = self.f(cos);
         Partial {
             dvcm: dvcm / c,
@@ -249,8 +289,11 @@ impl Mis {
 #[cfg(test)]
 mod tests {
     //! Checks the recursive weights against the balance and power heuristics computed
-    //! from explicit path densities ([TR] sec. 2-3), on random all-diffuse paths with
-    //! an area light and a pinhole camera, for every technique set.
+    //! from explicit path densities ([TR] sec. 2-3), on random non-specular paths with
+    //! an area light or a light at infinity and a pinhole camera, for every technique
+    //! set. Paths may have medium vertices (D = sigma_t from both sides instead of two
+    //! cosines) and segments with transmittance T < 1 in the densities of whatever is
+    //! sampled along them; the recursive side gets them as the module notes say.
     use super::*;
     use crate::math::Rng;
 
@@ -258,7 +301,10 @@ mod tests {
     struct Path {
         n: usize,
         d2: Vec<f32>,
-        /// cos at x_i towards x_{i+1} (i < n) and towards x_{i-1} (i > 0).
+        /// MIS transmittance of segment (x_i, x_{i+1}).
+        tr: Vec<f32>,
+        /// D at x_i towards x_{i+1} (i < n) and towards x_{i-1} (i > 0): cosines at
+        /// surfaces, the same sigma_t both ways at medium vertices.
         cf: Vec<f32>,
         cb: Vec<f32>,
         /// Solid-angle densities at scattering vertex i of sampling x_{i+1} (light
@@ -266,28 +312,46 @@ mod tests {
         pl: Vec<f32>,
         pc: Vec<f32>,
         pick: f32,
-        /// Area density of x0 for light sampling, emission position and direction.
+        /// x0 is a direction (environment light): positions come from a disk and
+        /// light sampling picks a solid angle, with no distance or cosine at x0.
+        infinite: bool,
+        /// Density of x0 for light sampling (area, or solid angle at infinity),
+        /// emission position (area, or on the disk) and direction.
         a_direct: f32,
         e_pos: f32,
         e_dir: f32,
         camera: f32,
     }
 
-    fn random_path(rng: &mut Rng, n: usize) -> Path {
+    fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
         let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
-        Path {
+        let mut p = Path {
             n,
             d2: (0..n).map(|_| r(0.05, 4.0)).collect(),
+            tr: (0..n)
+                .map(|_| if media { r(0.01, 1.0) } else { 1.0 })
+                .collect(),
             cf: (0..=n).map(|_| r(0.05, 1.0)).collect(),
             cb: (0..=n).map(|_| r(0.05, 1.0)).collect(),
             pl: (0..=n).map(|_| r(0.05, 3.0)).collect(),
             pc: (0..=n).map(|_| r(0.05, 3.0)).collect(),
             pick: r(0.2, 1.0),
+            infinite,
             a_direct: r(0.5, 4.0),
             e_pos: r(0.5, 4.0),
             e_dir: r(0.05, 1.0),
             camera: r(0.5, 3.0),
+        };
+        if media {
+            for i in 1..n {
+                if r(0.0, 1.0) < 0.5 {
+                    let sigma = r(0.05, 5.0);
+                    p.cf[i] = sigma;
+                    p.cb[i] = sigma;
+                }
+            }
         }
+        p
     }
 
     #[derive(Clone, Copy, Debug, PartialEq)]
@@ -299,21 +363,26 @@ mod tests {
     }
 
     impl Path {
-        /// Area density of x_i sampled from the light side.
+        /// Density of x_i sampled from the light side (area measure, or the
+        /// direction for x0 at infinity).
         fn fwd(&self, i: usize) -> f32 {
-            match i {
-                0 => self.pick * self.e_pos,
-                1 => self.e_dir * self.cb[1] / self.d2[0],
-                _ => self.pl[i - 1] * self.cb[i] / self.d2[i - 1],
+            match (i, self.infinite) {
+                (0, false) => self.pick * self.e_pos,
+                (0, true) => self.pick * self.e_dir,
+                (1, false) => self.e_dir * self.cb[1] * self.tr[0] / self.d2[0],
+                (1, true) => self.e_pos * self.cb[1] * self.tr[0],
+                _ => self.pl[i - 1] * self.cb[i] * self.tr[i - 1] / self.d2[i - 1],
             }
         }
 
-        /// Area density of x_i sampled from the camera side.
+        /// Density of x_i sampled from the camera side.
         fn bwd(&self, i: usize) -> f32 {
             if i == self.n - 1 {
-                self.camera * self.cf[i] / self.d2[i]
+                self.camera * self.cf[i] * self.tr[i] / self.d2[i]
+            } else if i == 0 && self.infinite {
+                self.pc[1] * self.tr[0]
             } else {
-                self.pc[i + 1] * self.cf[i] / self.d2[i]
+                self.pc[i + 1] * self.cf[i] * self.tr[i] / self.d2[i]
             }
         }
 
@@ -334,14 +403,27 @@ mod tests {
             }
         }
 
+        /// d^2 / T of segment i as on_hit takes it (1 / T from infinity).
+        fn seg(&self, i: usize) -> f32 {
+            if i == 0 && self.infinite {
+                1.0 / self.tr[0]
+            } else {
+                self.d2[i] / self.tr[i]
+            }
+        }
+
+        fn emission(&self) -> f32 {
+            self.pick * self.e_pos * self.e_dir
+        }
+
         /// The light subpath's partial weights at vertex `k` (after the hit).
         fn light_q(&self, m: &Mis, k: usize) -> Partial {
-            let emission = self.pick * self.e_pos * self.e_dir;
-            let mut q = m.light_start(self.pick * self.a_direct, emission, self.cf[0], false, true);
-            q = m.on_hit(q, Some(self.d2[0]), self.cb[1]);
+            let direct = self.pick * self.a_direct;
+            let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
+            q = m.on_hit(q, self.seg(0), self.cb[1]);
             for i in 1..k {
                 q = m.on_scatter(q, self.cf[i], self.pl[i], self.pc[i], false, None);
-                q = m.on_hit(q, Some(self.d2[i]), self.cb[i + 1]);
+                q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
             }
             q
         }
@@ -351,11 +433,18 @@ mod tests {
         fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32) {
             let n = self.n;
             let mut q = m.camera_start(self.camera);
-            q = m.on_hit(q, Some(self.d2[n - 1]), self.cf[n - 1]);
+            q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
             let mut len = 1;
             for i in (k + 1..n).rev() {
                 q = m.on_scatter(q, self.cb[i], self.pc[i], self.pl[i], false, Some(len));
-                q = m.on_hit(q, Some(self.d2[i - 1]), self.cf[i - 1]);
+                // An escaping ray: no cosine at infinity, only the 1 / T of its
+                // segment (as the camera subpath applies on escape).
+                let cos = if i == 1 && self.infinite {
+                    1.0
+                } else {
+                    self.cf[i - 1]
+                };
+                q = m.on_hit(q, self.seg(i - 1), cos);
                 len += 1;
             }
             (q, len)
@@ -367,19 +456,23 @@ mod tests {
             match t {
                 Tech::Vc(0) => {
                     let (q, _) = self.camera_q(m, 0);
-                    let emission = self.pick * self.e_pos * self.e_dir;
-                    m.weight_emitter_hit(q, self.pick * self.a_direct, emission)
+                    m.weight_emitter_hit(q, self.pick * self.a_direct, self.emission())
                 }
                 Tech::Vc(1) => {
                     let (q, len) = self.camera_q(m, 1);
-                    let direct_w = self.a_direct * self.d2[0] / self.cf[0];
+                    // Light sampling's solid-angle density, with the segment's T.
+                    let (direct_w, cos_light) = if self.infinite {
+                        (self.a_direct, 1.0)
+                    } else {
+                        (self.a_direct * self.d2[0] / self.cf[0], self.cf[0])
+                    };
                     m.weight_light_sample(
                         q,
                         len,
                         self.pick,
-                        direct_w,
+                        direct_w / self.tr[0],
                         self.e_pos * self.e_dir,
-                        self.cf[0],
+                        cos_light,
                         self.cb[1],
                         self.pc[1],
                         self.pl[1],
@@ -387,18 +480,19 @@ mod tests {
                 }
                 Tech::Vc(s) if s == n => {
                     let q = self.light_q(m, n - 1);
-                    let camera_a = self.camera * self.cf[n - 1] / self.d2[n - 1];
+                    let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
                     m.weight_camera_connection(q, camera_a, self.pc[n - 1])
                 }
                 Tech::Vc(s) => {
                     let ql = self.light_q(m, s - 1);
                     let (qc, len) = self.camera_q(m, s);
+                    let seg = self.seg(s - 1);
                     m.weight_connection(
                         ql,
                         qc,
                         len,
-                        self.pc[s] * self.cf[s - 1] / self.d2[s - 1],
-                        self.pl[s - 1] * self.cb[s] / self.d2[s - 1],
+                        self.pc[s] * self.cf[s - 1] / seg,
+                        self.pl[s - 1] * self.cb[s] / seg,
                         self.pc[s - 1],
                         self.pl[s],
                     )
@@ -412,15 +506,16 @@ mod tests {
         }
     }
 
-    fn check(heuristic: Heuristic, vc: bool, vm: bool, merge_first: bool) {
+    fn check(heuristic: Heuristic, vc: bool, vm: bool, merge_first: bool, media: bool) {
         let mut rng = Rng::new(3, 1, 4);
         let (radius, light_paths) = (0.01f32, 1000.0f32);
         let eta = crate::math::PI * radius * radius * light_paths;
         let mut m = Mis::new(heuristic, radius, light_paths, vc, vm);
         m.merge_first = merge_first;
         for n in 2..7 {
-            for _ in 0..20 {
-                let path = random_path(&mut rng, n);
+            for k in 0..40 {
+                let infinite = k % 2 == 1;
+                let path = random_path(&mut rng, n, media, infinite);
                 let mut techs = Vec::new();
                 if vc {
                     techs.extend((0..=n).map(Tech::Vc));
@@ -437,7 +532,7 @@ mod tests {
                     let got = path.recursive_weight(&m, t);
                     assert!(
                         (got - expect).abs() <= 1e-4 * expect.max(1e-3),
-                        "{heuristic:?} vc={vc} vm={vm} merge_first={merge_first} n={n} {t:?}: recursive {got}, explicit {expect}"
+                        "{heuristic:?} vc={vc} vm={vm} merge_first={merge_first} media={media} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
                     );
                     sum += got;
                 }
@@ -449,16 +544,38 @@ mod tests {
     #[test]
     fn vcm_weights_match_explicit_heuristics_and_sum_to_one() {
         for h in [Heuristic::Balance, Heuristic::Power] {
-            check(h, true, true, true);
-            check(h, true, true, false);
+            check(h, true, true, true, false);
+            check(h, true, true, false, false);
         }
     }
 
     #[test]
     fn bpt_and_bpm_weights_sum_to_one() {
         for h in [Heuristic::Balance, Heuristic::Power] {
-            check(h, true, false, true);
-            check(h, false, true, true);
+            check(h, true, false, true, false);
+            check(h, false, true, true, false);
         }
+    }
+
+    /// Medium vertices and transmittances in the densities: the recursive weights with
+    /// d^2 / T and D in place of d^2 and the cosine are still the explicit heuristics.
+    /// (Merging in media is not offered, but the weights are exact for it too.)
+    #[test]
+    fn weights_with_medium_vertices_match_explicit_heuristics_and_sum_to_one() {
+        for h in [Heuristic::Balance, Heuristic::Power] {
+            check(h, true, false, true, true);
+            check(h, true, true, true, true);
+            check(h, true, true, false, true);
+        }
+    }
+
+    #[test]
+    fn mis_transmittance_is_clamped() {
+        assert_eq!(transmittance(0.0), 1.0);
+        assert!((transmittance(2.0) - (-2.0f32).exp()).abs() < 1e-7);
+        let floor = transmittance(MAX_MIS_DEPTH);
+        assert!(floor > 0.0);
+        assert_eq!(transmittance(f32::INFINITY), floor);
+        assert_eq!(transmittance(f32::NAN), floor);
     }
 }

@@ -9,10 +9,16 @@
 //! over the stored vertices; then trace one camera subpath per pixel, connecting to
 //! light sampling, to the vertices of the light subpath with the pixel's index, and
 //! merging with every stored vertex within the radius.
+//!
+//! In scenes with participating media (`lt` and `bpt` only) both subpaths also scatter
+//! in media ([`media`], [`vertex`]) and every connection carries the transmittance of
+//! its segment; the MIS quantities account for distance sampling (see [`mis`]).
 
 mod camera_path;
 mod light_path;
+mod media;
 pub mod mis;
+mod vertex;
 
 use super::hashgrid::HashGrid;
 use super::pixels::render_pixels_indexed;
@@ -221,6 +227,16 @@ impl Pass<'_> {
     pub fn continuation(&self, m: &Material) -> f32 {
         if self.s.russian_roulette {
             max_component(m.albedo()).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
+    /// The same at a medium vertex whose single-scattering albedo is `albedo`.
+    #[inline]
+    pub fn medium_continuation(&self, albedo: Rgb) -> f32 {
+        if self.s.russian_roulette {
+            max_component(albedo).clamp(0.0, 1.0)
         } else {
             1.0
         }

@@ -1,0 +1,109 @@
+//! How bidirectional subpaths and their connections pass through participating media:
+//! the walk to the next event along a ray (a surface, a scattering point in the
+//! current medium, or escape) and the transmittance of connection segments, each with
+//! the segment's MIS transmittance (see the media notes in [`super::mis`]).
+//!
+//! Both come in two compilations chosen once per path (`Media`, `Scene::has_media`):
+//! without media the walk is `Scene::next_scattering` and a connection is a visibility
+//! test, exactly the surface-only code, with MIS transmittance 1.
+
+use super::light_path::Walk;
+use super::mis;
+use super::vertex::Media;
+use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::material::Material;
+use crate::math::{Rgb, Rng, Vec3};
+use crate::medium::Flight;
+use crate::scene::{Scene, Surfacing, MAX_NULL_CROSSINGS};
+
+/// What a subpath meets next along its ray.
+pub(crate) enum Event<'a> {
+    Surface(Interaction, &'a Material),
+    /// A real scattering event at a point in medium `.1`.
+    Medium(Vec3, u32),
+    /// Left the scene (environment lights apply).
+    Escaped,
+    /// Absorbed, out of throughput, or lost between null boundaries.
+    End,
+}
+
+/// Follows `ray` to the next event. With media, free flights are sampled in the
+/// medium the walk is in (their weights go into `walk.throughput`, with the walk's
+/// throughput choosing channels as in `volpath`) and null boundaries switch
+/// `walk.medium`. Returns the event and the MIS transmittance of the segment traced
+/// (for an escaping ray, of its part inside the scene). `rays` counts extra rays.
+#[inline(always)]
+pub(crate) fn next_event<'a, M: Media>(
+    scene: &'a Scene,
+    ray: &mut Ray,
+    walk: &mut Walk,
+    rng: &mut Rng,
+    rays: &mut u64,
+) -> (Event<'a>, f32) {
+    if !M::ON {
+        let e = match scene.next_scattering(ray, rays) {
+            Surfacing::Hit(it, m) => Event::Surface(it, m),
+            Surfacing::Escaped => Event::Escaped,
+            Surfacing::Lost => Event::End,
+        };
+        return (e, 1.0);
+    }
+    let mut depth = 0.0f32;
+    for _ in 0..=MAX_NULL_CROSSINGS {
+        let hit = scene.intersect(ray);
+        if let Some(mi) = walk.medium {
+            let med = &scene.media[mi as usize];
+            let tmax = hit
+                .as_ref()
+                .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
+            let sigma = med.mis_sigma_t().unwrap_or(0.0);
+            match med.sample_flight(ray.o, ray.d, tmax, walk.throughput, rng) {
+                Flight::Scatter { t, weight } => {
+                    walk.throughput *= weight;
+                    if walk.throughput == Rgb::ZERO {
+                        return (Event::End, 1.0);
+                    }
+                    let tr = mis::transmittance(depth + sigma * t);
+                    return (Event::Medium(ray.at(t), mi), tr);
+                }
+                Flight::Pass { weight } => walk.throughput *= weight,
+                Flight::Absorbed => return (Event::End, 1.0),
+            }
+            if walk.throughput == Rgb::ZERO {
+                return (Event::End, 1.0);
+            }
+            if sigma > 0.0 {
+                depth += sigma * tmax;
+            }
+        }
+        let Some(it) = hit else {
+            return (Event::Escaped, mis::transmittance(depth));
+        };
+        let m = scene.material(&it);
+        if !matches!(m, Material::Null) {
+            return (Event::Surface(it, m), mis::transmittance(depth));
+        }
+        walk.medium = scene.medium_after(&it, ray.d, walk.medium);
+        *ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+        *rays += 1;
+    }
+    (Event::End, 1.0)
+}
+
+/// A connection's shadow ray that starts in `medium`: its transmittance and MIS
+/// transmittance, None when nothing gets through. `rays` counts rays beyond the first.
+#[inline(always)]
+pub(crate) fn shadow<M: Media>(
+    scene: &Scene,
+    ray: &Ray,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    rays: &mut u64,
+) -> Option<(Rgb, f32)> {
+    if !M::ON {
+        // Constants the compiler folds into the callers' products.
+        return scene.visible(ray).then_some((Rgb::ONE, 1.0));
+    }
+    let (tr, depth) = scene.transmittance_mis(ray, medium, rng, rays);
+    (tr != Rgb::ZERO).then(|| (tr, mis::transmittance(depth)))
+}
