@@ -324,6 +324,11 @@ fn bad_input_gets_clear_4xx_json_and_running_jobs_are_undisturbed() {
         &tar_with(&[("scene.json", scene.as_bytes()), ("/etc/evil", b"x")]),
     );
     check(c, &b, 400, "/etc/evil");
+    let (c, b) = s.post_bytes(
+        "/v1/scenes",
+        &tar_with(&[("scene.json", scene.as_bytes()), ("smoke.VDB", b"x")]),
+    );
+    check(c, &b, 400, "OpenVDB");
     let mut tb = tar::Builder::new(Vec::new());
     let mut h = tar::Header::new_gnu();
     h.set_entry_type(tar::EntryType::Symlink);
