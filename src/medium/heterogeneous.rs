@@ -110,13 +110,22 @@ impl Heterogeneous {
         }
     }
 
-    /// Spectral tracking; see the module notes.
-    pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
-        let Some(r) = self.clip(o, d, tmax) else {
-            return Flight::Pass { weight: Rgb::ONE };
-        };
+    /// The null-collision process shared by every estimator here: tentative
+    /// collisions at exponential steps of rate sigma_bar = cell majorant * max sigma_t,
+    /// cell by cell along the ray clipped to the volume. `event(rng, p, t, sigma_bar,
+    /// majorant)` sees each one (p in local coordinates) and ends the walk by returning
+    /// `Some`; `None` means the walk left the segment.
+    #[inline]
+    fn track<R>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        rng: &mut Rng,
+        mut event: impl FnMut(&mut Rng, Vec3, f32, f32, f32) -> Option<R>,
+    ) -> Option<R> {
+        let r = self.clip(o, d, tmax)?;
         let scale = max_component(self.sigma_t);
-        let mut w = Rgb::ONE;
         for (ta, tb, maj) in MajorantWalk::new(&self.majorants, r.o, r.d, r.t0, r.t1) {
             let sigma_bar = maj * scale;
             if sigma_bar <= 0.0 {
@@ -128,86 +137,72 @@ impl Heterogeneous {
                 if t >= tb {
                     break;
                 }
-                let (st, ss) = self.coefficients(r.o + r.d * t, maj);
-                let sn = (Rgb::splat(sigma_bar) - st).max(Rgb::ZERO);
-                let bw = (beta * w).abs();
-                let ps = (bw * ss).element_sum();
-                let pn = (bw * sn).element_sum();
-                let total = ps + pn;
-                if total.is_nan() || total <= 0.0 {
-                    return Flight::Absorbed;
+                if let Some(out) = event(rng, r.o + r.d * t, t, sigma_bar, maj) {
+                    return Some(out);
                 }
-                if rng.next_f32() * total < ps {
-                    w *= ss * (total / (sigma_bar * ps));
-                    return Flight::Scatter { t, weight: w };
-                }
-                w *= sn * (total / (sigma_bar * pn));
             }
         }
-        Flight::Pass { weight: w }
+        None
+    }
+
+    /// Spectral tracking; see the module notes.
+    pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
+        let mut w = Rgb::ONE;
+        let end = self.track(o, d, tmax, rng, |rng, p, t, sigma_bar, maj| {
+            let (st, ss) = self.coefficients(p, maj);
+            let sn = (Rgb::splat(sigma_bar) - st).max(Rgb::ZERO);
+            let bw = (beta * w).abs();
+            let ps = (bw * ss).element_sum();
+            let pn = (bw * sn).element_sum();
+            let total = ps + pn;
+            if total.is_nan() || total <= 0.0 {
+                return Some(Flight::Absorbed);
+            }
+            if rng.next_f32() * total < ps {
+                w *= ss * (total / (sigma_bar * ps));
+                return Some(Flight::Scatter { t, weight: w });
+            }
+            w *= sn * (total / (sigma_bar * pn));
+            None
+        });
+        end.unwrap_or(Flight::Pass { weight: w })
     }
 
     /// Ratio-tracking estimate of the transmittance over t in [0, tmax].
     pub fn transmittance(&self, o: Vec3, d: Vec3, tmax: f32, rng: &mut Rng) -> Rgb {
-        let Some(r) = self.clip(o, d, tmax) else {
-            return Rgb::ONE;
-        };
-        let scale = max_component(self.sigma_t);
         let mut tr = Rgb::ONE;
-        for (ta, tb, maj) in MajorantWalk::new(&self.majorants, r.o, r.d, r.t0, r.t1) {
-            let sigma_bar = maj * scale;
-            if sigma_bar <= 0.0 {
-                continue;
-            }
-            let mut t = ta;
-            loop {
-                t -= (1.0 - rng.next_f32()).ln() / sigma_bar;
-                if t >= tb {
-                    break;
+        let killed = self.track(o, d, tmax, rng, |rng, p, _, sigma_bar, maj| {
+            let density = self.density.eval(p).min(maj);
+            tr *= (Rgb::ONE - self.sigma_t * (density / sigma_bar)).max(Rgb::ZERO);
+            // Roulette keeps long, dense segments from costing many lookups for a
+            // contribution that is nearly zero.
+            let m = max_component(tr);
+            if m < 0.1 {
+                let q = (1.0 - m).min(0.9);
+                if rng.next_f32() < q {
+                    return Some(());
                 }
-                let density = self.density.eval(r.o + r.d * t).min(maj);
-                tr *= (Rgb::ONE - self.sigma_t * (density / sigma_bar)).max(Rgb::ZERO);
-                // Roulette keeps long, dense segments from costing many lookups for a
-                // contribution that is nearly zero.
-                let m = max_component(tr);
-                if m < 0.1 {
-                    let q = (1.0 - m).min(0.9);
-                    if rng.next_f32() < q {
-                        return Rgb::ZERO;
-                    }
-                    tr /= 1.0 - q;
-                }
+                tr /= 1.0 - q;
             }
+            None
+        });
+        if killed.is_some() {
+            Rgb::ZERO
+        } else {
+            tr
         }
-        tr
     }
 
     /// Delta-tracking estimate (0 or 1 per channel group) of the transmittance: the
     /// probability that a grey free flight passes. Used by tests against ratio tracking
     /// and the closed form.
     pub fn delta_tracking_passes(&self, o: Vec3, d: Vec3, tmax: f32, rng: &mut Rng) -> bool {
-        let Some(r) = self.clip(o, d, tmax) else {
-            return true;
-        };
-        let scale = max_component(self.sigma_t);
-        for (ta, tb, maj) in MajorantWalk::new(&self.majorants, r.o, r.d, r.t0, r.t1) {
-            let sigma_bar = maj * scale;
-            if sigma_bar <= 0.0 {
-                continue;
-            }
-            let mut t = ta;
-            loop {
-                t -= (1.0 - rng.next_f32()).ln() / sigma_bar;
-                if t >= tb {
-                    break;
-                }
-                let density = self.density.eval(r.o + r.d * t).min(maj);
-                if rng.next_f32() * sigma_bar < max_component(self.sigma_t) * density {
-                    return false;
-                }
-            }
-        }
-        true
+        let sigma_max = max_component(self.sigma_t);
+        let collided = self.track(o, d, tmax, rng, |rng, p, _, sigma_bar, maj| {
+            let density = self.density.eval(p).min(maj);
+            (rng.next_f32() * sigma_bar < sigma_max * density).then_some(())
+        });
+        collided.is_none()
     }
 
     /// Largest extinction anywhere (for statistics and scene checks).
