@@ -19,6 +19,55 @@ pub enum Heuristic {
     Balance,
 }
 
+impl Heuristic {
+    /// The MIS weight of a strategy with density `a` against one with density `b`.
+    #[inline(always)]
+    pub fn weight(self, a: f32, b: f32) -> f32 {
+        match self {
+            Heuristic::Power => power_heuristic(a, b),
+            Heuristic::Balance => balance_heuristic(a, b),
+        }
+    }
+}
+
+/// Emission at surface `it` reached along `d` by a sampled direction of density
+/// `pdf` from `prev_p`, weighted against next-event estimation of the same light
+/// (weight 1 after a delta event, which light sampling cannot produce).
+#[inline(always)]
+pub(super) fn emitted(
+    scene: &Scene,
+    it: &Interaction,
+    d: Vec3,
+    prev_p: Vec3,
+    specular: bool,
+    pdf: f32,
+    h: Heuristic,
+) -> Rgb {
+    let Some((li, area)) = scene.area_light(it) else {
+        return Rgb::ZERO;
+    };
+    let le = area.le(it.ng, -d);
+    if le == Rgb::ZERO || specular {
+        return le;
+    }
+    let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
+    le * h.weight(pdf, pdf_l)
+}
+
+/// Environment light along an escaping direction, weighted like [`emitted`].
+#[inline(always)]
+pub(super) fn escaped(scene: &Scene, d: Vec3, specular: bool, pdf: f32, h: Heuristic) -> Rgb {
+    if scene.env_lights.is_empty() {
+        return Rgb::ZERO;
+    }
+    let le = scene.env_radiance(d);
+    if specular {
+        le
+    } else {
+        le * h.weight(pdf, scene.env_pdf(d))
+    }
+}
+
 /// Path tracer parameters.
 ///
 /// | field | default | meaning |
@@ -74,10 +123,7 @@ impl PathTracer {
 
     #[inline]
     fn mis(&self, a: f32, b: f32) -> f32 {
-        match self.s.heuristic {
-            Heuristic::Power => power_heuristic(a, b),
-            Heuristic::Balance => balance_heuristic(a, b),
-        }
+        self.s.heuristic.weight(a, b)
     }
 
     /// Next-event estimation at a non-delta vertex: one light, one shadow ray.
@@ -129,31 +175,21 @@ impl PathTracer {
             let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
                 Surfacing::Hit(it, m) => (it, m),
                 Surfacing::Escaped => {
-                    if !scene.env_lights.is_empty() {
-                        let le = scene.env_radiance(ray.d);
-                        let w = if specular {
-                            1.0
-                        } else {
-                            self.mis(pdf_bsdf, scene.env_pdf(ray.d))
-                        };
-                        l += beta * le * w;
-                    }
+                    l += beta * escaped(scene, ray.d, specular, pdf_bsdf, self.s.heuristic);
                     break;
                 }
                 Surfacing::Lost => break,
             };
-            if let Some((li, area)) = scene.area_light(&it) {
-                let le = area.le(it.ng, -ray.d);
-                if le != Rgb::ZERO {
-                    let w = if specular {
-                        1.0
-                    } else {
-                        let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
-                        self.mis(pdf_bsdf, pdf_l)
-                    };
-                    l += beta * le * w;
-                }
-            }
+            l += beta
+                * emitted(
+                    scene,
+                    &it,
+                    ray.d,
+                    prev_p,
+                    specular,
+                    pdf_bsdf,
+                    self.s.heuristic,
+                );
             if depth + 1 >= self.s.max_depth {
                 break;
             }

@@ -12,14 +12,14 @@
 //! same light. `pt` runs this integrator when the scene has media.
 
 use super::pixels::render_pixels;
-use super::pt::Heuristic;
+use super::pt::{emitted, escaped, Heuristic};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::light::Light;
 use crate::material::{Material, Mode};
-use crate::math::{balance_heuristic, max_component, power_heuristic, Frame, Rgb, Rng, Vec3};
+use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
 use crate::medium::{Flight, Homogeneous, Phase};
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 use serde::{Deserialize, Serialize};
@@ -155,10 +155,7 @@ impl VolPath {
 
     #[inline]
     fn mis(&self, a: f32, b: f32) -> f32 {
-        match self.s.heuristic {
-            Heuristic::Power => power_heuristic(a, b),
-            Heuristic::Balance => balance_heuristic(a, b),
-        }
+        self.s.heuristic.weight(a, b)
     }
 
     /// Position of a light that equi-angular sampling serves (points and spots).
@@ -367,15 +364,7 @@ impl VolPath {
                 }
             }
             let Some(it) = hit.map(|h| scene.interaction(&ray, &h)) else {
-                if !scene.env_lights.is_empty() {
-                    let le = scene.env_radiance(ray.d);
-                    let w = if specular {
-                        1.0
-                    } else {
-                        self.mis(pdf_dir, scene.env_pdf(ray.d))
-                    };
-                    l += beta * le * w;
-                }
+                l += beta * escaped(scene, ray.d, specular, pdf_dir, self.s.heuristic);
                 break;
             };
             let m = scene.material(&it);
@@ -389,18 +378,16 @@ impl VolPath {
                 stats.rays += 1;
                 continue;
             }
-            if let Some((li, area)) = scene.area_light(&it) {
-                let le = area.le(it.ng, -ray.d);
-                if le != Rgb::ZERO {
-                    let w = if specular {
-                        1.0
-                    } else {
-                        let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
-                        self.mis(pdf_dir, pdf_l)
-                    };
-                    l += beta * le * w;
-                }
-            }
+            l += beta
+                * emitted(
+                    scene,
+                    &it,
+                    ray.d,
+                    prev_p,
+                    specular,
+                    pdf_dir,
+                    self.s.heuristic,
+                );
             if depth + 1 >= self.s.max_depth {
                 break;
             }
