@@ -384,8 +384,9 @@ fn load_scene(path: &Path) -> Result<Scene> {
     let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let s = &scene.stats;
     eprintln!(
-        "scene: {} triangles, {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",
+        "scene: {} triangles ({} pairs as parallelograms), {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",
         s.triangles,
+        s.quads,
         s.spheres,
         s.disks,
         scene.lights.len(),

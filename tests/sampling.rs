@@ -1221,6 +1221,15 @@ fn quad(a: f32, b: f32, h: f32, up: bool) -> Vec<Prim> {
     }
 }
 
+/// The same rectangle as `quad(a, b, h, false)` (normal -z), as one parallelogram.
+fn quad_merged(a: f32, b: f32, h: f32) -> Vec<Prim> {
+    vec![Prim::Quad {
+        p0: a3(-a, -b, h),
+        e1: a3(0.0, 2.0 * b, 0.0),
+        e2: a3(2.0 * a, 0.0, 0.0),
+    }]
+}
+
 struct AreaCase {
     name: &'static str,
     prims: Vec<Prim>,
@@ -1250,7 +1259,9 @@ impl AreaCase {
                 if best.is_none_or(|b| h.t < b.0) {
                     let pl = self.p + d * h.t;
                     let n = match *prim {
-                        Prim::Tri { e1, e2, .. } => Vec3::from(e1.cross(e2).normalize()),
+                        Prim::Tri { e1, e2, .. } | Prim::Quad { e1, e2, .. } => {
+                            Vec3::from(e1.cross(e2).normalize())
+                        }
                         Prim::Sphere { c, .. } => (pl - Vec3::from(c)).normalize(),
                         Prim::Disk { u, v, .. } => Vec3::from(u.cross(v).normalize()),
                     };
@@ -1304,6 +1315,17 @@ fn area_cases() -> Vec<AreaCase> {
             flip: false,
             two_sided: false,
             p: Vec3::new(1.2, -0.4, 0.3),
+        },
+        AreaCase {
+            name: "skewed parallelogram, point off to the side",
+            prims: vec![Prim::Quad {
+                p0: a3(-0.5, -0.4, 1.2),
+                e1: a3(0.3, 0.9, 0.1),
+                e2: a3(0.8, -0.2, 0.0),
+            }],
+            flip: false,
+            two_sided: false,
+            p: Vec3::new(0.9, -0.6, 0.1),
         },
         AreaCase {
             name: "two-sided quad seen from its back",
@@ -1377,6 +1399,7 @@ fn light_centre(prims: &[Prim]) -> Vec3 {
     for p in prims {
         c += match *p {
             Prim::Tri { p0, e1, e2 } => Vec3::from(p0 + (e1 + e2) / 3.0),
+            Prim::Quad { p0, e1, e2 } => Vec3::from(p0 + (e1 + e2) / 2.0),
             Prim::Sphere { c, .. } | Prim::Disk { c, .. } => Vec3::from(c),
         };
     }
@@ -1534,6 +1557,18 @@ fn area_light_solid_angle_and_irradiance() {
             case: AreaCase {
                 name: "quad on axis",
                 prims: quad(0.5, 0.75, 1.5, false),
+                flip: false,
+                two_sided: false,
+                p: Vec3::ZERO,
+            },
+            normal: Vec3::Z,
+            omega: rect_omega(0.5, 0.75, 1.5),
+            irradiance: Some(rect_e(0.5, 0.75, 1.5)),
+        },
+        Expect {
+            case: AreaCase {
+                name: "rectangle as one parallelogram, on axis",
+                prims: quad_merged(0.5, 0.75, 1.5),
                 flip: false,
                 two_sided: false,
                 p: Vec3::ZERO,

@@ -178,7 +178,7 @@ mod tests {
     }
 
     /// The BVH's closest hit must be bit-identical to the primitive's own test (the
-    /// four-lane triangle test repeats the scalar one's operations), and occlusion must
+    /// SIMD pack test repeats the scalar one's operations), and occlusion must
     /// agree for limits just below, at and beyond that hit.
     fn check(accel: &Accel, prims: &[Prim], ray: &Ray) {
         let brute = brute_force(prims, ray);
@@ -256,6 +256,10 @@ mod tests {
                 let u = square_to_triangle(rng.next_2d());
                 (p0 + e1 * u.x + e2 * u.y).into()
             }
+            Prim::Quad { p0, e1, e2 } => {
+                let u = rng.next_2d();
+                (p0 + e1 * u.x + e2 * u.y).into()
+            }
             Prim::Sphere { c, r } => (c + Vec3A::from(random_dir(rng)) * r).into(),
             Prim::Disk { c, u: a, v: b } => {
                 let u = square_to_disk(rng.next_2d());
@@ -314,6 +318,11 @@ mod tests {
                         u: e(rng),
                         v: e(rng),
                     },
+                    1 | 4 => Prim::Quad {
+                        p0: c,
+                        e1: e(rng),
+                        e2: e(rng),
+                    },
                     _ => Prim::Tri {
                         p0: c,
                         e1: e(rng),
@@ -336,16 +345,26 @@ mod tests {
     }
 
     /// Axis-aligned rectangles sharing edges, like a room: every slab plane is shared
-    /// by many boxes, and axis rays run along them.
+    /// by many boxes, and axis rays run along them. Built from triangle pairs and from
+    /// parallelograms.
     #[test]
     fn agrees_with_brute_force_on_axis_aligned_walls() {
+        for merged in [false, true] {
+            walls(merged);
+        }
+    }
+
+    fn walls(merged: bool) {
         let rng = Rng::new(12, 0, 0);
         let mut prims = Vec::new();
         for i in -4..4 {
             for j in -4..4 {
                 let (x, y) = (i as f32 * 0.5, j as f32 * 0.5);
                 let quad = |p0: Vec3A, a: Vec3A, b: Vec3A| {
-                    [
+                    if merged {
+                        return vec![Prim::Quad { p0, e1: a, e2: b }];
+                    }
+                    vec![
                         Prim::Tri { p0, e1: a, e2: b },
                         Prim::Tri {
                             p0: p0 + a + b,
@@ -370,7 +389,8 @@ mod tests {
             // Aimed at vertices and edge midpoints, where the slab test decides by an
             // ulp whether the box holding the hit is entered (hence Ize's widening).
             for _ in 0..3000 {
-                let Prim::Tri { p0, e1, e2 } = prims[rng.next_u32() as usize % (prims.len() - 1)]
+                let (Prim::Tri { p0, e1, e2 } | Prim::Quad { p0, e1, e2 }) =
+                    prims[rng.next_u32() as usize % (prims.len() - 1)]
                 else {
                     unreachable!()
                 };

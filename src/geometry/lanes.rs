@@ -1,13 +1,199 @@
-//! Four f32 lanes for the BVH kernels: SSE2 on x86_64 (baseline there, so no run-time
-//! detection), plain arrays elsewhere. Both follow SSE semantics exactly, including
+//! f32 lanes for the BVH kernels. Four lanes (`F4`): SSE2 on x86_64 (baseline there,
+//! so no run-time detection), plain arrays elsewhere. Eight lanes (`F8`, x86_64 only):
+//! AVX, for the kernels compiled with it. All follow SSE semantics exactly, including
 //! NaNs: `min`/`max` return the second operand when either is NaN, and comparisons
-//! with NaN are false (the `n*` forms are their negations, true on NaN).
+//! with NaN are false (the `n*` forms are their negations, true on NaN). [`Lanes`] is
+//! what the triangle-pack test is generic over.
 
 #[cfg(target_arch = "x86_64")]
 pub use sse::{F4, M4};
 
 #[cfg(not(target_arch = "x86_64"))]
 pub use scalar::{F4, M4};
+
+#[cfg(target_arch = "x86_64")]
+pub use avx::F8;
+
+use std::ops::{Add, BitAnd, Div, Mul, Sub};
+
+/// What the triangle-pack test needs of a lane type, so that one generic test runs
+/// eight lanes at once (AVX) or as two halves of four (SSE2 and portable code).
+pub trait Lanes:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    type Mask: Copy + BitAnd<Output = Self::Mask>;
+    const N: usize;
+    fn splat(v: f32) -> Self;
+    /// The first `N` values; `a` must be aligned to the lanes' width.
+    fn load(a: &[f32]) -> Self;
+    fn store(self, a: &mut [f32]);
+    fn ge(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn gt(self, o: Self) -> Self::Mask;
+    fn lt(self, o: Self) -> Self::Mask;
+    fn ne(self, o: Self) -> Self::Mask;
+    fn nlt(self, o: Self) -> Self::Mask;
+    fn ngt(self, o: Self) -> Self::Mask;
+    fn bits(m: Self::Mask) -> u32;
+}
+
+impl Lanes for F4 {
+    type Mask = M4;
+    const N: usize = 4;
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        F4::splat(v)
+    }
+    #[inline(always)]
+    fn load(a: &[f32]) -> Self {
+        let a: &[f32; 4] = a[..4].try_into().expect("four lanes");
+        debug_assert_eq!(a.as_ptr() as usize % 16, 0);
+        F4::from_array(*a)
+    }
+    #[inline(always)]
+    fn store(self, a: &mut [f32]) {
+        a[..4].copy_from_slice(&self.to_array());
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> M4 {
+        F4::ge(self, o)
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> M4 {
+        F4::le(self, o)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> M4 {
+        F4::gt(self, o)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> M4 {
+        F4::lt(self, o)
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> M4 {
+        F4::ne(self, o)
+    }
+    #[inline(always)]
+    fn nlt(self, o: Self) -> M4 {
+        F4::nlt(self, o)
+    }
+    #[inline(always)]
+    fn ngt(self, o: Self) -> M4 {
+        F4::ngt(self, o)
+    }
+    #[inline(always)]
+    fn bits(m: M4) -> u32 {
+        m.bits()
+    }
+}
+
+/// Eight lanes in one AVX register, with SSE's comparison semantics (ordered
+/// predicates false on NaN, the `n*` forms true on it).
+///
+/// Only code compiled with AVX may use it: the BVH kernels with
+/// `#[target_feature(enable = "avx")]` (or AVX-512), into which these methods are
+/// inlined, and nothing they call out of line (where the intrinsics would become calls
+/// to functions the processor may not be able to run).
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::Lanes;
+    use std::arch::x86_64::*;
+    use std::ops::{Add, BitAnd, Div, Mul, Sub};
+
+    #[derive(Clone, Copy, Debug)]
+    #[repr(transparent)]
+    pub struct F8(__m256);
+
+    #[derive(Clone, Copy, Debug)]
+    #[repr(transparent)]
+    pub struct M8(__m256);
+
+    // SAFETY (every `unsafe` block below): the intrinsics are AVX, and the type is
+    // only used where AVX was detected (see the module's comment); the load and the
+    // store check their slice's length, and use unaligned forms.
+    impl F8 {
+        #[inline(always)]
+        fn cmp<const P: i32>(self, o: F8) -> M8 {
+            unsafe { M8(_mm256_cmp_ps::<P>(self.0, o.0)) }
+        }
+    }
+
+    impl Lanes for F8 {
+        type Mask = M8;
+        const N: usize = 8;
+        #[inline(always)]
+        fn splat(v: f32) -> Self {
+            unsafe { F8(_mm256_set1_ps(v)) }
+        }
+        #[inline(always)]
+        fn load(a: &[f32]) -> Self {
+            let a = &a[..8];
+            unsafe { F8(_mm256_loadu_ps(a.as_ptr())) }
+        }
+        #[inline(always)]
+        fn store(self, a: &mut [f32]) {
+            let a = &mut a[..8];
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        fn ge(self, o: Self) -> M8 {
+            self.cmp::<_CMP_GE_OQ>(o)
+        }
+        #[inline(always)]
+        fn le(self, o: Self) -> M8 {
+            self.cmp::<_CMP_LE_OQ>(o)
+        }
+        #[inline(always)]
+        fn gt(self, o: Self) -> M8 {
+            self.cmp::<_CMP_GT_OQ>(o)
+        }
+        #[inline(always)]
+        fn lt(self, o: Self) -> M8 {
+            self.cmp::<_CMP_LT_OQ>(o)
+        }
+        #[inline(always)]
+        fn ne(self, o: Self) -> M8 {
+            self.cmp::<_CMP_NEQ_UQ>(o)
+        }
+        #[inline(always)]
+        fn nlt(self, o: Self) -> M8 {
+            self.cmp::<_CMP_NLT_UQ>(o)
+        }
+        #[inline(always)]
+        fn ngt(self, o: Self) -> M8 {
+            self.cmp::<_CMP_NGT_UQ>(o)
+        }
+        #[inline(always)]
+        fn bits(m: M8) -> u32 {
+            unsafe { _mm256_movemask_ps(m.0) as u32 }
+        }
+    }
+
+    impl BitAnd for M8 {
+        type Output = M8;
+        #[inline(always)]
+        fn bitand(self, o: M8) -> M8 {
+            unsafe { M8(_mm256_and_ps(self.0, o.0)) }
+        }
+    }
+
+    macro_rules! binop {
+        ($tr:ident, $f:ident, $op:ident) => {
+            impl $tr for F8 {
+                type Output = F8;
+                #[inline(always)]
+                fn $f(self, o: F8) -> F8 {
+                    unsafe { F8($op(self.0, o.0)) }
+                }
+            }
+        };
+    }
+    binop!(Add, add, _mm256_add_ps);
+    binop!(Sub, sub, _mm256_sub_ps);
+    binop!(Mul, mul, _mm256_mul_ps);
+    binop!(Div, div, _mm256_div_ps);
+}
 
 #[cfg(target_arch = "x86_64")]
 // SAFETY (every `unsafe` block in this module): the intrinsics are SSE and SSE2,
@@ -78,13 +264,6 @@ mod sse {
             unsafe { F4(_mm_max_ps(self.0, o.0)) }
         }
 
-        /// Every lane set to the smallest lane (NaN lanes must have been replaced).
-        #[inline(always)]
-        pub fn hmin(self) -> F4 {
-            let a = unsafe { _mm_min_ps(self.0, _mm_shuffle_ps::<0b10_11_00_01>(self.0, self.0)) };
-            unsafe { F4(_mm_min_ps(a, _mm_shuffle_ps::<0b01_00_11_10>(a, a))) }
-        }
-
         #[inline(always)]
         pub fn lt(self, o: F4) -> M4 {
             unsafe { M4(_mm_cmplt_ps(self.0, o.0)) }
@@ -106,11 +285,6 @@ mod sse {
         }
 
         #[inline(always)]
-        pub fn eq(self, o: F4) -> M4 {
-            unsafe { M4(_mm_cmpeq_ps(self.0, o.0)) }
-        }
-
-        #[inline(always)]
         pub fn ne(self, o: F4) -> M4 {
             unsafe { M4(_mm_cmpneq_ps(self.0, o.0)) }
         }
@@ -125,12 +299,6 @@ mod sse {
         #[inline(always)]
         pub fn ngt(self, o: F4) -> M4 {
             unsafe { M4(_mm_cmpngt_ps(self.0, o.0)) }
-        }
-
-        /// `a` where the mask is set, `b` elsewhere.
-        #[inline(always)]
-        pub fn select(m: M4, a: F4, b: F4) -> F4 {
-            unsafe { F4(_mm_or_ps(_mm_and_ps(m.0, a.0), _mm_andnot_ps(m.0, b.0))) }
         }
     }
 
@@ -234,12 +402,6 @@ mod scalar {
         }
 
         #[inline(always)]
-        pub fn hmin(self) -> F4 {
-            let a = self.min(F4([self.0[1], self.0[0], self.0[3], self.0[2]]));
-            a.min(F4([a.0[2], a.0[3], a.0[0], a.0[1]]))
-        }
-
-        #[inline(always)]
         pub fn lt(self, o: F4) -> M4 {
             cmp(self, o, |a, b| a < b)
         }
@@ -260,11 +422,6 @@ mod scalar {
         }
 
         #[inline(always)]
-        pub fn eq(self, o: F4) -> M4 {
-            cmp(self, o, |a, b| a == b)
-        }
-
-        #[inline(always)]
         pub fn ne(self, o: F4) -> M4 {
             cmp(self, o, |a, b| a != b)
         }
@@ -279,13 +436,6 @@ mod scalar {
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         pub fn ngt(self, o: F4) -> M4 {
             cmp(self, o, |a, b| !(a > b))
-        }
-
-        #[inline(always)]
-        pub fn select(m: M4, a: F4, b: F4) -> F4 {
-            F4(std::array::from_fn(
-                |i| if m.0[i] { a.0[i] } else { b.0[i] },
-            ))
         }
     }
 
@@ -365,16 +515,10 @@ mod tests {
             assert!(same((sa / sb).to_array(), (pa / pb).to_array()));
             assert!(same(sa.min(sb).to_array(), pa.min(pb).to_array()));
             assert!(same(sa.max(sb).to_array(), pa.max(pb).to_array()));
-            let finite = a.map(|x| if x.is_nan() { 7.0 } else { x });
-            assert!(same(
-                sse::F4::from_array(finite).hmin().to_array(),
-                scalar::F4::from_array(finite).hmin().to_array()
-            ));
             assert_eq!(sa.lt(sb).bits(), pa.lt(pb).bits());
             assert_eq!(sa.le(sb).bits(), pa.le(pb).bits());
             assert_eq!(sa.gt(sb).bits(), pa.gt(pb).bits());
             assert_eq!(sa.ge(sb).bits(), pa.ge(pb).bits());
-            assert_eq!(sa.eq(sb).bits(), pa.eq(pb).bits());
             assert_eq!(sa.ne(sb).bits(), pa.ne(pb).bits());
             assert_eq!(sa.nlt(sb).bits(), pa.nlt(pb).bits());
             assert_eq!(sa.ngt(sb).bits(), pa.ngt(pb).bits());
@@ -392,11 +536,74 @@ mod tests {
             for (x, y) in sv.broadcast3().iter().zip(pv.broadcast3()) {
                 assert!(same(x.to_array(), y.to_array()));
             }
-            let (sm, pm) = (sa.lt(sb), pa.lt(pb));
-            assert!(same(
-                sse::F4::select(sm, sa, sb).to_array(),
-                scalar::F4::select(pm, pa, pb).to_array()
-            ));
+        }
+    }
+
+    /// Eight AVX lanes against two groups of four SSE lanes, on the same inputs.
+    #[test]
+    fn avx_lanes_match_sse() {
+        if !std::is_x86_feature_detected!("avx") {
+            return;
+        }
+        // SAFETY: AVX was detected just above.
+        unsafe { avx_lanes_match_sse_with_avx() }
+    }
+
+    #[target_feature(enable = "avx")]
+    unsafe fn avx_lanes_match_sse_with_avx() {
+        use super::{Lanes, F8};
+        let special = [0.0, -0.0, 1.0, -2.5, f32::INFINITY, f32::NAN, 1e-40, 3.0e38];
+        let mut rng = crate::math::Rng::new(6, 0, 0);
+        let mut pick = || {
+            let r = rng.next_f32();
+            if r < 0.5 {
+                special[(r * 16.0) as usize]
+            } else {
+                (rng.next_f32() - 0.5) * 10.0
+            }
+        };
+        for _ in 0..2000 {
+            let a: [f32; 8] = std::array::from_fn(|_| pick());
+            let b: [f32; 8] = std::array::from_fn(|_| pick());
+            let (wa, wb) = (F8::load(&a), F8::load(&b));
+            let half = |v: &[f32; 8], h: usize| {
+                sse::F4::from_array(v[4 * h..4 * h + 4].try_into().unwrap())
+            };
+            let wide = |f: fn(F8, F8) -> F8| {
+                let mut out = [0.0f32; 8];
+                f(wa, wb).store(&mut out);
+                out.map(f32::to_bits)
+            };
+            let narrow = |f: fn(sse::F4, sse::F4) -> sse::F4| {
+                let mut out = [0u32; 8];
+                for h in 0..2 {
+                    let r = f(half(&a, h), half(&b, h)).to_array();
+                    out[4 * h..4 * h + 4].copy_from_slice(&r.map(f32::to_bits));
+                }
+                out
+            };
+            assert_eq!(wide(|x, y| x + y), narrow(|x, y| x + y));
+            assert_eq!(wide(|x, y| x - y), narrow(|x, y| x - y));
+            assert_eq!(wide(|x, y| x * y), narrow(|x, y| x * y));
+            let quiet = |v: [u32; 8]| v.map(|x| if f32::from_bits(x).is_nan() { 0 } else { x });
+            assert_eq!(quiet(wide(|x, y| x / y)), quiet(narrow(|x, y| x / y)));
+            let bits8 = |f: fn(F8, F8) -> <F8 as Lanes>::Mask| F8::bits(f(wa, wb));
+            let bits4 = |f: fn(sse::F4, sse::F4) -> sse::M4| {
+                (0..2).fold(0, |acc, h| {
+                    acc | f(half(&a, h), half(&b, h)).bits() << (4 * h)
+                })
+            };
+            assert_eq!(bits8(|x, y| x.ge(y)), bits4(|x, y| x.ge(y)));
+            assert_eq!(bits8(|x, y| x.le(y)), bits4(|x, y| x.le(y)));
+            assert_eq!(bits8(|x, y| x.gt(y)), bits4(|x, y| x.gt(y)));
+            assert_eq!(bits8(|x, y| x.lt(y)), bits4(|x, y| x.lt(y)));
+            assert_eq!(bits8(|x, y| x.ne(y)), bits4(|x, y| x.ne(y)));
+            assert_eq!(bits8(|x, y| x.nlt(y)), bits4(|x, y| x.nlt(y)));
+            assert_eq!(bits8(|x, y| x.ngt(y)), bits4(|x, y| x.ngt(y)));
+            assert_eq!(
+                bits8(|x, y| x.lt(y) & x.ne(y)),
+                bits4(|x, y| x.lt(y) & x.ne(y))
+            );
         }
     }
 }

@@ -12,6 +12,13 @@ pub enum Prim {
         e1: Vec3A,
         e2: Vec3A,
     },
+    /// Parallelogram p0 + u e1 + v e2 with u, v in [0, 1]: two triangles of a mesh
+    /// merged (see `scene::shapes`), tested for the cost of one.
+    Quad {
+        p0: Vec3A,
+        e1: Vec3A,
+        e2: Vec3A,
+    },
     Sphere {
         c: Vec3A,
         r: f32,
@@ -32,7 +39,8 @@ pub struct PrimMeta {
 }
 
 /// Result of a primitive test: distance and two surface parameters (barycentrics for
-/// triangles, disk coordinates for disks, unused for spheres).
+/// triangles, edge coordinates for parallelograms, disk coordinates for disks, unused
+/// for spheres).
 #[derive(Clone, Copy, Debug)]
 pub struct PrimHit {
     pub t: f32,
@@ -48,6 +56,13 @@ impl Prim {
                 b.extend(p0 + e2);
                 b
             }
+            Prim::Quad { p0, e1, e2 } => {
+                let mut b = Aabb::from_point(p0);
+                b.extend(p0 + e1);
+                b.extend(p0 + e2);
+                b.extend(p0 + e1 + e2);
+                b
+            }
             Prim::Sphere { c, r } => Aabb::new(c - Vec3A::splat(r), c + Vec3A::splat(r)),
             Prim::Disk { c, u, v } => {
                 // Half-extent per axis of an ellipse: sqrt(u_i^2 + v_i^2).
@@ -61,7 +76,8 @@ impl Prim {
     #[inline(always)]
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<PrimHit> {
         match *self {
-            Prim::Tri { p0, e1, e2 } => intersect_triangle(p0, e1, e2, o, d, tmax),
+            Prim::Tri { p0, e1, e2 } => moeller_trumbore::<false>(p0, e1, e2, o, d, tmax),
+            Prim::Quad { p0, e1, e2 } => moeller_trumbore::<true>(p0, e1, e2, o, d, tmax),
             Prim::Sphere { c, r } => intersect_sphere(c, r, o, d, tmax),
             Prim::Disk { c, u, v } => intersect_disk(c, u, v, o, d, tmax),
         }
@@ -71,7 +87,7 @@ impl Prim {
     /// disks); zero for spheres, whose normal depends on the hit point.
     pub fn flat_normal(&self) -> Vec3A {
         match *self {
-            Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
+            Prim::Tri { e1, e2, .. } | Prim::Quad { e1, e2, .. } => e1.cross(e2).normalize(),
             Prim::Sphere { .. } => Vec3A::ZERO,
             Prim::Disk { u, v, .. } => u.cross(v).normalize(),
         }
@@ -80,15 +96,18 @@ impl Prim {
     pub fn area(&self) -> f32 {
         match *self {
             Prim::Tri { e1, e2, .. } => 0.5 * e1.cross(e2).length(),
+            Prim::Quad { e1, e2, .. } => e1.cross(e2).length(),
             Prim::Sphere { r, .. } => 4.0 * crate::math::PI * r * r,
             Prim::Disk { u, v, .. } => crate::math::PI * u.cross(v).length(),
         }
     }
 }
 
-/// Moeller-Trumbore with precomputed edges; u, v are the barycentrics of p1 and p2.
+/// Moeller-Trumbore with precomputed edges; u, v are the barycentrics of p1 and p2,
+/// or for a parallelogram (`QUAD`) the coordinates along e1 and e2, where the only
+/// change is the acceptance test: v <= 1 instead of u + v <= 1.
 #[inline(always)]
-fn intersect_triangle(
+fn moeller_trumbore<const QUAD: bool>(
     p0: Vec3A,
     e1: Vec3A,
     e2: Vec3A,
@@ -109,7 +128,7 @@ fn intersect_triangle(
     }
     let qv = tv.cross(e1);
     let v = d.dot(qv) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < 0.0 || (if QUAD { v } else { u + v }) > 1.0 {
         return None;
     }
     let t = e2.dot(qv) * inv;
@@ -189,6 +208,12 @@ pub fn surface_point(prim: &Prim, flat: Vec3A, ray: &Ray, hit: &PrimHit) -> (Vec
             let err = gamma(8) * ((p0 * b0).abs() + (p1 * b1).abs() + (p2 * b2).abs());
             (p.into(), err.into(), flat.into())
         }
+        Prim::Quad { p0, e1, e2 } => {
+            let (a, b) = (e1 * hit.uv.x, e2 * hit.uv.y);
+            let p = p0 + a + b;
+            let err = gamma(8) * (p0.abs() + a.abs() + b.abs());
+            (p.into(), err.into(), flat.into())
+        }
         Prim::Sphere { c, r } => {
             let p = Vec3A::from(ray.at(hit.t));
             let dir = (p - c).normalize();
@@ -230,6 +255,38 @@ mod tests {
         assert!(t
             .intersect(a(0.2, 0.2, 1.0), a(0.0, 0.0, -1.0), 0.5)
             .is_none());
+    }
+
+    #[test]
+    fn parallelogram_covers_both_triangles_and_nothing_else() {
+        let (p0, e1, e2) = (a(1.0, 0.0, 0.0), a(1.0, 0.5, 0.0), a(0.25, 1.0, 0.0));
+        let q = Prim::Quad { p0, e1, e2 };
+        let halves = [
+            Prim::Tri { p0, e1, e2 },
+            Prim::Tri {
+                p0: p0 + e1 + e2,
+                e1: -e1,
+                e2: -e2,
+            },
+        ];
+        let dir = a(0.0, 0.0, -1.0);
+        let mut hits = 0;
+        for i in 0..40 {
+            for j in 0..40 {
+                let o = a(0.5 + i as f32 * 0.06, -0.5 + j as f32 * 0.06, 2.0);
+                let got = q.intersect(o, dir, f32::INFINITY);
+                let tri = halves.iter().any(|t| t.intersect(o, dir, 1e30).is_some());
+                assert_eq!(got.is_some(), tri, "origin {o}");
+                if let Some(h) = got {
+                    hits += 1;
+                    assert!((h.t - 2.0).abs() < 1e-6);
+                    let on = p0 + e1 * h.uv.x + e2 * h.uv.y;
+                    assert!((on - a(o.x, o.y, 0.0)).length() < 1e-5);
+                }
+            }
+        }
+        assert!(hits > 100, "{hits} hits");
+        assert!((q.area() - halves[0].area() * 2.0).abs() < 1e-6);
     }
 
     #[test]

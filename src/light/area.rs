@@ -86,6 +86,7 @@ impl AreaLight {
                 let b = square_to_triangle(u);
                 ((p0 + e1 * b.x + e2 * b.y).into(), self.normals[i])
             }
+            Prim::Quad { p0, e1, e2 } => ((p0 + e1 * u.x + e2 * u.y).into(), self.normals[i]),
             Prim::Sphere { c, r } => {
                 let d = crate::math::warp::square_to_uniform_sphere(u);
                 ((c + r * glam::Vec3A::from(d)).into(), d * self.normal_sign)

@@ -64,6 +64,8 @@ impl ShapeInfo {
 #[derive(Clone, Debug, Default)]
 pub struct SceneStats {
     pub triangles: usize,
+    /// Pairs of triangles merged into parallelograms (counted in `triangles` too).
+    pub quads: usize,
     pub spheres: usize,
     pub disks: usize,
     pub degenerate_dropped: usize,

@@ -10,7 +10,7 @@ use crate::geometry::{Accel, Prim, PrimMeta};
 use crate::light::DirectionalLight;
 use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
 use crate::material::{Conductor, Dielectric, Diffuse, Material, Mirror, Phong};
-use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3, Vec3A};
+use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -236,7 +236,9 @@ impl Builder<'_> {
         Ok((prims, shading))
     }
 
-    /// World-space triangles; degenerate ones are dropped and counted.
+    /// World-space triangles; degenerate ones are dropped and counted. Without shading
+    /// normals (which are interpolated per triangle), consecutive triangles that form a
+    /// parallelogram become one [`Prim::Quad`].
     fn triangles(
         &mut self,
         m: &Mat4,
@@ -249,7 +251,6 @@ impl Builder<'_> {
             .map(|p| m.transform_point3(*p))
             .collect();
         let normal_m = Mat3::from_mat4(*m).inverse().transpose();
-        let mut prims = Vec::with_capacity(mesh.indices.len());
         let mut kept = Vec::with_capacity(mesh.indices.len());
         for &[a, mut b, mut c] in &mesh.indices {
             // A mirroring transform reverses the winding; restore the front side.
@@ -257,29 +258,88 @@ impl Builder<'_> {
                 std::mem::swap(&mut b, &mut c);
             }
             let (p0, p1, p2) = (pos[a as usize], pos[b as usize], pos[c as usize]);
-            let (e1, e2) = (p1 - p0, p2 - p0);
-            let n = e1.cross(e2);
+            let n = (p1 - p0).cross(p2 - p0);
             if n.length_squared() <= 0.0 || !n.is_finite() {
                 self.stats.degenerate_dropped += 1;
                 continue;
             }
-            prims.push(Prim::Tri {
-                p0: Vec3A::from(p0),
-                e1: e1.into(),
-                e2: e2.into(),
-            });
             kept.push([a, b, c]);
         }
-        self.stats.triangles += prims.len();
-        let shading = mesh.normals.map(|ns| ShadingNormals {
+        self.stats.triangles += kept.len();
+        let Some(ns) = mesh.normals else {
+            let prims = merge_parallelograms(&kept, &pos);
+            self.stats.quads += kept.len() - prims.len();
+            return (prims, None);
+        };
+        let prims = kept.iter().map(|&t| triangle(t, &pos)).collect();
+        let shading = ShadingNormals {
             normals: ns
                 .iter()
                 .map(|n| (normal_m * *n).normalize_or_zero())
                 .collect(),
             indices: kept,
-        });
-        (prims, shading)
+        };
+        (prims, Some(shading))
     }
+}
+
+fn triangle([a, b, c]: [u32; 3], pos: &[Vec3]) -> Prim {
+    let p0 = pos[a as usize];
+    Prim::Tri {
+        p0: p0.into(),
+        e1: (pos[b as usize] - p0).into(),
+        e2: (pos[c as usize] - p0).into(),
+    }
+}
+
+/// Triangles in mesh order, each pair of consecutive ones that forms a parallelogram
+/// (how rectangles, cubes and most quad meshes are split) as one [`Prim::Quad`].
+fn merge_parallelograms(tris: &[[u32; 3]], pos: &[Vec3]) -> Vec<Prim> {
+    let mut prims = Vec::with_capacity(tris.len());
+    let mut i = 0;
+    while i < tris.len() {
+        match tris
+            .get(i + 1)
+            .and_then(|&next| parallelogram(tris[i], next, pos))
+        {
+            Some(q) => {
+                prims.push(q);
+                i += 2;
+            }
+            None => {
+                prims.push(triangle(tris[i], pos));
+                i += 1;
+            }
+        }
+    }
+    prims
+}
+
+/// The parallelogram made of two triangles that share an edge, traverse it in
+/// opposite directions (consistent winding), and whose far corners are reflections of
+/// each other through the edge's midpoint, to within rounding of the vertex positions.
+fn parallelogram(t1: [u32; 3], t2: [u32; 3], pos: &[Vec3]) -> Option<Prim> {
+    // Rotate each triangle to start at its vertex off the shared edge.
+    let own = |t: [u32; 3], other: [u32; 3]| {
+        let k = (0..3).find(|&k| !other.contains(&t[k]))?;
+        Some([t[k], t[(k + 1) % 3], t[(k + 2) % 3]])
+    };
+    let [a, s, t] = own(t1, t2)?;
+    let [b, x, y] = own(t2, t1)?;
+    if (x, y) != (t, s) {
+        return None;
+    }
+    let p = |i: u32| pos[i as usize];
+    let scale = [p(a), p(s), p(t), p(b)]
+        .iter()
+        .map(|q| q.abs().max_element())
+        .fold(0.0f32, f32::max);
+    let gap = (p(s) + p(t) - p(a) - p(b)).abs().max_element();
+    (gap <= 8.0 * f32::EPSILON * scale).then(|| Prim::Quad {
+        p0: p(a).into(),
+        e1: (p(s) - p(a)).into(),
+        e2: (p(t) - p(a)).into(),
+    })
 }
 
 /// The uniform scale of a similarity transform's linear part, if it is one.
@@ -539,5 +599,51 @@ fn light_medium(scene: &Scene, i: usize) -> Option<u32> {
         Light::Spot(l) => scene.medium_at(l.position),
         // Light from infinity arrives through whatever surrounds the scene.
         _ => scene.medium_at(scene.sphere.center + Vec3::Y * 2.0 * scene.sphere.radius),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quads(tris: &[[u32; 3]], pos: &[Vec3]) -> usize {
+        merge_parallelograms(tris, pos)
+            .iter()
+            .filter(|p| matches!(p, Prim::Quad { .. }))
+            .count()
+    }
+
+    #[test]
+    fn parallelogram_pairs_merge_and_nothing_else() {
+        let skew = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.5, 0.0),
+            Vec3::new(2.5, 1.5, 0.0),
+            Vec3::new(0.5, 1.0, 0.0),
+        ];
+        // A fan split and the other diagonal both merge, with the front side kept.
+        for tris in [[[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]] {
+            let prims = merge_parallelograms(&tris, &skew);
+            assert_eq!(prims.len(), 1, "{tris:?}");
+            let n = prims[0].flat_normal();
+            assert!(n.z > 0.99, "{tris:?}: normal {n}");
+            assert!((prims[0].area() - 2.0 * triangle(tris[0], &skew).area()).abs() < 1e-5);
+        }
+        // Opposite windings (one triangle facing away) stay triangles.
+        assert_eq!(quads(&[[0, 1, 2], [0, 3, 2]], &skew), 0);
+        // A trapezoid is not a parallelogram.
+        let mut trap = skew;
+        trap[3].x += 0.25;
+        assert_eq!(quads(&[[0, 1, 2], [0, 2, 3]], &trap), 0);
+        // Nor is a non-planar quad.
+        let mut bent = skew;
+        bent[3].z = 0.01;
+        assert_eq!(quads(&[[0, 1, 2], [0, 2, 3]], &bent), 0);
+        // Triangles that share one vertex only, or none, stay apart.
+        let pos = [skew.as_slice(), &[Vec3::new(3.0, 3.0, 0.0)]].concat();
+        assert_eq!(quads(&[[0, 1, 2], [2, 4, 3]], &pos), 0);
+        // A cube merges into six faces.
+        let cube: Vec<Vec3> = CUBE_POSITIONS.iter().map(|p| Vec3::from(*p)).collect();
+        assert_eq!(merge_parallelograms(&CUBE_INDICES, &cube).len(), 6);
     }
 }

@@ -5,9 +5,11 @@
 //! Compressed Wide BVHs", HPG 2017, section 3, with four lanes and triangle packs).
 //!
 //! A leaf is a run of primitives, stored in leaf order so that runs are contiguous;
-//! a leaf of two to four triangles is also copied into a pack for the four-lane test.
+//! a leaf of two to eight triangles or parallelograms is also copied into a pack for
+//! the SIMD test (`pack`).
 
-use super::{Bvh4, Node4, Tri4, COUNT_SHIFT, EMPTY, INDEX_MASK, LEAF, MAX_RUN, PRIMS};
+use super::pack::{Tri8, WIDTH};
+use super::{Bvh4, Node4, COUNT_SHIFT, EMPTY, INDEX_MASK, LEAF, MAX_RUN, PRIMS};
 use crate::geometry::lanes::F4;
 use crate::geometry::primitive::Prim;
 use obvhs::aabb::Aabb;
@@ -25,7 +27,7 @@ const COST_PACK: f32 = 1.7;
 const COST_TRI: f32 = 1.4;
 const COST_OTHER: f32 = 1.5;
 /// Most primitives a leaf holds: one pack.
-const LEAF_SIZE: u32 = 4;
+const LEAF_SIZE: u32 = WIDTH as u32;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Choice {
@@ -131,10 +133,7 @@ fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<(usize, 
 /// The dynamic program, children before parents.
 fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
     // Looked up in leaf order, which is random in `prims`: a compact copy stays cached.
-    let is_tri: Vec<bool> = prims
-        .iter()
-        .map(|p| matches!(p, Prim::Tri { .. }))
-        .collect();
+    let is_tri: Vec<bool> = prims.iter().map(packable).collect();
     let unset = Plan {
         cost: [f32::INFINITY; 5],
         choice: [Choice::Leaf; 5],
@@ -201,7 +200,7 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
 /// one primitive at a time.
 fn leaf_cost(tris: u32, others: u32) -> (f32, bool) {
     let single = tris as f32 * COST_TRI + others as f32 * COST_OTHER;
-    let packed = tris.div_ceil(4) as f32 * COST_PACK;
+    let packed = tris.div_ceil(WIDTH as u32) as f32 * COST_PACK;
     if others == 0 && packed < single {
         (packed, true)
     } else {
@@ -228,14 +227,15 @@ impl Bvh4 {
         let ids = &order[first..];
         let tris = ids
             .iter()
-            .filter(|&&i| matches!(prims[i as usize], Prim::Tri { .. }))
+            .filter(|&&i| packable(&prims[i as usize]))
             .count();
         if !leaf_cost(tris as u32, (ids.len() - tris) as u32).1 {
             return leaf_ref(PRIMS, first, ids.len());
         }
         let packs = self.tris.len();
-        for (k, chunk) in ids.chunks(4).enumerate() {
-            self.tris.push(pack(chunk, (first + 4 * k) as u32, prims));
+        for (k, chunk) in ids.chunks(WIDTH).enumerate() {
+            self.tris
+                .push(pack(chunk, (first + WIDTH * k) as u32, prims));
         }
         leaf_ref(0, packs, self.tris.len() - packs)
     }
@@ -270,27 +270,36 @@ fn leaf_ref(kind: u32, first: usize, count: usize) -> u32 {
     LEAF | kind | (count as u32) << COUNT_SHIFT | first as u32
 }
 
-/// Up to four triangles, `ids` in the original order, `first` their position in leaf
-/// order (what hits report).
-fn pack(ids: &[u32], first: u32, prims: &[Prim]) -> Tri4 {
-    let mut c = [[[0.0f32; 4]; 3]; 3];
-    let mut prim = [u32::MAX; 4];
+/// Triangles and parallelograms go in packs; other primitives are tested alone.
+fn packable(p: &Prim) -> bool {
+    matches!(p, Prim::Tri { .. } | Prim::Quad { .. })
+}
+
+/// Up to eight triangles or parallelograms, `ids` in the original order, `first` their
+/// position in leaf order (what hits report).
+fn pack(ids: &[u32], first: u32, prims: &[Prim]) -> Tri8 {
+    let mut t = Tri8 {
+        p0: [[0.0; WIDTH]; 3],
+        e1: [[0.0; WIDTH]; 3],
+        e2: [[0.0; WIDTH]; 3],
+        k: [1.0; WIDTH],
+        prim: [u32::MAX; WIDTH],
+    };
     for (lane, &id) in ids.iter().enumerate() {
-        let Prim::Tri { p0, e1, e2 } = prims[id as usize] else {
-            unreachable!("only triangles are packed");
-        };
-        for (k, v) in [p0, e1, e2].into_iter().enumerate() {
-            for axis in 0..3 {
-                c[k][axis][lane] = v[axis];
+        let (p0, e1, e2) = match prims[id as usize] {
+            Prim::Tri { p0, e1, e2 } => (p0, e1, e2),
+            Prim::Quad { p0, e1, e2 } => {
+                t.k[lane] = 0.0;
+                (p0, e1, e2)
             }
+            _ => unreachable!("only triangles and parallelograms are packed"),
+        };
+        for axis in 0..3 {
+            t.p0[axis][lane] = p0[axis];
+            t.e1[axis][lane] = e1[axis];
+            t.e2[axis][lane] = e2[axis];
         }
-        prim[lane] = first + lane as u32;
+        t.prim[lane] = first + lane as u32;
     }
-    let f = |k: usize| c[k].map(F4::from_array);
-    Tri4 {
-        p0: f(0),
-        e1: f(1),
-        e2: f(2),
-        prim,
-    }
+    t
 }

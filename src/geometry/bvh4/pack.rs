@@ -1,0 +1,130 @@
+//! Leaf packs: up to eight triangles or parallelograms tested together by
+//! Moeller-Trumbore, in one group of eight lanes under AVX or in two groups of four
+//! (SSE2 and portable code). The test repeats the scalar one in primitive.rs operation
+//! for operation, so hits are bit-identical to it.
+
+use crate::geometry::lanes::Lanes;
+use crate::math::{Vec2, Vec3A};
+
+/// Primitives per pack.
+pub(super) const WIDTH: usize = 8;
+
+/// Vertex and edges by coordinate, and primitive indices. Unused lanes have zero
+/// edges, so their determinant is zero and they never hit.
+#[repr(C, align(32))]
+pub(super) struct Tri8 {
+    pub p0: [[f32; WIDTH]; 3],
+    pub e1: [[f32; WIDTH]; 3],
+    pub e2: [[f32; WIDTH]; 3],
+    /// Per lane, the weight of u in the far-edge test v + k u <= 1: 1 for triangles
+    /// (u + v <= 1), 0 for parallelograms (v <= 1). v + 1 u is u + v exactly.
+    pub k: [f32; WIDTH],
+    pub prim: [u32; WIDTH],
+}
+
+/// The ray's origin and direction broadcast to lanes, once per traversal.
+pub(super) struct PackRay<L> {
+    o: [L; 3],
+    d: [L; 3],
+}
+
+impl<L: Lanes> PackRay<L> {
+    #[inline(always)]
+    pub fn new(o: Vec3A, d: Vec3A) -> Self {
+        // No `array::map` here or below: its closures can be left out of line, without
+        // the AVX features of the kernels that call them.
+        PackRay {
+            o: [L::splat(o.x), L::splat(o.y), L::splat(o.z)],
+            d: [L::splat(d.x), L::splat(d.y), L::splat(d.z)],
+        }
+    }
+
+    /// Lanes `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v.
+    #[inline(always)]
+    fn group(&self, p: &Tri8, at: usize, tmax: L) -> (u32, L, L, L) {
+        #[inline(always)]
+        fn ld<L: Lanes>(a: &[[f32; WIDTH]; 3], at: usize) -> [L; 3] {
+            [
+                L::load(&a[0][at..]),
+                L::load(&a[1][at..]),
+                L::load(&a[2][at..]),
+            ]
+        }
+        let [dx, dy, dz] = self.d;
+        let [e1x, e1y, e1z] = ld(&p.e1, at);
+        let [e2x, e2y, e2z] = ld(&p.e2, at);
+        let [p0x, p0y, p0z] = ld(&p.p0, at);
+        let pvx = dy * e2z - dz * e2y;
+        let pvy = dz * e2x - dx * e2z;
+        let pvz = dx * e2y - dy * e2x;
+        let det = e1x * pvx + e1y * pvy + e1z * pvz;
+        let inv = L::splat(1.0) / det;
+        let tvx = self.o[0] - p0x;
+        let tvy = self.o[1] - p0y;
+        let tvz = self.o[2] - p0z;
+        let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
+        let qvx = tvy * e1z - tvz * e1y;
+        let qvy = tvz * e1x - tvx * e1z;
+        let qvz = tvx * e1y - tvy * e1x;
+        let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
+        let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
+        let (zero, one) = (L::splat(0.0), L::splat(1.0));
+        let k = L::load(&p.k[at..]);
+        // The scalar test's acceptance, NaNs included: u in [0, 1], !(v < 0),
+        // !(far-edge > 1), 0 < t < tmax.
+        let m = det.ne(zero)
+            & u.ge(zero)
+            & u.le(one)
+            & v.nlt(zero)
+            & (v + u * k).ngt(one)
+            & t.gt(zero)
+            & t.lt(tmax);
+        (L::bits(m), t, u, v)
+    }
+
+    /// The nearest hit in (0, tmax) as (lane, t, uv); the first lane of equals, as a
+    /// scalar loop would.
+    #[inline(always)]
+    pub fn nearest(&self, p: &Tri8, tmax: f32) -> Option<(usize, f32, Vec2)> {
+        let tm = L::splat(tmax);
+        let mut best = None;
+        let mut best_t = tmax;
+        let mut at = 0;
+        while at < WIDTH {
+            let (mut m, t, u, v) = self.group(p, at, tm);
+            at += L::N;
+            if m == 0 {
+                continue;
+            }
+            let mut ts = [0.0f32; WIDTH];
+            t.store(&mut ts);
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if ts[i] < best_t {
+                    best_t = ts[i];
+                    best = Some((at - L::N + i, i, u, v));
+                }
+            }
+        }
+        let (lane, i, u, v) = best?;
+        let (mut us, mut vs) = ([0.0f32; WIDTH], [0.0f32; WIDTH]);
+        u.store(&mut us);
+        v.store(&mut vs);
+        Some((lane, best_t, Vec2::new(us[i], vs[i])))
+    }
+
+    /// Whether any lane is hit in (0, tmax).
+    #[inline(always)]
+    pub fn any(&self, p: &Tri8, tmax: f32) -> bool {
+        let tm = L::splat(tmax);
+        let mut at = 0;
+        while at < WIDTH {
+            if self.group(p, at, tm).0 != 0 {
+                return true;
+            }
+            at += L::N;
+        }
+        false
+    }
+}
