@@ -87,7 +87,12 @@ fn heterogeneous_medium_in_the_cornell_box() {
         "threshold": 0.3, "frequency": 2,
         "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}
     }));
-    agree(&scene, 8, [800, 1600, 500]);
+    // volpath's corner blocks (rays grazing the box's front edges, through the thin fog
+    // between the walls and the boundary) are heavy-tailed: with 800 iterations a
+    // render that missed its rare bright paths read 4.5 standard errors low, while
+    // 12000 iterations over four seeds agreed with lt to within 1.5. Twice the
+    // iterations put more of that tail into its standard error.
+    agree(&scene, 8, [1600, 1600, 500]);
 }
 
 #[test]
