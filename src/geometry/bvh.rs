@@ -94,7 +94,13 @@ impl Accel {
     /// True when anything blocks the ray before `ray.tmax`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.tree.occluded(&self.prims, ray)
+        self.tree.any_hit(&self.prims, ray).is_some()
+    }
+
+    /// Some primitive before `ray.tmax` (the first found, not the nearest), if any.
+    #[inline]
+    pub fn any_hit(&self, ray: &Ray) -> Option<u32> {
+        self.tree.any_hit(&self.prims, ray)
     }
 
     pub fn meta(&self, prim: u32) -> PrimMeta {
@@ -206,6 +212,11 @@ mod tests {
                 .iter()
                 .any(|p| p.intersect(ray.o.into(), ray.d.into(), tmax).is_some());
             assert_eq!(accel.occluded(&short), expect, "ray {short:?}");
+            // The primitive any-hit reports is one the ray really meets.
+            if let Some(i) = accel.any_hit(&short) {
+                let own = &prims[accel.meta(i).shape as usize];
+                assert!(own.intersect(ray.o.into(), ray.d.into(), tmax).is_some());
+            }
         }
     }
 

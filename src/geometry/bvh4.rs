@@ -235,17 +235,18 @@ impl Bvh4 {
         self.intersect_base(prims, ray)
     }
 
-    /// Whether anything lies in (0, ray.tmax); children in any order, first hit ends it.
+    /// Some primitive in (0, ray.tmax), if there is one: children in any order, and the
+    /// first hit found ends it (not the nearest).
     #[inline(always)]
-    pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
+    pub fn any_hit(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
         #[cfg(target_arch = "x86_64")]
         match self.isa {
             // SAFETY: `isa` names only instruction sets detected on this processor.
-            Isa::Avx512 => return unsafe { self.occluded_avx512(prims, ray) },
-            Isa::Avx => return unsafe { self.occluded_avx(prims, ray) },
+            Isa::Avx512 => return unsafe { self.any_hit_avx512(prims, ray) },
+            Isa::Avx => return unsafe { self.any_hit_avx(prims, ray) },
             Isa::Base => {}
         }
-        self.occluded_base(prims, ray)
+        self.any_hit_base(prims, ray)
     }
 
     /// The kernels compiled for the baseline target (SSE2 on x86_64). Out of line, so
@@ -256,7 +257,7 @@ impl Bvh4 {
     }
 
     #[inline(never)]
-    fn occluded_base(&self, prims: &[Prim], ray: &Ray) -> bool {
+    fn any_hit_base(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
         self.any_on_stack::<F4>(prims, ray)
     }
 
@@ -275,7 +276,7 @@ impl Bvh4 {
     /// The processor must support AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn occluded_avx(&self, prims: &[Prim], ray: &Ray) -> bool {
+    unsafe fn any_hit_avx(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
         self.any_on_stack::<F8>(prims, ray)
     }
 
@@ -294,7 +295,7 @@ impl Bvh4 {
     /// The processor must support AVX-512F and AVX-512VL.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn occluded_avx512(&self, prims: &[Prim], ray: &Ray) -> bool {
+    unsafe fn any_hit_avx512(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
         self.any_on_stack::<F8>(prims, ray)
     }
 
@@ -310,7 +311,7 @@ impl Bvh4 {
     }
 
     #[inline(always)]
-    fn any_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &Ray) -> bool {
+    fn any_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
         stack_buffer!(self, buf);
         self.any::<L>(prims, ray, Stack::new(buf))
     }
@@ -394,7 +395,7 @@ impl Bvh4 {
     }
 
     #[inline(always)]
-    fn any<L: Lanes>(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> bool {
+    fn any<L: Lanes>(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> Option<u32> {
         let r = RayLanes::new(ray);
         let pr = PackRay::<L>::new(r.o3, r.d3);
         let tmax = ray.tmax;
@@ -419,17 +420,17 @@ impl Bvh4 {
                 let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
                 if cur & PRIMS == 0 {
                     for pack in &self.tris[first..first + count] {
-                        if pr.any(pack, tmax) {
-                            return true;
+                        if let Some(lane) = pr.any(pack, tmax) {
+                            return Some(pack.prim[lane]);
                         }
                     }
-                } else if run_any(prims, first, count, r.o3, r.d3, tmax) {
-                    return true;
+                } else if let Some(i) = run_any(prims, first, count, r.o3, r.d3, tmax) {
+                    return Some(i);
                 }
             }
             match stack.pop() {
                 Some(e) => cur = e.child,
-                None => return false,
+                None => return None,
             }
         }
     }
@@ -512,8 +513,15 @@ fn run_closest(
 }
 
 #[inline(never)]
-fn run_any(prims: &[Prim], first: usize, count: usize, o: Vec3A, d: Vec3A, tmax: f32) -> bool {
-    prims[first..first + count]
-        .iter()
-        .any(|p| p.intersect(o, d, tmax).is_some())
+fn run_any(
+    prims: &[Prim],
+    first: usize,
+    count: usize,
+    o: Vec3A,
+    d: Vec3A,
+    tmax: f32,
+) -> Option<u32> {
+    (first..first + count)
+        .find(|&i| prims[i].intersect(o, d, tmax).is_some())
+        .map(|i| i as u32)
 }

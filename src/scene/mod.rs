@@ -73,6 +73,13 @@ pub struct SceneStats {
     pub bvh_bytes: usize,
 }
 
+/// What an any-hit query met first on a shadow segment.
+enum Blocker {
+    Nothing,
+    Opaque,
+    Null,
+}
+
 pub struct Scene {
     pub accel: Accel,
     pub shapes: Vec<ShapeInfo>,
@@ -174,6 +181,11 @@ impl Scene {
     pub fn visible(&self, ray: &Ray) -> bool {
         if !self.has_null {
             return !self.accel.occluded(ray);
+        }
+        match self.any_blocker(ray) {
+            Blocker::Nothing => return true,
+            Blocker::Opaque => return false,
+            Blocker::Null => {}
         }
         let mut r = *ray;
         for _ in 0..MAX_NULL_CROSSINGS {
@@ -277,23 +289,28 @@ impl Scene {
             };
             return (tr, 0.0);
         }
+        let mut tr = Rgb::ONE;
+        let mut depth = 0.0f32;
+        match self.any_blocker(ray) {
+            Blocker::Opaque => return (Rgb::ZERO, 0.0),
+            Blocker::Nothing => {
+                if let Some(m) = medium {
+                    self.attenuate(ray, ray.tmax, m, rng, &mut tr, &mut depth);
+                }
+                return (tr, depth);
+            }
+            Blocker::Null => {}
+        }
         let end = ray.at(ray.tmax);
         let finite = ray.tmax.is_finite();
         let mut r = *ray;
-        let mut tr = Rgb::ONE;
-        let mut depth = 0.0f32;
         for _ in 0..MAX_NULL_CROSSINGS {
             let hit = self.hit(&r);
             if let Some(m) = medium {
-                let len = r.d.length();
                 let t_end = hit.as_ref().map_or(r.tmax, |h| h.t);
-                let med = &self.media[m as usize];
-                tr *= med.transmittance(r.o, r.d / len, t_end * len, rng);
+                self.attenuate(&r, t_end, m, rng, &mut tr, &mut depth);
                 if tr == Rgb::ZERO {
                     return (tr, depth);
-                }
-                if let Some(s) = med.mis_sigma_t().filter(|&s| s > 0.0) {
-                    depth += s * t_end * len;
                 }
             }
             let Some(hit) = hit else {
@@ -319,6 +336,18 @@ impl Scene {
         (Rgb::ZERO, depth)
     }
 
+    /// Multiplies `tr` by medium `m`'s transmittance along `r` up to parameter `t_end`,
+    /// and adds the segment's optical depth for MIS to `depth`.
+    #[inline]
+    fn attenuate(&self, r: &Ray, t_end: f32, m: u32, rng: &mut Rng, tr: &mut Rgb, depth: &mut f32) {
+        let len = r.d.length();
+        let med = &self.media[m as usize];
+        *tr *= med.transmittance(r.o, r.d / len, t_end * len, rng);
+        if let Some(s) = med.mis_sigma_t().filter(|&s| s > 0.0) {
+            *depth += s * t_end * len;
+        }
+    }
+
     /// Solid-angle density with which next-event estimation picks an escaping
     /// direction `d` (all environment lights, selection included).
     #[inline]
@@ -330,6 +359,23 @@ impl Scene {
                     * self.lights[l as usize].pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO)
             })
             .sum()
+    }
+
+    /// What one any-hit query finds on the segment. Most shadow rays cross no
+    /// index-matched boundary, and then this settles them without the closest-hit walk:
+    /// an opaque surface anywhere on the segment blocks it, wherever it lies.
+    #[inline]
+    fn any_blocker(&self, ray: &Ray) -> Blocker {
+        match self.accel.any_hit(ray) {
+            None => Blocker::Nothing,
+            Some(prim) => {
+                let shape = &self.shapes[self.accel.meta(prim).shape as usize];
+                match self.materials[shape.material as usize] {
+                    Material::Null => Blocker::Null,
+                    _ => Blocker::Opaque,
+                }
+            }
+        }
     }
 
     #[inline]

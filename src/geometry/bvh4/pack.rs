@@ -114,17 +114,18 @@ impl<L: Lanes> PackRay<L> {
         Some((lane, best_t, Vec2::new(us[i], vs[i])))
     }
 
-    /// Whether any lane is hit in (0, tmax).
+    /// Some lane hit in (0, tmax), if any.
     #[inline(always)]
-    pub fn any(&self, p: &Tri8, tmax: f32) -> bool {
+    pub fn any(&self, p: &Tri8, tmax: f32) -> Option<usize> {
         let tm = L::splat(tmax);
         let mut at = 0;
         while at < WIDTH {
-            if self.group(p, at, tm).0 != 0 {
-                return true;
+            let m = self.group(p, at, tm).0;
+            if m != 0 {
+                return Some(at + m.trailing_zeros() as usize);
             }
             at += L::N;
         }
-        false
+        None
     }
 }
