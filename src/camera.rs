@@ -67,7 +67,7 @@ impl Camera {
     }
 
     /// Primary ray through film position `s`; `u_lens` is used only by a thin lens.
-    #[inline]
+    #[inline(always)]
     pub fn generate_ray(&self, s: Vec2, u_lens: Vec2) -> Ray {
         let d = self.film_dir(s);
         if self.aperture_radius <= 0.0 {

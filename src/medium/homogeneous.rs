@@ -40,7 +40,7 @@ impl Homogeneous {
         )
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn transmittance(&self, dist: f32) -> Rgb {
         if dist == f32::INFINITY {
             // exp(-0 * inf) would be NaN; a channel without extinction passes everything.
@@ -53,7 +53,7 @@ impl Homogeneous {
     }
 
     /// Samples where the ray of unit direction first interacts before `tmax`.
-    #[inline]
+    #[inline(always)]
     pub fn sample_flight(&self, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
         if self.grey {
             let s = self.sigma_t.x;

@@ -36,8 +36,10 @@ pub enum Medium {
     Heterogeneous(Box<Heterogeneous>),
 }
 
+// The methods below are forced inline (with those of `Homogeneous` and `Phase`): the
+// integrators' AVX2 kernels otherwise call baseline-x86 copies, out of line.
 impl Medium {
-    #[inline]
+    #[inline(always)]
     pub fn phase(&self) -> &Phase {
         match self {
             Medium::Homogeneous(m) => &m.phase,
@@ -46,7 +48,7 @@ impl Medium {
     }
 
     /// Samples the first interaction along o + t d (unit d), t in [0, tmax).
-    #[inline]
+    #[inline(always)]
     pub fn sample_flight(&self, o: Vec3, d: Vec3, tmax: f32, beta: Rgb, rng: &mut Rng) -> Flight {
         match self {
             Medium::Homogeneous(m) => m.sample_flight(tmax, beta, rng),
@@ -56,7 +58,7 @@ impl Medium {
 
     /// Transmittance over t in [0, tmax]: exact for homogeneous media, an unbiased
     /// estimate otherwise.
-    #[inline]
+    #[inline(always)]
     pub fn transmittance(&self, o: Vec3, d: Vec3, tmax: f32, rng: &mut Rng) -> Rgb {
         match self {
             Medium::Homogeneous(m) => m.transmittance(tmax),
@@ -89,7 +91,7 @@ impl Medium {
     /// in this medium: the channel mean of sigma_t when homogeneous (exact for grey
     /// media), None when heterogeneous (no closed form; MIS leaves the medium's
     /// densities out, see `integrator::vcm::mis`).
-    #[inline]
+    #[inline(always)]
     pub fn mis_sigma_t(&self) -> Option<f32> {
         match self {
             Medium::Homogeneous(m) => Some(m.sigma_t.element_sum() / 3.0),
@@ -97,6 +99,7 @@ impl Medium {
         }
     }
 
+    #[inline(always)]
     pub fn as_homogeneous(&self) -> Option<&Homogeneous> {
         match self {
             Medium::Homogeneous(m) => Some(m),

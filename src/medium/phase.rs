@@ -29,7 +29,7 @@ const HG_ISOTROPIC: f64 = 1e-4;
 
 impl Phase {
     /// Value (= sampling density per steradian) for scattering from `d` into `wi`.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, d: Vec3, wi: Vec3) -> f32 {
         self.eval_mu(d.dot(wi).clamp(-1.0, 1.0))
     }
@@ -49,7 +49,7 @@ impl Phase {
     }
 
     /// Samples the direction after scattering; returns it with its density.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, d: Vec3, u: Vec2) -> (Vec3, f32) {
         let mu = self.sample_mu(u.x);
         let sin = (1.0 - mu * mu).max(0.0).sqrt();

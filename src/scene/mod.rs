@@ -260,6 +260,7 @@ impl Scene {
     /// Transmittance along a shadow ray (its segment t in (0, tmax), any direction
     /// length) that starts in `medium`: zero if an opaque surface blocks it; media
     /// change at boundaries on the way. Estimated with `rng` in heterogeneous media.
+    #[inline(always)]
     pub fn transmittance(
         &self,
         ray: &Ray,
@@ -274,6 +275,7 @@ impl Scene {
     /// assigns the segment: the sum of `Medium::mis_sigma_t` times the length over the
     /// media it crosses (heterogeneous media count zero). A deterministic function of
     /// the segment, unlike the estimate; only meaningful when the estimate is not zero.
+    #[inline(always)]
     pub fn transmittance_mis(
         &self,
         ray: &Ray,
@@ -338,7 +340,7 @@ impl Scene {
 
     /// Multiplies `tr` by medium `m`'s transmittance along `r` up to parameter `t_end`,
     /// and adds the segment's optical depth for MIS to `depth`.
-    #[inline]
+    #[inline(always)]
     fn attenuate(&self, r: &Ray, t_end: f32, m: u32, rng: &mut Rng, tr: &mut Rgb, depth: &mut f32) {
         let len = r.d.length();
         let med = &self.media[m as usize];
@@ -364,7 +366,7 @@ impl Scene {
     /// What one any-hit query finds on the segment. Most shadow rays cross no
     /// index-matched boundary, and then this settles them without the closest-hit walk:
     /// an opaque surface anywhere on the segment blocks it, wherever it lies.
-    #[inline]
+    #[inline(always)]
     fn any_blocker(&self, ray: &Ray) -> Blocker {
         match self.accel.any_hit(ray) {
             None => Blocker::Nothing,
