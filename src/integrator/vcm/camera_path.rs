@@ -107,7 +107,7 @@ fn radiance_in<M: Media>(
     l
 }
 
-#[inline]
+#[inline(always)]
 fn record(layers: &mut [Rgb], layer: Option<usize>, v: Rgb) {
     if let Some(l) = layer.and_then(|i| layers.get_mut(i)) {
         *l += v;
@@ -117,7 +117,7 @@ fn record(layers: &mut [Rgb], layer: Option<usize>, v: Rgb) {
 /// Weight for radiance found by the camera subpath itself: always 1 for emitters
 /// seen directly; photon mapping alone counts it only after purely specular paths
 /// (merging covers the rest).
-#[inline]
+#[inline(always)]
 fn own_weight(pass: &Pass, walk: &Walk, direct: impl FnOnce() -> (f32, f32)) -> f32 {
     if walk.len == 1 {
         return 1.0;
@@ -157,7 +157,7 @@ fn emitter_hit(
 }
 
 /// Environment lights seen by a ray that leaves the scene.
-#[inline]
+#[inline(always)]
 fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
     let scene = pass.scene;
     let mut l = Rgb::ZERO;
@@ -181,7 +181,7 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
 /// Light sampling from a camera vertex through the media on the way ([TR] eqs.
 /// 44-45, with the segment's MIS transmittance dividing the light's density as it
 /// divides d^2, mis.rs).
-#[inline]
+#[inline(always)]
 fn light_sample<M: Media>(
     pass: &Pass,
     walk: &Walk,
@@ -244,7 +244,7 @@ fn light_sample<M: Media>(
 /// Connections to the vertices of the light subpath paired with this pixel, through
 /// the media between them ([TR] eqs. 40-41 with d^2 / T, mis.rs), throughput included.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn connect<M: Media>(
     pass: &Pass,
     ws: &Workspace,
@@ -308,7 +308,7 @@ fn connect<M: Media>(
 
 /// Merging with every stored light vertex within the radius ([TR] eqs. 38-39), with
 /// the constant kernel 1 / (pi r^2) and the 1 / N of the light paths.
-#[inline]
+#[inline(always)]
 fn merge(
     pass: &Pass,
     ws: &Workspace,

@@ -91,7 +91,7 @@ impl LightVertex {
 }
 
 impl From<&LightVertex> for MergeVertex {
-    #[inline]
+    #[inline(always)]
     fn from(v: &LightVertex) -> Self {
         MergeVertex {
             wo: v.wo,
@@ -136,7 +136,7 @@ pub(crate) struct Eval {
 }
 
 impl Surface<'_> {
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wi_world: Vec3, mode: Mode) -> Option<Eval> {
         let wi = self.frame.to_local(wi_world);
         // A direction on different sides of the shading and geometric normals would
@@ -400,7 +400,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
 /// The medium light emitted as `es` by light `li` starts in: the light's, except that
 /// a two-sided emitter on a medium boundary emits into the medium on the side the
 /// light leaves by.
-#[inline]
+#[inline(always)]
 fn emission_medium(
     scene: &crate::scene::Scene,
     li: usize,
@@ -453,7 +453,7 @@ fn stored<M: Media>(
 
 /// Samples the next direction and updates throughput and MIS state; None ends the
 /// path. `camera_len` is Some on camera subpaths.
-#[inline]
+#[inline(always)]
 pub(super) fn scatter(
     pass: &Pass,
     rng: &mut Rng,
@@ -549,7 +549,7 @@ struct LensLink {
     camera_pdf: f32,
 }
 
-#[inline]
+#[inline(always)]
 fn lens_link(pass: &Pass, rng: &mut Rng, p: Vec3) -> Option<LensLink> {
     let cam = &pass.scene.camera;
     let lens = cam.sample_lens(rng.next_2d());
@@ -613,7 +613,7 @@ fn splat_emitter<M: Media>(
     }
 }
 
-#[inline]
+#[inline(always)]
 fn push_splat(
     pass: &Pass,
     chunk: &mut Chunk,

@@ -342,18 +342,34 @@ impl Integrator for Vcm {
             .collect();
         if pass.technique != Technique::Lt {
             let ws = &*ws;
-            stats += render_pixels_indexed(scene, seed, iteration, film, |index, ray, rng, st| {
-                let mut acc = [Rgb::ZERO; MAX_LAYERS];
-                let l =
-                    camera_path::radiance(&pass, ws, index as usize, ray, rng, st, &mut acc[..k]);
-                for (j, v) in acc[..k].iter().enumerate() {
-                    let base = (index as usize * k + j) * 3;
-                    for c in 0..3 {
-                        side[base + c].store(v[c].to_bits(), Ordering::Relaxed);
+            // Inlined (like pt's kernel) so that the camera pass is compiled into the
+            // AVX2 copy of the tile loop rather than called as baseline-x86 code.
+            stats += render_pixels_indexed(
+                scene,
+                seed,
+                iteration,
+                film,
+                #[inline(always)]
+                |index, ray, rng, st| {
+                    let mut acc = [Rgb::ZERO; MAX_LAYERS];
+                    let l = camera_path::radiance(
+                        &pass,
+                        ws,
+                        index as usize,
+                        ray,
+                        rng,
+                        st,
+                        &mut acc[..k],
+                    );
+                    for (j, v) in acc[..k].iter().enumerate() {
+                        let base = (index as usize * k + j) * 3;
+                        for c in 0..3 {
+                            side[base + c].store(v[c].to_bits(), Ordering::Relaxed);
+                        }
                     }
-                }
-                l
-            });
+                    l
+                },
+            );
         }
         for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
             for (j, &id) in ids.iter().enumerate() {
