@@ -73,6 +73,23 @@ pub struct SceneStats {
     pub bvh_bytes: usize,
 }
 
+/// The rest of shadow segment `r` after it crosses the null boundary at `it`: from
+/// just past the boundary to the same end point, or on along the direction when the
+/// segment is unbounded.
+#[inline(always)]
+fn beyond(it: &Interaction, r: &Ray, end: Vec3) -> Ray {
+    let o = crate::geometry::offset_ray_origin(it.p, it.p_err, it.ng, r.d);
+    if r.tmax.is_finite() {
+        Ray {
+            o,
+            d: end - o,
+            tmax: 1.0 - crate::geometry::offset::SHADOW_EPSILON,
+        }
+    } else {
+        Ray::new(o, r.d)
+    }
+}
+
 /// What an any-hit query met first on a shadow segment.
 enum Blocker {
     Nothing,
@@ -187,6 +204,7 @@ impl Scene {
             Blocker::Opaque => return false,
             Blocker::Null => {}
         }
+        let end = ray.at(ray.tmax);
         let mut r = *ray;
         for _ in 0..MAX_NULL_CROSSINGS {
             let Some(hit) = self.accel.intersect(&r) else {
@@ -196,19 +214,7 @@ impl Scene {
             if !matches!(self.material(&it), Material::Null) {
                 return false;
             }
-            // Continue from the boundary towards the same end point.
-            let end = r.at(r.tmax);
-            let o = crate::geometry::offset_ray_origin(it.p, it.p_err, it.ng, r.d);
-            r = if r.tmax.is_finite() {
-                let d = end - o;
-                Ray {
-                    o,
-                    d,
-                    tmax: 1.0 - crate::geometry::offset::SHADOW_EPSILON,
-                }
-            } else {
-                Ray::new(o, r.d)
-            };
+            r = beyond(&it, &r, end);
         }
         false
     }
@@ -304,7 +310,6 @@ impl Scene {
             Blocker::Null => {}
         }
         let end = ray.at(ray.tmax);
-        let finite = ray.tmax.is_finite();
         let mut r = *ray;
         for _ in 0..MAX_NULL_CROSSINGS {
             let hit = self.hit(&r);
@@ -324,16 +329,7 @@ impl Scene {
             }
             medium = self.medium_after(&it, r.d, medium);
             *rays += 1;
-            let o = crate::geometry::offset_ray_origin(it.p, it.p_err, it.ng, r.d);
-            r = if finite {
-                Ray {
-                    o,
-                    d: end - o,
-                    tmax: 1.0 - crate::geometry::offset::SHADOW_EPSILON,
-                }
-            } else {
-                Ray::new(o, r.d)
-            };
+            r = beyond(&it, &r, end);
         }
         (Rgb::ZERO, depth)
     }
