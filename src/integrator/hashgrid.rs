@@ -6,6 +6,7 @@
 //! vertex index, so the order, and with it every sum over a query, never depends on
 //! the thread count). Buffers keep their capacity between builds.
 
+use super::huge;
 use crate::math::Vec3;
 use rayon::prelude::*;
 
@@ -38,6 +39,7 @@ impl HashGrid {
         let table = (n.max(4) / 4).next_power_of_two() as u64;
         let (origin, inv) = (self.origin, self.inv_cell);
         self.keys.clear();
+        huge::reserve(&mut self.keys, n);
         self.keys
             .par_extend(points.par_iter().enumerate().map(|(i, p)| {
                 let c = cell_of(*p, origin, inv);
@@ -53,8 +55,10 @@ impl HashGrid {
             self.starts[h] += self.starts[h - 1];
         }
         self.entries.clear();
+        huge::reserve(&mut self.entries, n);
         self.entries.extend(self.keys.iter().map(|k| *k as u32));
         self.sorted.clear();
+        huge::reserve(&mut self.sorted, n);
         self.sorted
             .par_extend(self.entries.par_iter().map(|&i| points[i as usize]));
     }
@@ -65,10 +69,34 @@ impl HashGrid {
 
     /// Calls `f(index, distance^2)` for every point within the radius of `p`, in a
     /// fixed order. Hash collisions may visit a point twice only if two of the visited
-    /// cells share a slot, which the slot de-duplication below prevents.
+    /// cells share a slot, which the slot de-duplication in [`HashGrid::runs`] prevents.
     #[inline]
     pub fn query(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
-        self.query_sorted(p, |k, d2| f(self.entries[k] as usize, d2));
+        self.batches(
+            p,
+            |_| {},
+            |hits| {
+                for &(k, d2) in hits {
+                    f(self.entries[k as usize] as usize, d2);
+                }
+            },
+        );
+    }
+
+    /// Like [`HashGrid::query`], handing over `&data[index]` (data in the caller's
+    /// original order), prefetched as soon as the point is found.
+    #[inline]
+    pub fn query_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
+        let at = |k: u32| &data[self.entries[k as usize] as usize];
+        self.batches(
+            p,
+            |k| prefetch(at(k)),
+            |hits| {
+                for &(k, d2) in hits {
+                    f(at(k), d2);
+                }
+            },
+        );
     }
 
     /// The original index of each point, in the grid's storage order.
@@ -76,48 +104,103 @@ impl HashGrid {
         &self.entries
     }
 
-    /// Like [`HashGrid::query`], passing positions in storage order (see
-    /// [`HashGrid::order`]): callers that lay their per-point data out in that order
-    /// read it contiguously too.
+    /// Like [`HashGrid::query_in`] for data laid out in storage order (see
+    /// [`HashGrid::order`]): a query then reads it in runs too.
     #[inline]
-    pub fn query_sorted(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
+    pub fn query_sorted_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
+        debug_assert_eq!(data.len(), self.sorted.len());
+        self.batches(
+            p,
+            |k| prefetch(&data[k as usize]),
+            |hits| {
+                for &(k, d2) in hits {
+                    f(&data[k as usize], d2);
+                }
+            },
+        );
+    }
+
+    /// The points within the radius of `p` as (storage index, distance^2), in batches;
+    /// `found` is told of each point as the scan finds it (to prefetch its data).
+    ///
+    /// A query is bound by cache misses: the slot bounds, each slot's run of
+    /// positions, and the caller's data for every hit. Each stage issues its loads
+    /// before anything waits on them, so the misses overlap instead of following one
+    /// another.
+    #[inline(always)]
+    fn batches(&self, p: Vec3, found: impl Fn(u32), mut f: impl FnMut(&[(u32, f32)])) {
         if self.entries.is_empty() {
             return;
         }
+        let (runs, n) = self.runs(p);
+        let mut hits = [(0u32, 0f32); BATCH];
+        let mut m = 0;
+        for &(a, b) in &runs[..n] {
+            for k in a..b {
+                let d2 = (self.sorted[k as usize] - p).length_squared();
+                if d2 <= self.radius2 {
+                    found(k);
+                    hits[m] = (k, d2);
+                    m += 1;
+                    if m == BATCH {
+                        f(&hits);
+                        m = 0;
+                    }
+                }
+            }
+        }
+        if m > 0 {
+            f(&hits[..m]);
+        }
+    }
+
+    /// The storage ranges of the distinct slots of the cells a sphere of the radius
+    /// around `p` can reach: with cells of 2r, the cell of `p` and its neighbours
+    /// towards the nearer face on each axis, less those farther than r from `p`.
+    #[inline(always)]
+    fn runs(&self, p: Vec3) -> ([(u32, u32); 8], usize) {
         let table = (self.starts.len() - 1) as u64;
         let g = (p - self.origin) * self.inv_cell;
         let c = g.floor();
         let frac = g - c;
         let base = [c.x as i32, c.y as i32, c.z as i32];
-        // The neighbour on each axis is on the side of the nearer cell face.
-        let step = [
-            if frac.x < 0.5 { -1 } else { 1 },
-            if frac.y < 0.5 { -1 } else { 1 },
-            if frac.z < 0.5 { -1 } else { 1 },
-        ];
-        let mut seen = [u64::MAX; 8];
+        let step = [frac.x, frac.y, frac.z].map(|f| if f < 0.5 { -1 } else { 1 });
+        // Squared distance (in cells) to the neighbour's face on each axis.
+        let gap = [frac.x, frac.y, frac.z].map(|f| {
+            let d = f.min(1.0 - f);
+            d * d
+        });
+        let mut slots = [0u64; 8];
+        let mut n = 0;
         for k in 0..8 {
-            let cell = [
-                base[0] + if k & 1 != 0 { step[0] } else { 0 },
-                base[1] + if k & 2 != 0 { step[1] } else { 0 },
-                base[2] + if k & 4 != 0 { step[2] } else { 0 },
-            ];
-            let slot = hash(cell) & (table - 1);
-            if seen[..k].contains(&slot) {
-                continue;
-            }
-            seen[k] = slot;
-            let (a, b) = (
-                self.starts[slot as usize] as usize,
-                self.starts[slot as usize + 1] as usize,
-            );
-            for (j, q) in self.sorted[a..b].iter().enumerate() {
-                let d2 = (*q - p).length_squared();
-                if d2 <= self.radius2 {
-                    f(a + j, d2);
+            let mut reach = 0.0;
+            let mut cell = base;
+            for axis in 0..3 {
+                if k & (1 << axis) != 0 {
+                    reach += gap[axis];
+                    cell[axis] += step[axis];
                 }
             }
+            // r is a quarter of a cell squared; the margin covers rounding in `frac`.
+            if reach > 0.25 * (1.0 + 1e-3) {
+                continue;
+            }
+            let slot = hash(cell) & (table - 1);
+            if !slots[..n].contains(&slot) {
+                slots[n] = slot;
+                n += 1;
+            }
         }
+        let mut runs = [(0u32, 0u32); 8];
+        for (run, &slot) in runs.iter_mut().zip(&slots[..n]) {
+            *run = (self.starts[slot as usize], self.starts[slot as usize + 1]);
+        }
+        for &(a, b) in &runs[..n] {
+            if a < b {
+                prefetch(&self.sorted[a as usize]);
+            }
+        }
+        (runs, n)
     }
 
     /// Bytes held by the grid's buffers.
@@ -133,6 +216,22 @@ impl HashGrid {
 fn cell_of(p: Vec3, origin: Vec3, inv_cell: f32) -> [i32; 3] {
     let g = ((p - origin) * inv_cell).floor();
     [g.x as i32, g.y as i32, g.z as i32]
+}
+
+/// Hits handed to a query's caller at a time.
+const BATCH: usize = 16;
+
+/// Asks for the cache line holding `r` without waiting for it.
+#[inline(always)]
+fn prefetch<T>(r: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint; it never faults, even on a bad address.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((r as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = r;
 }
 
 /// Teschner et al. 2003's spatial hash.
@@ -170,6 +269,44 @@ mod tests {
                 assert_eq!(found, expect, "radius {r}, query {q}");
             }
         }
+    }
+
+    /// Queries anywhere in the cloud (so at every position within a cell, where the
+    /// corner cells are skipped or not), through all three entry points; the larger
+    /// radius finds more than a batch of points per query.
+    #[test]
+    fn every_entry_point_finds_the_same_points_anywhere() {
+        let mut rng = Rng::new(11, 0, 0);
+        let pts: Vec<Vec3> = (0..20000)
+            .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+            .collect();
+        let ids: Vec<usize> = (0..pts.len()).collect();
+        let mut grid = HashGrid::default();
+        let mut most = 0;
+        for r in [0.03f32, 0.1] {
+            grid.build(&pts, r);
+            let sorted: Vec<usize> = grid.order().iter().map(|&i| i as usize).collect();
+            for q in 0..1000 {
+                let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let mut expect: Vec<usize> = (0..pts.len())
+                    .filter(|&i| (pts[i] - p).length_squared() <= r * r)
+                    .collect();
+                let (mut a, mut b, mut c) = (Vec::new(), Vec::new(), Vec::new());
+                grid.query(p, |i, d2| {
+                    assert_eq!(d2, (pts[i] - p).length_squared());
+                    a.push(i)
+                });
+                grid.query_in(p, &ids, |&i, _| b.push(i));
+                grid.query_sorted_in(p, &sorted, |&i, _| c.push(i));
+                assert_eq!(a, b, "r {r}, query {q}: query_in visits in the same order");
+                assert_eq!(a, c, "r {r}, query {q}: query_sorted_in too");
+                a.sort_unstable();
+                expect.sort_unstable();
+                assert_eq!(a, expect, "r {r}, query {q}");
+                most = most.max(a.len());
+            }
+        }
+        assert!(most > 3 * BATCH, "at most {most} hits per query");
     }
 
     #[test]

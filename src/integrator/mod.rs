@@ -8,6 +8,7 @@
 mod debug;
 pub mod driver;
 pub mod hashgrid;
+mod huge;
 mod pixels;
 pub mod pt;
 pub mod sppm;

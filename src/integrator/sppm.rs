@@ -560,8 +560,7 @@ impl PhotonMapper {
         let m = &scene.materials[vp.material as usize];
         let r2 = r * r;
         let mut phi = Rgb::ZERO;
-        map.grid.query(vp.p, |i, d2| {
-            let ph = &map.data[i];
+        map.grid.query_in(vp.p, &map.data, |ph, d2| {
             if d2 > r2 || ph.depth + vp.depth + 2 > self.s.max_depth {
                 return;
             }

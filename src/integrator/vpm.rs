@@ -598,8 +598,7 @@ impl Vpm {
     ) -> Rgb {
         let phase = scene.media[mi as usize].phase();
         let mut sum = Rgb::ZERO;
-        g.grid.query(x, |i, _| {
-            let ph = &g.photons[i];
+        g.grid.query_in(x, g.photons, |ph, _| {
             if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
                 return;
             }

@@ -319,8 +319,7 @@ fn merge(
 ) -> Rgb {
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.grid.query_sorted(it.p, |k, _| {
-        let y = &ws.merge[k];
+    ws.grid.query_sorted_in(it.p, &ws.merge, |y, _| {
         if y.len + walk.len > pass.s.max_depth {
             return;
         }

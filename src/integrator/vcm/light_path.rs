@@ -7,7 +7,7 @@ use super::mis::Partial;
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::{Pass, Splat, Workspace};
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::integrator::RenderStats;
+use crate::integrator::{huge, RenderStats};
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
@@ -197,6 +197,9 @@ pub(super) fn trace_light_paths(
     ws.vertices.clear();
     ws.positions.clear();
     ws.path_ends.clear();
+    let total = ws.chunks.iter().map(|c| c.vertices.len()).sum();
+    huge::reserve(&mut ws.vertices, total);
+    huge::reserve(&mut ws.positions, total);
     let mut stats = RenderStats::default();
     for chunk in &ws.chunks {
         let base = ws.vertices.len() as u32;

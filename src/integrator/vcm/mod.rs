@@ -21,6 +21,7 @@ pub mod mis;
 mod vertex;
 
 use super::hashgrid::HashGrid;
+use super::huge;
 use super::pixels::render_pixels_indexed;
 use super::pt::Heuristic;
 use super::{Integrator, RenderStats};
@@ -317,6 +318,7 @@ impl Integrator for Vcm {
             ws.grid.build(&ws.positions, pass.radius);
             let (grid, vertices) = (&ws.grid, &ws.vertices);
             ws.merge.clear();
+            huge::reserve(&mut ws.merge, ws.vertices.len());
             ws.merge.par_extend(
                 grid.order()
                     .par_iter()
