@@ -1,7 +1,7 @@
 use crate::math::warp::{
     cosine_hemisphere_pdf, cosine_power_pdf, square_to_cosine_hemisphere, square_to_cosine_power,
 };
-use crate::math::{luminance, Frame, Rgb, Vec2, Vec3, INV_2PI, INV_PI};
+use crate::math::{luminance, pow_lobe, Frame, Rgb, Vec2, Vec3, INV_2PI, INV_PI};
 
 use super::BsdfSample;
 
@@ -32,21 +32,21 @@ impl Phong {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         let cos_a = mirror_local(wo).dot(wi);
         let glossy = if cos_a > 0.0 {
-            (self.exponent + 2.0) * INV_2PI * cos_a.powf(self.exponent)
+            (self.exponent + 2.0) * INV_2PI * pow_lobe(cos_a, self.exponent)
         } else {
             0.0
         };
         (self.kd * INV_PI + self.ks * glossy) * wi.z
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
@@ -56,7 +56,7 @@ impl Phong {
         (1.0 - ps) * cosine_hemisphere_pdf(wi.z) + ps * cosine_power_pdf(cos_a, self.exponent)
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

@@ -88,6 +88,28 @@ pub const fn gamma(n: i32) -> f32 {
 }
 
 /// Reflects `w` about `n` (both pointing away from the surface).
+/// x^n for the cosine-power lobes (x in [0, 1], n >= 0). Whole exponents, the usual
+/// case, go by repeated squaring: at most twenty multiplications with a relative error
+/// of about n / 2 ulp (under 3e-6 for n = 90), several times cheaper than `powf`,
+/// which takes the other exponents.
+#[inline(always)]
+pub fn pow_lobe(x: f32, n: f32) -> f32 {
+    if (0.0..=1024.0).contains(&n) && n == n.trunc() {
+        let mut k = n as u32;
+        let (mut base, mut acc) = (x, 1.0f32);
+        while k > 0 {
+            if k & 1 != 0 {
+                acc *= base;
+            }
+            base *= base;
+            k >>= 1;
+        }
+        acc
+    } else {
+        x.powf(n)
+    }
+}
+
 #[inline]
 pub fn reflect(w: Vec3, n: Vec3) -> Vec3 {
     2.0 * w.dot(n) * n - w
@@ -103,4 +125,26 @@ pub fn safe_sqrt(x: f32) -> f32 {
 #[inline]
 pub fn is_valid_radiance(c: Rgb) -> bool {
     c.is_finite() && c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pow_lobe_matches_double_precision_powers() {
+        let mut rng = Rng::new(5, 0, 0);
+        for n in [0.0f32, 1.0, 2.0, 7.0, 90.0, 1000.0, 2.5, 3000.0] {
+            for _ in 0..2000 {
+                let x = rng.next_f32();
+                let exact = (x as f64).powf(n as f64);
+                let got = pow_lobe(x, n) as f64;
+                let tol = (n as f64 / 2.0 + 2.0) * f32::EPSILON as f64 * exact + 1e-37;
+                assert!((got - exact).abs() <= tol, "{x}^{n}: {got} vs {exact}");
+            }
+        }
+        assert_eq!(pow_lobe(0.0, 90.0), 0.0);
+        assert_eq!(pow_lobe(1.0, 90.0), 1.0);
+        assert_eq!(pow_lobe(0.3, 0.0), 1.0);
+    }
 }

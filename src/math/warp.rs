@@ -1,6 +1,6 @@
 //! Warps from the unit square to directions and points, each with its density.
 
-use super::{safe_sqrt, INV_2PI, INV_4PI, INV_PI, PI};
+use super::{pow_lobe, safe_sqrt, INV_2PI, INV_4PI, INV_PI, PI};
 use glam::{Vec2, Vec3};
 
 /// Shirley-Chiu concentric map to the unit disk (area preserving, low distortion).
@@ -90,7 +90,7 @@ pub fn cosine_power_pdf(cos_theta: f32, exponent: f32) -> f32 {
     if cos_theta <= 0.0 {
         0.0
     } else {
-        (exponent + 1.0) * INV_2PI * cos_theta.powf(exponent)
+        (exponent + 1.0) * INV_2PI * pow_lobe(cos_theta, exponent)
     }
 }
 

@@ -199,7 +199,6 @@ pub(super) fn trace_light_paths(
     ws.path_ends.clear();
     let total = ws.chunks.iter().map(|c| c.vertices.len()).sum();
     huge::reserve(&mut ws.vertices, total);
-    huge::reserve(&mut ws.positions, total);
     let mut stats = RenderStats::default();
     for chunk in &ws.chunks {
         let base = ws.vertices.len() as u32;
@@ -213,7 +212,10 @@ pub(super) fn trace_light_paths(
             pass.s.max_vertex_mib
         );
     }
-    ws.positions.extend(ws.vertices.iter().map(|v| v.p));
+    if pass.technique.merges() {
+        huge::reserve(&mut ws.positions, total);
+        ws.positions.extend(ws.vertices.iter().map(|v| v.p));
+    }
     stats.light_vertices = ws.vertices.len() as u64;
     stats
 }
@@ -282,6 +284,7 @@ struct Start {
     area: Option<(usize, f32, f32, Vec3, Vec3, f32)>,
 }
 
+#[inline(always)]
 fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSample, usize, f32)> {
     let scene = pass.scene;
     if scene.lights.is_empty() {
@@ -500,6 +503,7 @@ pub(super) fn scatter(
 
 /// Connects a light vertex to a point on the lens and splats the result, through
 /// the media between them ([TR] eqs. 46-47; SmallVCM's ConnectToCamera).
+#[inline(always)]
 fn connect_to_camera<M: Media>(
     pass: &Pass,
     rng: &mut Rng,
