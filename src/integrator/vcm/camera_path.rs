@@ -256,14 +256,12 @@ fn connect<M: Media>(
     layers: &mut [Rgb],
 ) -> Rgb {
     let scene = pass.scene;
-    let path = pixel % ws.path_ends.len().max(1);
-    let Some(&end) = ws.path_ends.get(path) else {
+    if ws.paths == 0 {
         return Rgb::ZERO;
-    };
-    let begin = if path == 0 { 0 } else { ws.path_ends[path - 1] };
+    }
     let cont = v.cont();
     let mut l = Rgb::ZERO;
-    for y in &ws.vertices[begin as usize..end as usize] {
+    for y in ws.light_path(pixel % ws.paths) {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
             break;

@@ -194,30 +194,61 @@ pub(super) fn trace_light_paths(
         let paths = c * CHUNK..((c + 1) * CHUNK).min(n);
         trace_chunk(pass, seed, iteration, paths, chunk, budget);
     });
-    ws.vertices.clear();
-    ws.positions.clear();
-    ws.path_ends.clear();
-    let total = ws.chunks.iter().map(|c| c.vertices.len()).sum();
-    huge::reserve(&mut ws.vertices, total);
+    // Connections and merging read the vertices where the chunks stored them; only
+    // the grid's positions are gathered into one array.
+    ws.paths = n;
+    ws.starts.clear();
+    let mut total = 0u32;
     let mut stats = RenderStats::default();
     for chunk in &ws.chunks {
-        let base = ws.vertices.len() as u32;
-        ws.vertices.extend_from_slice(&chunk.vertices);
-        ws.path_ends.extend(chunk.ends.iter().map(|e| base + e));
+        ws.starts.push(total);
+        total += chunk.vertices.len() as u32;
         stats += chunk.stats;
     }
+    ws.starts.push(total);
     if ws.chunks.iter().any(|c| c.over_budget) {
         tracing::warn!(
             "light vertices beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
             pass.s.max_vertex_mib
         );
     }
+    ws.positions.clear();
     if pass.technique.merges() {
-        huge::reserve(&mut ws.positions, total);
-        ws.positions.extend(ws.vertices.iter().map(|v| v.p));
+        huge::reserve(&mut ws.positions, total as usize);
+        let chunks = &ws.chunks;
+        ws.positions
+            .extend(chunks.iter().flat_map(|c| c.vertices.iter().map(|v| v.p)));
     }
-    stats.light_vertices = ws.vertices.len() as u64;
+    stats.light_vertices = total as u64;
     stats
+}
+
+impl Workspace {
+    /// The stored vertices of light path `path`, in order of length.
+    #[inline(always)]
+    pub(super) fn light_path(&self, path: usize) -> &[LightVertex] {
+        let chunk = &self.chunks[path / CHUNK];
+        let i = path % CHUNK;
+        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
+        &chunk.vertices[begin as usize..chunk.ends[i] as usize]
+    }
+
+    /// Vertex `g` in the numbering over all chunks in order (the hash grid's).
+    #[inline]
+    pub(super) fn vertex(&self, g: u32) -> &LightVertex {
+        let c = self.starts.partition_point(|&s| s <= g) - 1;
+        &self.chunks[c].vertices[(g - self.starts[c]) as usize]
+    }
+
+    /// Bytes held for light vertices (the chunks' stores and the grid's positions).
+    pub(super) fn vertex_store_bytes(&self) -> usize {
+        let stores: usize = self
+            .chunks
+            .iter()
+            .map(|c| c.vertices.capacity() * std::mem::size_of::<LightVertex>())
+            .sum();
+        stores + self.positions.capacity() * std::mem::size_of::<Vec3>()
+    }
 }
 
 /// One chunk of light paths, compiled for AVX2 + FMA processors (chosen at run time)

@@ -29,7 +29,7 @@ use crate::film::Film;
 use crate::material::Material;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
-use light_path::{trace_light_paths, Chunk, LightVertex, MergeVertex};
+use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::Mis;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -248,11 +248,14 @@ impl Pass<'_> {
 /// reallocate once they have grown to the scene's needs.
 #[derive(Default)]
 struct Workspace {
+    /// The light paths of the iteration, their vertices stored per chunk.
     chunks: Vec<Chunk>,
-    vertices: Vec<LightVertex>,
+    paths: usize,
+    /// Where each chunk's vertices start in the numbering over all chunks, and the
+    /// total at the end.
+    starts: Vec<u32>,
+    /// Every stored vertex's position in that numbering (only when merging).
     positions: Vec<Vec3>,
-    /// End (exclusive) of each light path's vertices in `vertices`.
-    path_ends: Vec<u32>,
     grid: HashGrid,
     /// What merging needs of each vertex, in the grid's storage order.
     merge: Vec<MergeVertex>,
@@ -316,18 +319,21 @@ impl Integrator for Vcm {
         let mut stats = trace_light_paths(&pass, seed, iteration, ws);
         if pass.technique.merges() {
             ws.grid.build(&ws.positions, pass.radius);
-            let (grid, vertices) = (&ws.grid, &ws.vertices);
-            ws.merge.clear();
-            huge::reserve(&mut ws.merge, ws.vertices.len());
-            ws.merge.par_extend(
-                grid.order()
+            let mut merge = std::mem::take(&mut ws.merge);
+            merge.clear();
+            huge::reserve(&mut merge, ws.positions.len());
+            let ws_ref = &*ws;
+            merge.par_extend(
+                ws_ref
+                    .grid
+                    .order()
                     .par_iter()
-                    .map(|&i| MergeVertex::from(&vertices[i as usize])),
+                    .map(|&g| MergeVertex::from(ws_ref.vertex(g))),
             );
+            ws.merge = merge;
             stats.merge_radius = pass.radius;
         }
-        stats.vertex_bytes = (ws.vertices.capacity() * std::mem::size_of::<LightVertex>()
-            + ws.positions.capacity() * std::mem::size_of::<Vec3>()
+        stats.vertex_bytes = (ws.vertex_store_bytes()
             + ws.merge.capacity() * std::mem::size_of::<MergeVertex>()
             + ws.grid.bytes()) as u64;
         let ids: Vec<usize> = self
