@@ -339,7 +339,11 @@ fn main() -> Result<()> {
         )
         .with_writer(std::io::stderr)
         .init();
-    match Cli::parse().command {
+    let command = Cli::parse().command;
+    if !matches!(command, Command::Serve(_)) {
+        quiet_broken_pipe();
+    }
+    match command {
         Command::Render(a) => with_threads(a.threads, || render(&a)),
         Command::Diff { a, b, png } => diff(&a, &b, png.as_deref()),
         Command::Reference(a) => with_threads(a.threads, || reference(&a)),
@@ -352,6 +356,20 @@ fn main() -> Result<()> {
         Command::Watch(a) => watch(a),
         Command::Jobs(a) => jobs(a),
         Command::Sweep(a) => sweep(a),
+    }
+}
+
+/// Output piped into a reader that stops early (`caustic jobs | head -1`) ends the
+/// process quietly, as with other command-line tools, instead of a panic in
+/// `println!`. Rust ignores SIGPIPE by default; the server keeps that, so a closed
+/// connection there is an error on one socket and never kills the process. (The
+/// client commands' sockets are written with MSG_NOSIGNAL and are unaffected.)
+fn quiet_broken_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of one signal, before any thread is
+    // started; no handler code is involved.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

@@ -66,6 +66,21 @@ fn readme_render_command_writes_exr_and_png() {
         .unwrap();
     assert!(rmse > 0.0 && rmse.is_finite());
     assert!(diff_png.exists());
+
+    // Output into a pipe nobody reads (as `caustic diff a b | head -1` leaves it)
+    // ends the command quietly rather than in a panic.
+    let mut child = caustic()
+        .arg("diff")
+        .arg(&other)
+        .arg(&exr)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]
