@@ -922,6 +922,36 @@ fn bsdf_albedo_is_bounded_and_agrees_with_uniform_estimate() {
     }
 }
 
+/// eval_pdfs is eval, pdf and the reverse pdf in one call, bit for bit, for
+/// directions on either side of every BSDF.
+#[test]
+fn eval_pdfs_matches_the_separate_calls() {
+    for (k, case) in bsdf_cases().into_iter().enumerate() {
+        let mut rng = Rng::new(501, k as u64, 0);
+        let mut nonzero = 0;
+        for _ in 0..20_000 {
+            let (a, b) = (uniform_sphere(&mut rng), uniform_sphere(&mut rng));
+            for mode in [Mode::Radiance, Mode::Importance] {
+                let (f, fwd, rev) = case.m.eval_pdfs(a, b, mode);
+                let f0 = case.m.eval(a, b, mode);
+                for c in 0..3 {
+                    assert_eq!(f[c].to_bits(), f0[c].to_bits(), "{}: f", case.name);
+                }
+                let (fwd0, rev0) = (case.m.pdf(a, b), case.m.pdf(b, a));
+                assert_eq!(fwd.to_bits(), fwd0.to_bits(), "{}: pdf", case.name);
+                assert_eq!(rev.to_bits(), rev0.to_bits(), "{}: reverse pdf", case.name);
+                nonzero += (fwd > 0.0) as u32;
+            }
+        }
+        let delta = case.m.is_delta();
+        assert!(
+            delta || nonzero > 1000,
+            "{}: {nonzero} non-zero pdfs",
+            case.name
+        );
+    }
+}
+
 /// f(wo, wi) = f(wi, wo): eval(wo, wi) / |cos wi| = eval(wi, wo) / |cos wo|.
 #[test]
 fn bsdf_reciprocity() {

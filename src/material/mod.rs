@@ -100,6 +100,26 @@ impl Material {
         }
     }
 
+    /// `(eval(wo, wi), pdf(wo, wi), pdf(wi, wo))` in one call, bit for bit: what a
+    /// bidirectional connection needs, with the work the three share done once.
+    #[inline(always)]
+    pub fn eval_pdfs(&self, wo: Vec3, wi: Vec3, mode: Mode) -> (Rgb, f32, f32) {
+        match self {
+            // Phong is one-sided after orienting: where f is not zero, both directions
+            // are on one side, so the three calls orient alike.
+            Material::Phong(m) => {
+                let (wo_o, wi_o, _) = orient(m.two_sided, wo, wi);
+                let r = m.eval_pdfs(wo_o, wi_o);
+                if r.0 == Rgb::ZERO {
+                    (r.0, self.pdf(wo, wi), self.pdf(wi, wo))
+                } else {
+                    r
+                }
+            }
+            _ => (self.eval(wo, wi, mode), self.pdf(wo, wi), self.pdf(wi, wo)),
+        }
+    }
+
     /// Samples `wi` given `wo`; `u_lobe` picks a lobe, `u` the direction within it.
     // Forced: callers in the AVX2 kernels otherwise get a baseline-x86 copy.
     #[inline(always)]

@@ -46,6 +46,29 @@ impl Phong {
         (self.kd * INV_PI + self.ks * glossy) * wi.z
     }
 
+    /// [`Phong::eval`] with [`Phong::pdf`] both ways, sharing the lobe's power (the
+    /// mirror directions give the same cosine either way, to the bit).
+    #[inline(always)]
+    pub fn eval_pdfs(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0, 0.0);
+        }
+        let cos_a = mirror_local(wo).dot(wi);
+        let lobe = if cos_a > 0.0 {
+            pow_lobe(cos_a, self.exponent)
+        } else {
+            0.0
+        };
+        let f = (self.kd * INV_PI + self.ks * ((self.exponent + 2.0) * INV_2PI * lobe)) * wi.z;
+        let ps = self.p_glossy();
+        let glossy_pdf = ps * ((self.exponent + 1.0) * INV_2PI * lobe);
+        (
+            f,
+            (1.0 - ps) * cosine_hemisphere_pdf(wi.z) + glossy_pdf,
+            (1.0 - ps) * cosine_hemisphere_pdf(wo.z) + glossy_pdf,
+        )
+    }
+
     #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -68,13 +91,13 @@ impl Phong {
             square_to_cosine_hemisphere(u)
         };
         // Glossy samples may fall below the surface: the BSDF is zero there.
-        let pdf = self.pdf(wo, wi);
+        let (f, pdf, _) = self.eval_pdfs(wo, wi);
         if wi.z <= 0.0 || pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
             wi,
-            weight: self.eval(wo, wi) / pdf,
+            weight: f / pdf,
             pdf,
             delta: false,
         })

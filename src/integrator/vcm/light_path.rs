@@ -144,15 +144,15 @@ impl Surface<'_> {
         if (wi_world.dot(self.ng) > 0.0) != (wi.z > 0.0) {
             return None;
         }
-        let f = self.m.eval(self.wo, wi, mode);
+        let (f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
         if f == Rgb::ZERO {
             return None;
         }
         Some(Eval {
             f,
             cos: wi.z.abs(),
-            pdf_dir: self.m.pdf(self.wo, wi),
-            pdf_rev: self.m.pdf(wi, self.wo),
+            pdf_dir,
+            pdf_rev,
         })
     }
 }
