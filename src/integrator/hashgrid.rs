@@ -2,9 +2,10 @@
 //! uniform grid with cells of twice the radius, so a query visits 2 x 2 x 2 cells
 //! (the cell of the point and its nearest neighbour on each axis).
 //!
-//! Built each iteration: keys are computed and sorted in parallel (the key holds the
-//! vertex index, so the order, and with it every sum over a query, never depends on
-//! the thread count). Buffers keep their capacity between builds.
+//! Built each iteration: slots are computed in parallel, then a counting sort groups
+//! the points by slot, in index order within each slot, so the order (and with it
+//! every sum over a query) never depends on the thread count. Buffers keep their
+//! capacity between builds.
 
 use super::huge;
 use crate::math::Vec3;
@@ -22,7 +23,10 @@ pub struct HashGrid {
     /// The points in `entries` order, so that a query reads each slot's candidates
     /// from one contiguous run of memory (the query is bound by these loads).
     sorted: Vec<Vec3>,
-    keys: Vec<u64>,
+    /// Each point's table slot.
+    slots: Vec<u32>,
+    /// The next free position of each slot during the counting sort.
+    cursor: Vec<u32>,
 }
 
 impl HashGrid {
@@ -38,25 +42,33 @@ impl HashGrid {
             .reduce(|| Vec3::splat(f32::INFINITY), Vec3::min);
         let table = (n.max(4) / 4).next_power_of_two() as u64;
         let (origin, inv) = (self.origin, self.inv_cell);
-        self.keys.clear();
-        huge::reserve(&mut self.keys, n);
-        self.keys
-            .par_extend(points.par_iter().enumerate().map(|(i, p)| {
-                let c = cell_of(*p, origin, inv);
-                (hash(c) & (table - 1)) << 32 | i as u64
-            }));
-        self.keys.par_sort_unstable();
+        self.slots.clear();
+        huge::reserve(&mut self.slots, n);
+        self.slots.par_extend(
+            points
+                .par_iter()
+                .map(|p| (hash(cell_of(*p, origin, inv)) & (table - 1)) as u32),
+        );
         self.starts.clear();
         self.starts.resize(table as usize + 1, 0);
-        for k in &self.keys {
-            self.starts[(k >> 32) as usize + 1] += 1;
+        for &s in &self.slots {
+            self.starts[s as usize + 1] += 1;
         }
         for h in 1..self.starts.len() {
             self.starts[h] += self.starts[h - 1];
         }
+        // Counting sort, stable: indices enter each slot's run in increasing order.
+        self.cursor.clear();
+        self.cursor
+            .extend_from_slice(&self.starts[..table as usize]);
         self.entries.clear();
         huge::reserve(&mut self.entries, n);
-        self.entries.extend(self.keys.iter().map(|k| *k as u32));
+        self.entries.resize(n, 0);
+        for (i, &s) in self.slots.iter().enumerate() {
+            let at = &mut self.cursor[s as usize];
+            self.entries[*at as usize] = i as u32;
+            *at += 1;
+        }
         self.sorted.clear();
         huge::reserve(&mut self.sorted, n);
         self.sorted
@@ -207,7 +219,8 @@ impl HashGrid {
     pub fn bytes(&self) -> usize {
         self.starts.capacity() * 4
             + self.entries.capacity() * 4
-            + self.keys.capacity() * 8
+            + self.slots.capacity() * 4
+            + self.cursor.capacity() * 4
             + self.sorted.capacity() * 12
     }
 }
