@@ -27,6 +27,8 @@ pub struct HashGrid {
     slots: Vec<u32>,
     /// The next free position of each slot during the counting sort.
     cursor: Vec<u32>,
+    /// Each point's position in storage order (the inverse of `entries`).
+    rank: Vec<u32>,
 }
 
 impl HashGrid {
@@ -64,9 +66,12 @@ impl HashGrid {
         self.entries.clear();
         huge::reserve(&mut self.entries, n);
         self.entries.resize(n, 0);
+        self.rank.clear();
+        huge::reserve(&mut self.rank, n);
         for (i, &s) in self.slots.iter().enumerate() {
             let at = &mut self.cursor[s as usize];
             self.entries[*at as usize] = i as u32;
+            self.rank.push(*at);
             *at += 1;
         }
         self.sorted.clear();
@@ -114,6 +119,12 @@ impl HashGrid {
     /// The original index of each point, in the grid's storage order.
     pub fn order(&self) -> &[u32] {
         &self.entries
+    }
+
+    /// The storage position of each point, in the original order (the inverse of
+    /// [`HashGrid::order`]).
+    pub fn rank(&self) -> &[u32] {
+        &self.rank
     }
 
     /// Like [`HashGrid::query_in`] for data laid out in storage order (see
@@ -221,6 +232,7 @@ impl HashGrid {
             + self.entries.capacity() * 4
             + self.slots.capacity() * 4
             + self.cursor.capacity() * 4
+            + self.rank.capacity() * 4
             + self.sorted.capacity() * 12
     }
 }
@@ -299,6 +311,9 @@ mod tests {
         for r in [0.03f32, 0.1] {
             grid.build(&pts, r);
             let sorted: Vec<usize> = grid.order().iter().map(|&i| i as usize).collect();
+            for (at, &i) in sorted.iter().enumerate() {
+                assert_eq!(grid.rank()[i] as usize, at, "rank inverts order");
+            }
             for q in 0..1000 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 let mut expect: Vec<usize> = (0..pts.len())

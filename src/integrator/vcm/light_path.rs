@@ -54,7 +54,7 @@ pub(crate) struct LightVertex {
 
 /// The part of a light vertex that merging reads, stored in hash-grid order: a range
 /// query then reads memory in runs instead of jumping across the path-ordered store.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct MergeVertex {
     pub wo: Vec3,
     pub throughput: Rgb,
@@ -233,11 +233,19 @@ impl Workspace {
         &chunk.vertices[begin as usize..chunk.ends[i] as usize]
     }
 
-    /// Vertex `g` in the numbering over all chunks in order (the hash grid's).
-    #[inline]
-    pub(super) fn vertex(&self, g: u32) -> &LightVertex {
-        let c = self.starts.partition_point(|&s| s <= g) - 1;
-        &self.chunks[c].vertices[(g - self.starts[c]) as usize]
+    /// The merging copy of every vertex, in the hash grid's storage order. The store
+    /// is read in order and the copies written where the grid ranks them: scattered
+    /// writes overlap their cache misses, where gathering reads would wait on each.
+    pub(super) fn fill_merge(&mut self) {
+        let n = self.positions.len();
+        self.merge.clear();
+        huge::reserve(&mut self.merge, n);
+        self.merge.resize(n, MergeVertex::default());
+        let rank = self.grid.rank();
+        let vertices = self.chunks.iter().flat_map(|c| c.vertices.iter());
+        for (&at, v) in rank.iter().zip(vertices) {
+            self.merge[at as usize] = MergeVertex::from(v);
+        }
     }
 
     /// Bytes held for light vertices (the chunks' stores and the grid's positions).

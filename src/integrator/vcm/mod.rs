@@ -21,7 +21,6 @@ pub mod mis;
 mod vertex;
 
 use super::hashgrid::HashGrid;
-use super::huge;
 use super::pixels::render_pixels_indexed;
 use super::pt::Heuristic;
 use super::{Integrator, RenderStats};
@@ -31,7 +30,6 @@ use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::Mis;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -319,18 +317,7 @@ impl Integrator for Vcm {
         let mut stats = trace_light_paths(&pass, seed, iteration, ws);
         if pass.technique.merges() {
             ws.grid.build(&ws.positions, pass.radius);
-            let mut merge = std::mem::take(&mut ws.merge);
-            merge.clear();
-            huge::reserve(&mut merge, ws.positions.len());
-            let ws_ref = &*ws;
-            merge.par_extend(
-                ws_ref
-                    .grid
-                    .order()
-                    .par_iter()
-                    .map(|&g| MergeVertex::from(ws_ref.vertex(g))),
-            );
-            ws.merge = merge;
+            ws.fill_merge();
             stats.merge_radius = pass.radius;
         }
         stats.vertex_bytes = (ws.vertex_store_bytes()
