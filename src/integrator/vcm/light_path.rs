@@ -197,15 +197,12 @@ pub(super) fn trace_light_paths(
     // Connections and merging read the vertices where the chunks stored them; only
     // the grid's positions are gathered into one array.
     ws.paths = n;
-    ws.starts.clear();
-    let mut total = 0u32;
+    let mut total = 0;
     let mut stats = RenderStats::default();
     for chunk in &ws.chunks {
-        ws.starts.push(total);
-        total += chunk.vertices.len() as u32;
+        total += chunk.vertices.len();
         stats += chunk.stats;
     }
-    ws.starts.push(total);
     if ws.chunks.iter().any(|c| c.over_budget) {
         tracing::warn!(
             "light vertices beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
@@ -214,7 +211,7 @@ pub(super) fn trace_light_paths(
     }
     ws.positions.clear();
     if pass.technique.merges() {
-        huge::reserve(&mut ws.positions, total as usize);
+        huge::reserve(&mut ws.positions, total);
         let chunks = &ws.chunks;
         ws.positions
             .extend(chunks.iter().flat_map(|c| c.vertices.iter().map(|v| v.p)));

@@ -249,10 +249,7 @@ struct Workspace {
     /// The light paths of the iteration, their vertices stored per chunk.
     chunks: Vec<Chunk>,
     paths: usize,
-    /// Where each chunk's vertices start in the numbering over all chunks, and the
-    /// total at the end.
-    starts: Vec<u32>,
-    /// Every stored vertex's position in that numbering (only when merging).
+    /// Every stored vertex's position, chunk after chunk (only when merging).
     positions: Vec<Vec3>,
     grid: HashGrid,
     /// What merging needs of each vertex, in the grid's storage order.
