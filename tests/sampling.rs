@@ -952,6 +952,42 @@ fn eval_pdfs_matches_the_separate_calls() {
     }
 }
 
+/// Where is_black_from(wo) holds, the BSDF is zero towards every direction and
+/// sampling finds nothing; a front side is never black.
+#[test]
+fn black_from_means_nothing_scatters() {
+    let (mut black, mut lit) = (0, 0);
+    for (k, case) in bsdf_cases().into_iter().enumerate() {
+        let mut rng = Rng::new(502, k as u64, 0);
+        for _ in 0..2000 {
+            let wo = uniform_sphere(&mut rng);
+            let is_black = case.m.is_black_from(wo);
+            assert!(
+                wo.z <= 0.0 || !is_black,
+                "{}: black from the front at {wo}",
+                case.name
+            );
+            if !is_black {
+                lit += 1;
+                continue;
+            }
+            black += 1;
+            for _ in 0..20 {
+                let wi = uniform_sphere(&mut rng);
+                for mode in [Mode::Radiance, Mode::Importance] {
+                    assert_eq!(case.m.eval(wo, wi, mode), Rgb::ZERO, "{}", case.name);
+                }
+                assert_eq!(case.m.pdf(wo, wi), 0.0, "{}", case.name);
+                let s = case
+                    .m
+                    .sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance);
+                assert!(s.is_none(), "{}: sampled {s:?} from {wo}", case.name);
+            }
+        }
+    }
+    assert!(black > 1000 && lit > 1000, "{black} black, {lit} lit");
+}
+
 /// f(wo, wi) = f(wi, wo): eval(wo, wi) / |cos wi| = eval(wi, wo) / |cos wo|.
 #[test]
 fn bsdf_reciprocity() {

@@ -149,6 +149,19 @@ impl Material {
         }
     }
 
+    /// True when nothing arriving from `wo` (local frame) is scattered, whatever the
+    /// outgoing direction: the back of a one-sided surface. Light vertices there add
+    /// nothing to any technique.
+    #[inline(always)]
+    pub fn is_black_from(&self, wo: Vec3) -> bool {
+        match self {
+            Material::Diffuse(_) | Material::Phong(_) | Material::Conductor(_) => {
+                orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0
+            }
+            Material::Mirror(_) | Material::Dielectric(_) | Material::Null => false,
+        }
+    }
+
     /// Hemispherical reflectance estimate, for the albedo AOV and light power.
     pub fn albedo(&self) -> Rgb {
         match self {

@@ -81,7 +81,7 @@ fn radiance_in<M: Media>(
         if walk.len >= pass.s.max_depth {
             break;
         }
-        if !v.is_delta() {
+        if !v.skips_connections() {
             if pass.technique.connects() {
                 let e = walk.throughput * light_sample(pass, &walk, &v, rng, stats);
                 record(layers, pass.layers.connection(1, walk.len + 1), e);

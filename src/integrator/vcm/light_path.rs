@@ -419,7 +419,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         walk.q = pass.mis.on_hit(walk.q, d2 / tr, v.d_in());
-        if !v.is_delta() {
+        if !v.skips_connections() {
             if store && chunk.vertices.len() >= budget {
                 chunk.over_budget = true;
             } else if store {

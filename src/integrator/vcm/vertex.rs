@@ -198,11 +198,13 @@ impl<'a, M: Media> Vertex<'a, M> {
         }
     }
 
-    /// Connections and storage skip specular surfaces.
+    /// Connections, merging and storage skip specular surfaces, and surfaces that
+    /// scatter nothing arriving from the vertex's side (the back of a one-sided
+    /// surface): every technique would find zero there.
     #[inline(always)]
-    pub fn is_delta(&self) -> bool {
+    pub fn skips_connections(&self) -> bool {
         match self {
-            Vertex::Surface { s, .. } => s.m.is_delta(),
+            Vertex::Surface { s, .. } => s.m.is_delta() || s.m.is_black_from(s.wo),
             Vertex::Medium { .. } => false,
         }
     }
