@@ -1,6 +1,7 @@
 //! Range queries over light vertices for vertex merging and photon mapping: a hashed
-//! uniform grid with cells of twice the radius, so a query visits 2 x 2 x 2 cells
-//! (the cell of the point and its nearest neighbour on each axis).
+//! uniform grid with cells of twice the radius, so a query visits at most 2 x 2 x 2
+//! cells (the cell of the point and its nearest neighbour on each axis; on average
+//! 6.9 of them, as corners beyond the radius are skipped).
 //!
 //! Built each iteration: slots are computed in parallel, then a counting sort groups
 //! the points by slot, in index order within each slot, so the order (and with it
