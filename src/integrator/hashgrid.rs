@@ -85,24 +85,10 @@ impl HashGrid {
         self.radius2
     }
 
-    /// Calls `f(index, distance^2)` for every point within the radius of `p`, in a
-    /// fixed order. Hash collisions may visit a point twice only if two of the visited
-    /// cells share a slot, which the slot de-duplication in [`HashGrid::runs`] prevents.
-    #[inline]
-    pub fn query(&self, p: Vec3, mut f: impl FnMut(usize, f32)) {
-        self.batches(
-            p,
-            |_| {},
-            |hits| {
-                for &(k, d2) in hits {
-                    f(self.entries[k as usize] as usize, d2);
-                }
-            },
-        );
-    }
-
-    /// Like [`HashGrid::query`], handing over `&data[index]` (data in the caller's
-    /// original order), prefetched as soon as the point is found.
+    /// Calls `f(&data[index], distance^2)` for every point within the radius of `p`
+    /// (`data` in the caller's original order), in a fixed order, prefetching each
+    /// point's data as soon as the scan finds it. Hash collisions could visit a point
+    /// twice only if two visited cells shared a slot, which [`HashGrid::runs`] prevents.
     #[inline]
     pub fn query_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
         let at = |k: u32| &data[self.entries[k as usize] as usize];
@@ -117,19 +103,14 @@ impl HashGrid {
         );
     }
 
-    /// The original index of each point, in the grid's storage order.
-    pub fn order(&self) -> &[u32] {
-        &self.entries
-    }
-
-    /// The storage position of each point, in the original order (the inverse of
-    /// [`HashGrid::order`]).
+    /// The storage position of each point, in the original order: data laid out so,
+    /// `sorted[rank[i]] = data[i]`, is read in runs by [`HashGrid::query_sorted_in`].
     pub fn rank(&self) -> &[u32] {
         &self.rank
     }
 
     /// Like [`HashGrid::query_in`] for data laid out in storage order (see
-    /// [`HashGrid::order`]): a query then reads it in runs too.
+    /// [`HashGrid::rank`]): a query then reads it in runs too.
     #[inline]
     pub fn query_sorted_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
         debug_assert_eq!(data.len(), self.sorted.len());
@@ -280,13 +261,14 @@ mod tests {
         let pts: Vec<Vec3> = (0..5000)
             .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32() * 0.1) * 3.0 - 1.0)
             .collect();
+        let ids: Vec<usize> = (0..pts.len()).collect();
         let mut grid = HashGrid::default();
         for r in [0.01f32, 0.07, 0.4] {
             grid.build(&pts, r);
             for q in 0..200 {
                 let p = pts[q * 7] + Vec3::new(0.01, -0.02, 0.005);
                 let mut found = Vec::new();
-                grid.query(p, |i, _| found.push(i));
+                grid.query_in(p, &ids, |&i, _| found.push(i));
                 let mut expect: Vec<usize> = (0..pts.len())
                     .filter(|&i| (pts[i] - p).length_squared() <= r * r)
                     .collect();
@@ -298,7 +280,7 @@ mod tests {
     }
 
     /// Queries anywhere in the cloud (so at every position within a cell, where the
-    /// corner cells are skipped or not), through all three entry points; the larger
+    /// corner cells are skipped or not), through both entry points; the larger
     /// radius finds more than a batch of points per query.
     #[test]
     fn every_entry_point_finds_the_same_points_anywhere() {
@@ -311,24 +293,27 @@ mod tests {
         let mut most = 0;
         for r in [0.03f32, 0.1] {
             grid.build(&pts, r);
-            let sorted: Vec<usize> = grid.order().iter().map(|&i| i as usize).collect();
-            for (at, &i) in sorted.iter().enumerate() {
-                assert_eq!(grid.rank()[i] as usize, at, "rank inverts order");
+            // The ids laid out in storage order; rank must be a permutation.
+            let mut sorted = vec![usize::MAX; pts.len()];
+            for (i, &at) in grid.rank().iter().enumerate() {
+                assert_eq!(sorted[at as usize], usize::MAX, "rank {at} given twice");
+                sorted[at as usize] = i;
             }
             for q in 0..1000 {
                 let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 let mut expect: Vec<usize> = (0..pts.len())
                     .filter(|&i| (pts[i] - p).length_squared() <= r * r)
                     .collect();
-                let (mut a, mut b, mut c) = (Vec::new(), Vec::new(), Vec::new());
-                grid.query(p, |i, d2| {
+                let (mut a, mut c) = (Vec::new(), Vec::new());
+                grid.query_in(p, &ids, |&i, d2| {
                     assert_eq!(d2, (pts[i] - p).length_squared());
                     a.push(i)
                 });
-                grid.query_in(p, &ids, |&i, _| b.push(i));
                 grid.query_sorted_in(p, &sorted, |&i, _| c.push(i));
-                assert_eq!(a, b, "r {r}, query {q}: query_in visits in the same order");
-                assert_eq!(a, c, "r {r}, query {q}: query_sorted_in too");
+                assert_eq!(
+                    a, c,
+                    "r {r}, query {q}: query_sorted_in visits in the same order"
+                );
                 a.sort_unstable();
                 expect.sort_unstable();
                 assert_eq!(a, expect, "r {r}, query {q}");
@@ -343,7 +328,7 @@ mod tests {
         let mut grid = HashGrid::default();
         grid.build(&[], 0.1);
         let mut n = 0;
-        grid.query(Vec3::ZERO, |_, _| n += 1);
+        grid.query_in(Vec3::ZERO, &[0u8; 0], |_, _| n += 1);
         assert_eq!(n, 0);
     }
 }
