@@ -97,6 +97,14 @@ impl Accel {
         self.tree.any_hit(&self.prims, ray).is_some()
     }
 
+    /// The closest hit along `ray` and whether anything blocks `shadow`, found together
+    /// (see [`Bvh4::intersect_and_any`]).
+    #[inline]
+    pub fn intersect_and_occluded(&self, ray: &Ray, shadow: &Ray) -> (Option<Hit>, bool) {
+        let (hit, blocker) = self.tree.intersect_and_any(&self.prims, ray, shadow);
+        (hit, blocker.is_some())
+    }
+
     /// Some primitive before `ray.tmax` (the first found, not the nearest), if any.
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> Option<u32> {
@@ -170,6 +178,12 @@ mod tests {
         short.tmax = 4.5;
         assert!(accel.occluded(&short));
     }
+    fn assert_same_hit(a: Option<Hit>, b: Option<Hit>, ray: &Ray) {
+        let key =
+            |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.prim, h.uv.to_array().map(f32::to_bits)));
+        assert_eq!(key(a), key(b), "ray {ray:?}");
+    }
+
     /// Closest hit and occlusion by testing every primitive, as the reference.
     fn brute_force(prims: &[Prim], ray: &Ray) -> Option<(f32, Vec<usize>)> {
         let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
@@ -212,6 +226,13 @@ mod tests {
                 .iter()
                 .any(|p| p.intersect(ray.o.into(), ray.d.into(), tmax).is_some());
             assert_eq!(accel.occluded(&short), expect, "ray {short:?}");
+            // Traced together, either way round, the two queries answer as apart.
+            let (hit, occluded) = accel.intersect_and_occluded(ray, &short);
+            assert_same_hit(hit, got, ray);
+            assert_eq!(occluded, expect, "ray {short:?} paired");
+            let (hit, occluded) = accel.intersect_and_occluded(&short, ray);
+            assert_same_hit(hit, accel.intersect(&short), &short);
+            assert_eq!(occluded, accel.occluded(ray), "ray {ray:?} paired");
             // The primitive any-hit reports is one the ray really meets.
             if let Some(i) = accel.any_hit(&short) {
                 let own = &prims[accel.meta(i).shape as usize];

@@ -9,6 +9,11 @@
 //! - Closest hit visits children nearest first and skips stack entries beyond the
 //!   closest hit so far; any hit (shadow rays) takes them in slot order and stops at
 //!   the first hit.
+//! - A closest-hit and an any-hit query can run as one interleaved walk
+//!   ([`Bvh4::intersect_and_any`]): a path tracer's continuation ray and its shadow
+//!   ray are independent, and alternating their steps lets the processor overlap two
+//!   dependency chains where one walk alone leaves it waiting on loads and compares
+//!   (Cornell box `pt`: 3% more instructions, 11% less time).
 //! - Robustness: the slab test keeps every box a ray touches, for axis-parallel rays
 //!   too (see [`RayLanes::slab`]), with Ize's widening of the exit distance; hit
 //!   distances are the primitives' own, bit for bit.
@@ -249,6 +254,59 @@ impl Bvh4 {
         self.any_hit_base(prims, ray)
     }
 
+    /// The closest hit along `closest` and some hit along `any`, the two traversals
+    /// interleaved: what [`intersect`](Self::intersect) and [`any_hit`](Self::any_hit)
+    /// return, in less time than the two calls.
+    #[inline(always)]
+    pub fn intersect_and_any(
+        &self,
+        prims: &[Prim],
+        closest: &Ray,
+        any: &Ray,
+    ) -> (Option<Hit>, Option<u32>) {
+        #[cfg(target_arch = "x86_64")]
+        match self.isa {
+            // SAFETY: `isa` names only instruction sets detected on this processor.
+            Isa::Avx512 => return unsafe { self.pair_avx512(prims, closest, any) },
+            Isa::Avx => return unsafe { self.pair_avx(prims, closest, any) },
+            Isa::Base => {}
+        }
+        self.pair_base(prims, closest, any)
+    }
+
+    #[inline(never)]
+    fn pair_base(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+        self.pair_on_stack::<F4>(prims, c, a)
+    }
+
+    /// # Safety
+    /// The processor must support AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn pair_avx(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+        self.pair_on_stack::<F8>(prims, c, a)
+    }
+
+    /// # Safety
+    /// The processor must support AVX-512F and AVX-512VL.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn pair_avx512(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+        self.pair_on_stack::<F8>(prims, c, a)
+    }
+
+    #[inline(always)]
+    fn pair_on_stack<L: Lanes>(
+        &self,
+        prims: &[Prim],
+        c: &Ray,
+        a: &Ray,
+    ) -> (Option<Hit>, Option<u32>) {
+        stack_buffer!(self, buf_c);
+        stack_buffer!(self, buf_a);
+        self.closest_and_any::<L>(prims, c, a, Stack::new(buf_c), Stack::new(buf_a))
+    }
+
     /// The kernels compiled for the baseline target (SSE2 on x86_64). Out of line, so
     /// the dispatch above stays small enough to inline into callers.
     #[inline(never)]
@@ -317,122 +375,73 @@ impl Bvh4 {
     }
 
     #[inline(always)]
-    fn closest<L: Lanes>(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> Option<Hit> {
-        let r = RayLanes::new(ray);
-        let pr = PackRay::<L>::new(r.o3, r.d3);
-        let mut tmax = ray.tmax;
-        // The closest hit so far, in locals rather than an Option the compiler keeps
-        // in memory; `prim == u32::MAX` until something is hit.
-        let (mut prim, mut uv) = (u32::MAX, Vec2::ZERO);
-        let mut cur = self.root;
+    fn closest<L: Lanes>(&self, prims: &[Prim], ray: &Ray, stack: Stack) -> Option<Hit> {
+        // One loop of its own rather than `Closest::step` in a loop: the same code,
+        // but the compiler keeps this one's state in registers.
+        let mut w = Closest::<L>::new(self, ray, stack);
         'visit: loop {
-            if cur & LEAF == 0 {
-                let n = &self.nodes[cur as usize];
-                let (mask, tn) = r.slab(n, F4::splat(tmax));
+            if w.cur & LEAF == 0 {
+                let n = &self.nodes[w.cur as usize];
+                let (mask, tn) = w.r.slab(n, F4::splat(w.tmax));
                 if mask != 0 {
-                    let tn = tn.to_array();
-                    let i0 = mask.trailing_zeros() as usize;
-                    let rest = mask & (mask - 1);
-                    if rest == 0 {
-                        cur = n.child[i0];
-                        continue 'visit;
-                    }
-                    let i1 = rest.trailing_zeros() as usize;
-                    let rest = rest & (rest - 1);
-                    if rest == 0 {
-                        let (near, far) = if tn[i1] < tn[i0] { (i1, i0) } else { (i0, i1) };
-                        stack.push(n.child[far], tn[far]);
-                        cur = n.child[near];
-                        continue 'visit;
-                    }
-                    // Three or four: push them all, sort those entries farthest first
-                    // (insertion sort), and continue with the nearest.
-                    let base = stack.len;
-                    let mut m = mask;
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        stack.push(n.child[i], tn[i]);
-                    }
-                    for i in base + 1..stack.len {
-                        let e = stack.get(i);
-                        let mut j = i;
-                        while j > base && stack.get(j - 1).t < e.t {
-                            stack.set(j, stack.get(j - 1));
-                            j -= 1;
-                        }
-                        stack.set(j, e);
-                    }
-                    cur = stack.pop().map_or(EMPTY, |e| e.child);
+                    w.cur = descend(&mut w.stack, n, mask, tn.to_array());
                     continue 'visit;
                 }
             } else {
-                let first = (cur & INDEX_MASK) as usize;
-                let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-                if cur & PRIMS == 0 {
-                    for pack in &self.tris[first..first + count] {
-                        if let Some((lane, t, h_uv)) = pr.nearest(pack, tmax) {
-                            (tmax, prim, uv) = (t, pack.prim[lane], h_uv);
-                        }
-                    }
-                } else if let Some(h) = run_closest(prims, first, count, r.o3, r.d3, tmax) {
-                    (tmax, prim, uv) = (h.t, h.prim, h.uv);
-                }
+                w.leaf(self, prims);
             }
-            // Next entry still nearer than the closest hit; entry distances carry the
-            // slab test's widening so rounding never culls a box that holds the hit.
-            let cull = tmax * ROBUST;
-            loop {
-                let Some(e) = stack.pop() else {
-                    return (prim != u32::MAX).then_some(Hit { t: tmax, prim, uv });
-                };
-                if e.t <= cull {
-                    cur = e.child;
-                    continue 'visit;
-                }
+            match w.next() {
+                Some(c) => w.cur = c,
+                None => return w.hit(),
             }
         }
     }
 
     #[inline(always)]
-    fn any<L: Lanes>(&self, prims: &[Prim], ray: &Ray, mut stack: Stack) -> Option<u32> {
-        let r = RayLanes::new(ray);
-        let pr = PackRay::<L>::new(r.o3, r.d3);
-        let tmax = ray.tmax;
-        let tmax4 = F4::splat(tmax);
-        let mut cur = self.root;
+    fn any<L: Lanes>(&self, prims: &[Prim], ray: &Ray, stack: Stack) -> Option<u32> {
+        let mut w = Any::<L>::new(self, ray, stack);
         loop {
-            if cur & LEAF == 0 {
-                let n = &self.nodes[cur as usize];
-                let (mask, _) = r.slab(n, tmax4);
+            if w.cur & LEAF == 0 {
+                let n = &self.nodes[w.cur as usize];
+                let (mask, _) = w.r.slab(n, w.tmax4);
                 if mask != 0 {
-                    let mut m = mask & (mask - 1);
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        stack.push(n.child[i], 0.0);
-                    }
-                    cur = n.child[mask.trailing_zeros() as usize];
+                    w.cur = w.descend(n, mask);
                     continue;
                 }
-            } else {
-                let first = (cur & INDEX_MASK) as usize;
-                let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-                if cur & PRIMS == 0 {
-                    for pack in &self.tris[first..first + count] {
-                        if let Some(lane) = pr.any(pack, tmax) {
-                            return Some(pack.prim[lane]);
-                        }
-                    }
-                } else if let Some(i) = run_any(prims, first, count, r.o3, r.d3, tmax) {
-                    return Some(i);
-                }
+            } else if let Some(i) = w.leaf(self, prims) {
+                return Some(i);
             }
-            match stack.pop() {
-                Some(e) => cur = e.child,
-                None => return None,
-            }
+            w.cur = w.stack.pop()?.child;
         }
+    }
+
+    /// Both walks in one loop, a step of each in turn: their dependency chains are
+    /// independent, so the processor overlaps them (one walk alone leaves most of the
+    /// core idle waiting on its loads and compares). Results are those of the
+    /// separate kernels, bit for bit.
+    #[inline(always)]
+    fn closest_and_any<L: Lanes>(
+        &self,
+        prims: &[Prim],
+        closest: &Ray,
+        any: &Ray,
+        sc: Stack,
+        sa: Stack,
+    ) -> (Option<Hit>, Option<u32>) {
+        let mut c = Closest::<L>::new(self, closest, sc);
+        let mut a = Any::<L>::new(self, any, sa);
+        let (mut c_done, mut a_code) = (false, GOING);
+        while !c_done && a_code == GOING {
+            c_done = c.step(self, prims);
+            a_code = a.step(self, prims);
+        }
+        while !c_done {
+            c_done = c.step(self, prims);
+        }
+        while a_code == GOING {
+            a_code = a.step(self, prims);
+        }
+        (c.hit(), any_result(a_code))
     }
 
     /// Makes traversal take the heap stack meant for very deep trees.
@@ -478,6 +487,228 @@ impl Bvh4 {
     pub fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
         build::from_bvh2(bvh, prims)
     }
+}
+
+/// A closest-hit traversal in progress: front to back, children nearest first, stack
+/// entries farther than the closest hit so far skipped.
+struct Closest<'s, L> {
+    r: RayLanes,
+    pr: PackRay<L>,
+    tmax: f32,
+    /// The closest hit so far, in locals rather than an Option the compiler keeps in
+    /// memory; `prim == u32::MAX` until something is hit.
+    prim: u32,
+    uv: Vec2,
+    /// The reference to visit next.
+    cur: u32,
+    stack: Stack<'s>,
+}
+
+impl<'s, L: Lanes> Closest<'s, L> {
+    #[inline(always)]
+    fn new(tree: &Bvh4, ray: &Ray, stack: Stack<'s>) -> Self {
+        let r = RayLanes::new(ray);
+        let pr = PackRay::<L>::new(r.o3, r.d3);
+        Closest {
+            r,
+            pr,
+            tmax: ray.tmax,
+            prim: u32::MAX,
+            uv: Vec2::ZERO,
+            cur: tree.root,
+            stack,
+        }
+    }
+
+    #[inline(always)]
+    fn hit(&self) -> Option<Hit> {
+        (self.prim != u32::MAX).then_some(Hit {
+            t: self.tmax,
+            prim: self.prim,
+            uv: self.uv,
+        })
+    }
+
+    /// Tests the leaf `cur`, keeping its hit if nearer.
+    #[inline(always)]
+    fn leaf(&mut self, tree: &Bvh4, prims: &[Prim]) {
+        let cur = self.cur;
+        let first = (cur & INDEX_MASK) as usize;
+        let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
+        if cur & PRIMS == 0 {
+            for pack in &tree.tris[first..first + count] {
+                if let Some((lane, t, uv)) = self.pr.nearest(pack, self.tmax) {
+                    (self.tmax, self.prim, self.uv) = (t, pack.prim[lane], uv);
+                }
+            }
+        } else if let Some(h) = run_closest(prims, first, count, self.r.o3, self.r.d3, self.tmax) {
+            (self.tmax, self.prim, self.uv) = (h.t, h.prim, h.uv);
+        }
+    }
+
+    /// The next stack entry still nearer than the closest hit; entry distances carry
+    /// the slab test's widening so rounding never culls a box that holds the hit.
+    #[inline(always)]
+    fn next(&mut self) -> Option<u32> {
+        let cull = self.tmax * ROBUST;
+        loop {
+            let e = self.stack.pop()?;
+            if e.t <= cull {
+                return Some(e.child);
+            }
+        }
+    }
+
+    /// Visits `cur` and chooses the next reference; true when nothing is left.
+    #[inline(always)]
+    fn step(&mut self, tree: &Bvh4, prims: &[Prim]) -> bool {
+        if self.cur & LEAF == 0 {
+            let n = &tree.nodes[self.cur as usize];
+            let (mask, tn) = self.r.slab(n, F4::splat(self.tmax));
+            if mask != 0 {
+                self.cur = descend(&mut self.stack, n, mask, tn.to_array());
+                return false;
+            }
+        } else {
+            self.leaf(tree, prims);
+        }
+        match self.next() {
+            Some(c) => {
+                self.cur = c;
+                false
+            }
+            None => true,
+        }
+    }
+}
+
+/// The nearest child of `n` in `mask`, the others stacked farthest first.
+#[inline(always)]
+fn descend(stack: &mut Stack, n: &Node4, mask: u32, tn: [f32; 4]) -> u32 {
+    let i0 = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return n.child[i0];
+    }
+    let i1 = rest.trailing_zeros() as usize;
+    let rest = rest & (rest - 1);
+    if rest == 0 {
+        let (near, far) = if tn[i1] < tn[i0] { (i1, i0) } else { (i0, i1) };
+        stack.push(n.child[far], tn[far]);
+        return n.child[near];
+    }
+    // Three or four: push them all, sort those entries farthest first (insertion
+    // sort), and continue with the nearest.
+    let base = stack.len;
+    let mut m = mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        m &= m - 1;
+        stack.push(n.child[i], tn[i]);
+    }
+    for i in base + 1..stack.len {
+        let e = stack.get(i);
+        let mut j = i;
+        while j > base && stack.get(j - 1).t < e.t {
+            stack.set(j, stack.get(j - 1));
+            j -= 1;
+        }
+        stack.set(j, e);
+    }
+    stack.pop().map_or(EMPTY, |e| e.child)
+}
+
+/// An any-hit traversal in progress: children in slot order, ended by the first hit.
+struct Any<'s, L> {
+    r: RayLanes,
+    pr: PackRay<L>,
+    tmax: f32,
+    tmax4: F4,
+    cur: u32,
+    stack: Stack<'s>,
+}
+
+impl<'s, L: Lanes> Any<'s, L> {
+    #[inline(always)]
+    fn new(tree: &Bvh4, ray: &Ray, stack: Stack<'s>) -> Self {
+        let r = RayLanes::new(ray);
+        let pr = PackRay::<L>::new(r.o3, r.d3);
+        Any {
+            r,
+            pr,
+            tmax: ray.tmax,
+            tmax4: F4::splat(ray.tmax),
+            cur: tree.root,
+            stack,
+        }
+    }
+
+    /// The first child of `n` in `mask`; the others are stacked.
+    #[inline(always)]
+    fn descend(&mut self, n: &Node4, mask: u32) -> u32 {
+        let mut m = mask & (mask - 1);
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            self.stack.push(n.child[i], 0.0);
+        }
+        n.child[mask.trailing_zeros() as usize]
+    }
+
+    /// Some primitive of the leaf `cur` that the ray hits.
+    #[inline(always)]
+    fn leaf(&self, tree: &Bvh4, prims: &[Prim]) -> Option<u32> {
+        let cur = self.cur;
+        let first = (cur & INDEX_MASK) as usize;
+        let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
+        if cur & PRIMS == 0 {
+            // A loop, not `find_map`: its closure could be compiled out of line,
+            // without the kernel's AVX features.
+            for pack in &tree.tris[first..first + count] {
+                if let Some(lane) = self.pr.any(pack, self.tmax) {
+                    return Some(pack.prim[lane]);
+                }
+            }
+            None
+        } else {
+            run_any(prims, first, count, self.r.o3, self.r.d3, self.tmax)
+        }
+    }
+
+    /// Visits `cur` and chooses the next reference: [`GOING`], or the end of the walk
+    /// (the primitive hit, or [`MISSED`]). A code rather than an `Option` held in the
+    /// walk, which the compiler kept in memory.
+    #[inline(always)]
+    fn step(&mut self, tree: &Bvh4, prims: &[Prim]) -> u32 {
+        if self.cur & LEAF == 0 {
+            let n = &tree.nodes[self.cur as usize];
+            let (mask, _) = self.r.slab(n, self.tmax4);
+            if mask != 0 {
+                self.cur = self.descend(n, mask);
+                return GOING;
+            }
+        } else if let Some(i) = self.leaf(tree, prims) {
+            return i;
+        }
+        match self.stack.pop() {
+            Some(e) => {
+                self.cur = e.child;
+                GOING
+            }
+            None => MISSED,
+        }
+    }
+}
+
+/// What [`Any::step`] returns while the walk goes on; any other value ends it: a
+/// primitive hit, or [`MISSED`].
+const GOING: u32 = u32::MAX - 1;
+const MISSED: u32 = u32::MAX;
+
+/// A finished any-hit walk's result.
+#[inline(always)]
+fn any_result(code: u32) -> Option<u32> {
+    (code != MISSED).then_some(code)
 }
 
 #[cold]

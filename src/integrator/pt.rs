@@ -104,12 +104,12 @@ impl PtSettings {
 
 /// A scattering point, as next-event estimation sees it.
 #[derive(Clone, Copy)]
-struct Vertex<'a> {
+struct Vertex<'a, 'm> {
     it: &'a Interaction,
     frame: &'a Frame,
     /// Towards the previous vertex, local frame.
     wo: Vec3,
-    m: &'a Material,
+    m: &'m Material,
 }
 
 pub struct PathTracer {
@@ -126,23 +126,29 @@ impl PathTracer {
         self.s.heuristic.weight(a, b)
     }
 
-    /// Next-event estimation at a non-delta vertex: one light, one shadow ray.
+    /// Next-event estimation at a non-delta vertex: one light sample and the shadow
+    /// ray that decides it, not yet traced.
     #[inline(always)]
-    fn direct(&self, scene: &Scene, v: &Vertex, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
+    fn direct<'m>(
+        &self,
+        scene: &Scene,
+        v: &Vertex<'_, 'm>,
+        beta: Rgb,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Option<Shadow<'m>> {
         let Vertex { it, frame, wo, m } = *v;
         let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
         let u = rng.next_2d();
-        let Some(ls) = scene.lights[li].sample_li(it.p, u) else {
-            return Rgb::ZERO;
-        };
+        let ls = scene.lights[li].sample_li(it.p, u)?;
         let wi = frame.to_local(ls.wi);
         // Light arriving from behind the geometric surface would leak through it.
         if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) {
-            return Rgb::ZERO;
+            return None;
         }
         let f = m.eval(wo, wi, Mode::Radiance);
         if f == Rgb::ZERO {
-            return Rgb::ZERO;
+            return None;
         }
         let ray = if ls.dist.is_finite() {
             spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
@@ -150,19 +156,43 @@ impl PathTracer {
             spawn_ray(it.p, it.p_err, it.ng, ls.wi)
         };
         stats.shadow_rays += 1;
-        if !scene.visible(&ray) {
-            return Rgb::ZERO;
-        }
-        let pdf_light = sel_pdf * ls.pdf;
-        let w = if ls.delta {
+        Some(Shadow {
+            ray,
+            m,
+            wo,
+            wi,
+            f,
+            li: ls.li,
+            pdf_light: sel_pdf * ls.pdf,
+            delta: ls.delta,
+            beta,
+        })
+    }
+
+    /// What an unblocked shadow ray adds: the MIS weight is only worked out then.
+    #[inline(always)]
+    fn unblocked(&self, s: &Shadow) -> Rgb {
+        let w = if s.delta {
             1.0
         } else {
-            self.mis(pdf_light, m.pdf(wo, wi))
+            self.mis(s.pdf_light, s.m.pdf(s.wo, s.wi))
         };
-        f * ls.li * (w / pdf_light)
+        s.beta * (s.f * s.li * (w / s.pdf_light))
+    }
+
+    /// Traces a shadow ray on its own, where the path ends at its vertex.
+    #[inline(always)]
+    fn resolve(&self, scene: &Scene, shadow: Option<Shadow>) -> Rgb {
+        match shadow {
+            Some(s) if scene.visible(&s.ray) => self.unblocked(&s),
+            _ => Rgb::ZERO,
+        }
     }
 
     /// Radiance along one camera ray.
+    ///
+    /// A vertex's shadow ray is traced together with the ray that continues the path
+    /// (`Scene::next_scattering_and_visible`): the two traversals overlap.
     #[inline(always)]
     fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let mut l = Rgb::ZERO;
@@ -171,8 +201,20 @@ impl PathTracer {
         let mut specular = true; // the last event was a delta lobe (or the camera)
         let mut pdf_bsdf = 0.0f32;
         let mut prev_p = ray.o;
+        let mut shadow: Option<Shadow> = None;
         loop {
-            let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
+            let surfacing = match shadow.take() {
+                Some(s) => {
+                    let (surfacing, visible) =
+                        scene.next_scattering_and_visible(&mut ray, &s.ray, &mut stats.rays);
+                    if visible {
+                        l += self.unblocked(&s);
+                    }
+                    surfacing
+                }
+                None => scene.next_scattering(&mut ray, &mut stats.rays),
+            };
+            let (it, m) = match surfacing {
                 Surfacing::Hit(it, m) => (it, m),
                 Surfacing::Escaped => {
                     l += beta * escaped(scene, ray.d, specular, pdf_bsdf, self.s.heuristic);
@@ -202,14 +244,16 @@ impl PathTracer {
                     wo,
                     m,
                 };
-                l += beta * self.direct(scene, &v, rng, stats);
+                shadow = self.direct(scene, &v, beta, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+                l += self.resolve(scene, shadow);
                 break;
             };
             let wi = frame.to_world(s.wi);
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+                l += self.resolve(scene, shadow);
                 break;
             }
             beta *= s.weight;
@@ -220,11 +264,13 @@ impl PathTracer {
             if depth >= self.s.rr_depth {
                 let q = max_component(beta).min(0.95);
                 if rng.next_f32() >= q {
+                    l += self.resolve(scene, shadow);
                     break;
                 }
                 beta /= q;
             }
             if beta == Rgb::ZERO {
+                l += self.resolve(scene, shadow);
                 break;
             }
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
@@ -232,6 +278,20 @@ impl PathTracer {
         }
         l
     }
+}
+
+/// A shadow ray waiting to be traced, with what it adds if nothing blocks it.
+struct Shadow<'a> {
+    ray: Ray,
+    m: &'a Material,
+    wo: Vec3,
+    wi: Vec3,
+    f: Rgb,
+    li: Rgb,
+    pdf_light: f32,
+    delta: bool,
+    /// Path throughput at the vertex.
+    beta: Rgb,
 }
 
 impl Integrator for PathTracer {

@@ -187,6 +187,33 @@ impl Scene {
         Surfacing::Lost
     }
 
+    /// [`next_scattering`](Self::next_scattering) along `ray` and
+    /// [`visible`](Self::visible) along `shadow`, the two traversals interleaved where
+    /// the tree holds no null boundaries.
+    #[inline(always)]
+    pub fn next_scattering_and_visible(
+        &self,
+        ray: &mut Ray,
+        shadow: &Ray,
+        rays: &mut u64,
+    ) -> (Surfacing<'_>, bool) {
+        if self.has_null {
+            let visible = self.visible(shadow);
+            return (self.next_scattering(ray, rays), visible);
+        }
+        let (hit, occluded) = self.accel.intersect_and_occluded(ray, shadow);
+        let surfacing = match hit {
+            // Without null boundaries in the tree the first hit scatters.
+            Some(hit) => {
+                let it = self.interaction(ray, &hit);
+                let m = self.material(&it);
+                Surfacing::Hit(it, m)
+            }
+            None => Surfacing::Escaped,
+        };
+        (surfacing, !occluded)
+    }
+
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.accel.occluded(ray)
