@@ -1,6 +1,6 @@
 use super::{Distribution1D, LightSample};
 use crate::geometry::Prim;
-use crate::math::warp::{square_to_disk, square_to_triangle};
+use crate::math::warp::{sin_cos_2pi, square_to_disk, square_to_triangle};
 use crate::math::{safe_sqrt, Frame, Rgb, Vec2, Vec3, PI};
 
 /// Lambertian emission from a shape, on the side its (possibly flipped) normal points
@@ -151,9 +151,9 @@ impl AreaLight {
         // Angle alpha at the sphere's centre between the axis and the sampled point.
         let cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
         let sin_a = safe_sqrt(1.0 - cos_a * cos_a);
-        let phi = 2.0 * PI * u.y;
+        let (sin_phi, cos_phi) = sin_cos_2pi(u.y);
         let frame = Frame::from_normal(to_c / dc);
-        let w = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+        let w = Vec3::new(sin_a * cos_phi, sin_a * sin_phi, cos_a);
         let n_out = frame.to_world(-w);
         let pl = c + r * n_out;
         let d = pl - p;

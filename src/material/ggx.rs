@@ -56,10 +56,10 @@ impl Ggx {
         };
         let t2 = vh.cross(t1);
         let r = u.x.sqrt();
-        let phi = 2.0 * PI * u.y;
-        let p1 = r * phi.cos();
+        let (sin_phi, cos_phi) = crate::math::warp::sin_cos_2pi(u.y);
+        let p1 = r * cos_phi;
         let s = 0.5 * (1.0 + vh.z);
-        let p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * phi.sin();
+        let p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * sin_phi;
         let nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * vh;
         Vec3::new(a * nh.x, a * nh.y, nh.z.max(1e-7)).normalize()
     }

@@ -53,7 +53,7 @@ impl Phase {
     pub fn sample(&self, d: Vec3, u: Vec2) -> (Vec3, f32) {
         let mu = self.sample_mu(u.x);
         let sin = (1.0 - mu * mu).max(0.0).sqrt();
-        let (s, c) = (2.0 * PI * u.y).sin_cos();
+        let (s, c) = crate::math::warp::sin_cos_2pi(u.y);
         let wi = Frame::from_normal(d).to_world(Vec3::new(sin * c, sin * s, mu));
         (wi, self.eval_mu(mu))
     }
