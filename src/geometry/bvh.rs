@@ -385,6 +385,33 @@ mod tests {
         }
     }
 
+    /// Spheres alone (their leaves become sphere packs), large and overlapping, small
+    /// and far apart, and two on one centre.
+    #[test]
+    fn agrees_with_brute_force_on_spheres() {
+        let mut rng = Rng::new(12, 0, 0);
+        let mut prims: Vec<Prim> = (0..400)
+            .map(|i| {
+                let c = Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0 - 10.0;
+                let r = if i % 3 == 0 { 2.0 } else { 0.05 } * (0.5 + rng.next_f32());
+                Prim::Sphere { c, r }
+            })
+            .collect();
+        prims.push(Prim::Sphere {
+            c: Vec3A::ZERO,
+            r: 1.0,
+        });
+        prims.push(Prim::Sphere {
+            c: Vec3A::ZERO,
+            r: 0.5,
+        });
+        let accel = build(&prims);
+        assert!(!accel.tree.sphere_packs_empty(), "no sphere packs built");
+        for accel in variants(&prims) {
+            check_many(&accel, &prims, &mut rng.clone(), 1000);
+        }
+    }
+
     /// Axis-aligned rectangles sharing edges, like a room: every slab plane is shared
     /// by many boxes, and axis rays run along them. Built from triangle pairs and from
     /// parallelograms.

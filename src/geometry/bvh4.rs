@@ -1,10 +1,10 @@
 //! A four-wide BVH flattened from obvhs's binary tree, traversed with four-lane slab
 //! tests (Embree's BVH4 layout: each node holds its children's boxes plane by plane, so
 //! one SIMD test decides all four) and Moeller-Trumbore on packs of two to eight
-//! triangles and parallelograms (eight AVX lanes, or two groups of four; see `pack`).
-//! Other leaves (spheres, disks, mixed, single triangles) are runs of primitives tested
-//! one at a time through [`Prim::intersect`]; see `build` for how leaves and nodes are
-//! chosen.
+//! triangles and parallelograms, and on packs of spheres (eight AVX lanes, or two
+//! groups of four; see `pack`). Other leaves (disks, mixed, single primitives) are
+//! runs of primitives tested one at a time through [`Prim::intersect`]; see `build`
+//! for how leaves and nodes are chosen.
 //!
 //! - Closest hit visits children nearest first and skips stack entries beyond the
 //!   closest hit so far; any hit (shadow rays) takes them in slot order and stops at
@@ -39,14 +39,17 @@ use std::mem::MaybeUninit;
 mod build;
 mod pack;
 
-use pack::{PackRay, Tri8};
+use pack::{PackRay, Sphere8, Tri8};
 
 // A child reference is one u32: an inner node index (top bit clear), or a leaf: a run
-// of triangle packs, or (with PRIMS set) a run of primitives tested one at a time.
+// of triangle packs, (with SPHERES set) of sphere packs, or (with PRIMS set) of
+// primitives tested one at a time. The run's length sits above SPHERES, its first
+// index below.
 const LEAF: u32 = 1 << 31;
 const PRIMS: u32 = 1 << 30;
 const COUNT_SHIFT: u32 = 27;
-const INDEX_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+const SPHERES: u32 = 1 << 26;
+const INDEX_MASK: u32 = SPHERES - 1;
 /// Most packs or primitives one leaf reference can hold.
 const MAX_RUN: usize = 7;
 /// An unused slot: its box is empty, so no ray reaches it, and should a NaN ray get
@@ -71,6 +74,7 @@ struct Node4 {
 pub struct Bvh4 {
     nodes: Vec<Node4>,
     tris: Vec<Tri8>,
+    spheres: Vec<Sphere8>,
     root: u32,
     /// Stack entries a traversal can need: at most three per inner level.
     stack_len: usize,
@@ -450,6 +454,11 @@ impl Bvh4 {
         self.stack_len = self.stack_len.max(STACK + 1);
     }
 
+    #[cfg(test)]
+    pub fn sphere_packs_empty(&self) -> bool {
+        self.spheres.is_empty()
+    }
+
     /// Chooses the baseline kernels even where AVX exists.
     #[cfg(test)]
     pub fn disable_avx(&mut self) {
@@ -468,6 +477,7 @@ impl Bvh4 {
         Bvh4 {
             nodes: Vec::new(),
             tris: Vec::new(),
+            spheres: Vec::new(),
             root: EMPTY,
             stack_len: 0,
             isa: Isa::detect(),
@@ -478,6 +488,7 @@ impl Bvh4 {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node4>()
             + self.tris.len() * std::mem::size_of::<Tri8>()
+            + self.spheres.len() * std::mem::size_of::<Sphere8>()
     }
 
     /// Flattens a binary tree over `prims` (its leaves index them through
@@ -535,14 +546,22 @@ impl<'s, L: Lanes> Closest<'s, L> {
         let cur = self.cur;
         let first = (cur & INDEX_MASK) as usize;
         let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-        if cur & PRIMS == 0 {
+        if cur & PRIMS != 0 {
+            if let Some(h) = run_closest(prims, first, count, self.r.o3, self.r.d3, self.tmax) {
+                (self.tmax, self.prim, self.uv) = (h.t, h.prim, h.uv);
+            }
+        } else if cur & SPHERES != 0 {
+            for pack in &tree.spheres[first..first + count] {
+                if let Some((lane, t)) = self.pr.nearest_sphere(pack, self.tmax) {
+                    (self.tmax, self.prim, self.uv) = (t, pack.prim[lane], Vec2::ZERO);
+                }
+            }
+        } else {
             for pack in &tree.tris[first..first + count] {
                 if let Some((lane, t, uv)) = self.pr.nearest(pack, self.tmax) {
                     (self.tmax, self.prim, self.uv) = (t, pack.prim[lane], uv);
                 }
             }
-        } else if let Some(h) = run_closest(prims, first, count, self.r.o3, self.r.d3, self.tmax) {
-            (self.tmax, self.prim, self.uv) = (h.t, h.prim, h.uv);
         }
     }
 
@@ -661,17 +680,24 @@ impl<'s, L: Lanes> Any<'s, L> {
         let cur = self.cur;
         let first = (cur & INDEX_MASK) as usize;
         let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-        if cur & PRIMS == 0 {
-            // A loop, not `find_map`: its closure could be compiled out of line,
-            // without the kernel's AVX features.
+        // Loops, not `find_map`: its closure could be compiled out of line, without
+        // the kernel's AVX features.
+        if cur & PRIMS != 0 {
+            run_any(prims, first, count, self.r.o3, self.r.d3, self.tmax)
+        } else if cur & SPHERES != 0 {
+            for pack in &tree.spheres[first..first + count] {
+                if let Some(lane) = self.pr.any_sphere(pack, self.tmax) {
+                    return Some(pack.prim[lane]);
+                }
+            }
+            None
+        } else {
             for pack in &tree.tris[first..first + count] {
                 if let Some(lane) = self.pr.any(pack, self.tmax) {
                     return Some(pack.prim[lane]);
                 }
             }
             None
-        } else {
-            run_any(prims, first, count, self.r.o3, self.r.d3, self.tmax)
         }
     }
 

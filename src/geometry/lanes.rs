@@ -35,6 +35,11 @@ pub trait Lanes:
     fn nlt(self, o: Self) -> Self::Mask;
     fn ngt(self, o: Self) -> Self::Mask;
     fn bits(m: Self::Mask) -> u32;
+    /// Per lane the larger, or `o` when either is NaN (SSE's `max`).
+    fn max(self, o: Self) -> Self;
+    fn sqrt(self) -> Self;
+    /// `a` in the lanes where `m` holds, `b` elsewhere.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
 }
 
 impl Lanes for F4 {
@@ -85,6 +90,18 @@ impl Lanes for F4 {
     #[inline(always)]
     fn bits(m: M4) -> u32 {
         m.bits()
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        F4::max(self, o)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F4::sqrt(self)
+    }
+    #[inline(always)]
+    fn select(m: M4, a: Self, b: Self) -> Self {
+        F4::select(m, a, b)
     }
 }
 
@@ -167,6 +184,18 @@ mod avx {
         #[inline(always)]
         fn bits(m: M8) -> u32 {
             unsafe { _mm256_movemask_ps(m.0) as u32 }
+        }
+        #[inline(always)]
+        fn max(self, o: Self) -> Self {
+            unsafe { F8(_mm256_max_ps(self.0, o.0)) }
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Self {
+            unsafe { F8(_mm256_sqrt_ps(self.0)) }
+        }
+        #[inline(always)]
+        fn select(m: M8, a: Self, b: Self) -> Self {
+            unsafe { F8(_mm256_blendv_ps(b.0, a.0, m.0)) }
         }
     }
 
@@ -262,6 +291,17 @@ mod sse {
         #[inline(always)]
         pub fn max(self, o: F4) -> F4 {
             unsafe { F4(_mm_max_ps(self.0, o.0)) }
+        }
+
+        #[inline(always)]
+        pub fn sqrt(self) -> F4 {
+            unsafe { F4(_mm_sqrt_ps(self.0)) }
+        }
+
+        /// `a` where `m` holds, `b` elsewhere.
+        #[inline(always)]
+        pub fn select(m: M4, a: F4, b: F4) -> F4 {
+            unsafe { F4(_mm_or_ps(_mm_and_ps(m.0, a.0), _mm_andnot_ps(m.0, b.0))) }
         }
 
         #[inline(always)]
@@ -402,6 +442,18 @@ mod scalar {
         }
 
         #[inline(always)]
+        pub fn sqrt(self) -> F4 {
+            F4(self.0.map(f32::sqrt))
+        }
+
+        #[inline(always)]
+        pub fn select(m: M4, a: F4, b: F4) -> F4 {
+            F4(std::array::from_fn(
+                |i| if m.0[i] { a.0[i] } else { b.0[i] },
+            ))
+        }
+
+        #[inline(always)]
         pub fn lt(self, o: F4) -> M4 {
             cmp(self, o, |a, b| a < b)
         }
@@ -515,6 +567,11 @@ mod tests {
             assert!(same((sa / sb).to_array(), (pa / pb).to_array()));
             assert!(same(sa.min(sb).to_array(), pa.min(pb).to_array()));
             assert!(same(sa.max(sb).to_array(), pa.max(pb).to_array()));
+            assert!(same(sa.sqrt().to_array(), pa.sqrt().to_array()));
+            assert!(same(
+                sse::F4::select(sa.lt(sb), sa, sb).to_array(),
+                scalar::F4::select(pa.lt(pb), pa, pb).to_array()
+            ));
             assert_eq!(sa.lt(sb).bits(), pa.lt(pb).bits());
             assert_eq!(sa.le(sb).bits(), pa.le(pb).bits());
             assert_eq!(sa.gt(sb).bits(), pa.gt(pb).bits());
@@ -587,6 +644,12 @@ mod tests {
             assert_eq!(wide(|x, y| x * y), narrow(|x, y| x * y));
             let quiet = |v: [u32; 8]| v.map(|x| if f32::from_bits(x).is_nan() { 0 } else { x });
             assert_eq!(quiet(wide(|x, y| x / y)), quiet(narrow(|x, y| x / y)));
+            assert_eq!(wide(Lanes::max), narrow(sse::F4::max));
+            assert_eq!(quiet(wide(|x, _| x.sqrt())), quiet(narrow(|x, _| x.sqrt())));
+            assert_eq!(
+                wide(|x, y| F8::select(x.lt(y), x, y)),
+                narrow(|x, y| sse::F4::select(x.lt(y), x, y))
+            );
             let bits8 = |f: fn(F8, F8) -> <F8 as Lanes>::Mask| F8::bits(f(wa, wb));
             let bits4 = |f: fn(sse::F4, sse::F4) -> sse::M4| {
                 (0..2).fold(0, |acc, h| {

@@ -152,15 +152,30 @@ mod tests {
             let u = i as f32 / 100_000.0;
             let (s, c) = sin_cos_2pi(u);
             let (s64, c64) = (2.0 * std::f64::consts::PI * u as f64).sin_cos();
-            worst = worst.max((s as f64 - s64).abs()).max((c as f64 - c64).abs());
+            worst = worst
+                .max((s as f64 - s64).abs())
+                .max((c as f64 - c64).abs());
         }
         // Within a few f32 ulps of 1 everywhere, quarter-turn boundaries included.
         assert!(worst < 3e-7, "worst error {worst}");
         let largest_below_one = 1.0 - f32::EPSILON / 2.0;
-        for u in [0.0f32, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, largest_below_one] {
+        for u in [
+            0.0f32,
+            0.125,
+            0.25,
+            0.375,
+            0.5,
+            0.625,
+            0.75,
+            0.875,
+            largest_below_one,
+        ] {
             let (s, c) = sin_cos_2pi(u);
             let (s64, c64) = (2.0 * std::f64::consts::PI * u as f64).sin_cos();
-            assert!((s as f64 - s64).abs() < 3e-7 && (c as f64 - c64).abs() < 3e-7, "{u}");
+            assert!(
+                (s as f64 - s64).abs() < 3e-7 && (c as f64 - c64).abs() < 3e-7,
+                "{u}"
+            );
         }
     }
 

@@ -5,11 +5,11 @@
 //! Compressed Wide BVHs", HPG 2017, section 3, with four lanes and triangle packs).
 //!
 //! A leaf is a run of primitives, stored in leaf order so that runs are contiguous;
-//! a leaf of two to eight triangles or parallelograms is also copied into a pack for
-//! the SIMD test (`pack`).
+//! a leaf of two to eight triangles or parallelograms, or of spheres only, is also
+//! copied into a pack for the SIMD tests (`pack`).
 
-use super::pack::{Tri8, WIDTH};
-use super::{Bvh4, Node4, COUNT_SHIFT, EMPTY, INDEX_MASK, LEAF, MAX_RUN, PRIMS};
+use super::pack::{Sphere8, Tri8, WIDTH};
+use super::{Bvh4, Node4, COUNT_SHIFT, EMPTY, INDEX_MASK, LEAF, MAX_RUN, PRIMS, SPHERES};
 use crate::geometry::lanes::F4;
 use crate::geometry::primitive::Prim;
 use obvhs::aabb::Aabb;
@@ -47,6 +47,19 @@ struct Plan {
     choice: [Choice; 5],
     tris: u32,
     others: u32,
+    /// Of `others`, the spheres.
+    spheres: u32,
+}
+
+/// How a leaf's primitives are tested.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum LeafKind {
+    /// One at a time.
+    Run,
+    /// Triangles and parallelograms in packs.
+    Tris,
+    /// Spheres in packs.
+    Spheres,
 }
 
 /// The tree, and the order to store the primitives in: `order[i]` is the index in
@@ -134,11 +147,13 @@ fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<(usize, 
 fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
     // Looked up in leaf order, which is random in `prims`: a compact copy stays cached.
     let is_tri: Vec<bool> = prims.iter().map(packable).collect();
+    let is_sphere: Vec<bool> = prims.iter().map(is_sphere).collect();
     let unset = Plan {
         cost: [f32::INFINITY; 5],
         choice: [Choice::Leaf; 5],
         tris: 0,
         others: 0,
+        spheres: 0,
     };
     let mut plans = vec![unset; bvh.nodes.len()];
     // Post-order without recursion: binary trees from PLOC can be deep.
@@ -150,11 +165,13 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
             let (a, b) = (node.first_index as usize, node.prim_count as usize);
             let ids = &bvh.primitive_indices[a..a + b];
             let tris = ids.iter().filter(|&&i| is_tri[i as usize]).count() as u32;
+            let spheres = ids.iter().filter(|&&i| is_sphere[i as usize]).count() as u32;
             let others = ids.len() as u32 - tris;
             plans[n] = Plan {
-                cost: [area * leaf_cost(tris, others).0; 5],
+                cost: [area * leaf_cost(tris, others, spheres).0; 5],
                 tris,
                 others,
+                spheres,
                 ..unset
             };
             continue;
@@ -164,12 +181,13 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
             stack.extend([(n, true), (l, false), (r, false)]);
             continue;
         }
-        let (tris, others) = (
+        let (tris, others, spheres) = (
             plans[l].tris + plans[r].tris,
             plans[l].others + plans[r].others,
+            plans[l].spheres + plans[r].spheres,
         );
         let leaf = if tris + others <= LEAF_SIZE {
-            area * leaf_cost(tris, others).0
+            area * leaf_cost(tris, others, spheres).0
         } else {
             f32::INFINITY
         };
@@ -182,6 +200,7 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
         let mut p = Plan {
             tris,
             others,
+            spheres,
             ..unset
         };
         for k in 1..=4 {
@@ -196,15 +215,17 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
     plans
 }
 
-/// Cost of a leaf, and whether it is tested as packs (triangles only) rather than
-/// one primitive at a time.
-fn leaf_cost(tris: u32, others: u32) -> (f32, bool) {
+/// Cost of a leaf, and how it is tested: as packs (triangles only, or spheres only)
+/// or one primitive at a time.
+fn leaf_cost(tris: u32, others: u32, spheres: u32) -> (f32, LeafKind) {
     let single = tris as f32 * COST_TRI + others as f32 * COST_OTHER;
-    let packed = tris.div_ceil(WIDTH as u32) as f32 * COST_PACK;
-    if others == 0 && packed < single {
-        (packed, true)
+    let packs = |n: u32| n.div_ceil(WIDTH as u32) as f32 * COST_PACK;
+    if others == 0 && packs(tris) < single {
+        (packs(tris), LeafKind::Tris)
+    } else if tris == 0 && spheres == others && packs(spheres) < single {
+        (packs(spheres), LeafKind::Spheres)
     } else {
-        (single, false)
+        (single, LeafKind::Run)
     }
 }
 
@@ -225,19 +246,28 @@ impl Bvh4 {
             }
         }
         let ids = &order[first..];
-        let tris = ids
-            .iter()
-            .filter(|&&i| packable(&prims[i as usize]))
-            .count();
-        if !leaf_cost(tris as u32, (ids.len() - tris) as u32).1 {
-            return leaf_ref(PRIMS, first, ids.len());
+        let count = |f: fn(&Prim) -> bool| ids.iter().filter(|&&i| f(&prims[i as usize])).count();
+        let (tris, spheres) = (count(packable), count(is_sphere));
+        let others = ids.len() - tris;
+        match leaf_cost(tris as u32, others as u32, spheres as u32).1 {
+            LeafKind::Run => leaf_ref(PRIMS, first, ids.len()),
+            LeafKind::Tris => {
+                let packs = self.tris.len();
+                for (k, chunk) in ids.chunks(WIDTH).enumerate() {
+                    self.tris
+                        .push(pack(chunk, (first + WIDTH * k) as u32, prims));
+                }
+                leaf_ref(0, packs, self.tris.len() - packs)
+            }
+            LeafKind::Spheres => {
+                let packs = self.spheres.len();
+                for (k, chunk) in ids.chunks(WIDTH).enumerate() {
+                    self.spheres
+                        .push(pack_spheres(chunk, (first + WIDTH * k) as u32, prims));
+                }
+                leaf_ref(SPHERES, packs, self.spheres.len() - packs)
+            }
         }
-        let packs = self.tris.len();
-        for (k, chunk) in ids.chunks(WIDTH).enumerate() {
-            self.tris
-                .push(pack(chunk, (first + WIDTH * k) as u32, prims));
-        }
-        leaf_ref(0, packs, self.tris.len() - packs)
     }
 }
 
@@ -273,6 +303,32 @@ fn leaf_ref(kind: u32, first: usize, count: usize) -> u32 {
 /// Triangles and parallelograms go in packs; other primitives are tested alone.
 fn packable(p: &Prim) -> bool {
     matches!(p, Prim::Tri { .. } | Prim::Quad { .. })
+}
+
+fn is_sphere(p: &Prim) -> bool {
+    matches!(p, Prim::Sphere { .. })
+}
+
+/// Up to eight spheres, as [`pack`] packs triangles.
+fn pack_spheres(ids: &[u32], first: u32, prims: &[Prim]) -> Sphere8 {
+    let mut s = Sphere8 {
+        c: [[0.0; WIDTH]; 3],
+        r: [0.0; WIDTH],
+        prim: [u32::MAX; WIDTH],
+        used: 0,
+    };
+    for (lane, &id) in ids.iter().enumerate() {
+        let Prim::Sphere { c, r } = prims[id as usize] else {
+            unreachable!("only spheres are packed together")
+        };
+        for axis in 0..3 {
+            s.c[axis][lane] = c[axis];
+        }
+        s.r[lane] = r;
+        s.prim[lane] = first + lane as u32;
+        s.used |= 1 << lane;
+    }
+    s
 }
 
 /// Up to eight triangles or parallelograms, `ids` in the original order, `first` their

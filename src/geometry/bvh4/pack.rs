@@ -1,7 +1,7 @@
 //! Leaf packs: up to eight triangles or parallelograms tested together by
-//! Moeller-Trumbore, in one group of eight lanes under AVX or in two groups of four
-//! (SSE2 and portable code). The test repeats the scalar one in primitive.rs operation
-//! for operation, so hits are bit-identical to it.
+//! Moeller-Trumbore, or up to eight spheres, in one group of eight lanes under AVX or
+//! in two groups of four (SSE2 and portable code). Each test repeats the scalar one in
+//! primitive.rs operation for operation, so hits are bit-identical to it.
 
 use crate::geometry::lanes::Lanes;
 use crate::math::{Vec2, Vec3A};
@@ -22,10 +22,28 @@ pub(super) struct Tri8 {
     pub prim: [u32; WIDTH],
 }
 
+/// Centres and radii by coordinate, and primitive indices.
+#[repr(C, align(32))]
+pub(super) struct Sphere8 {
+    pub c: [[f32; WIDTH]; 3],
+    pub r: [f32; WIDTH],
+    pub prim: [u32; WIDTH],
+    /// Bit i is set when lane i holds a sphere.
+    pub used: u32,
+}
+
+/// (x + y) + z of the products, as glam's `Vec3A::dot` sums them.
+#[inline(always)]
+fn dot<L: Lanes>(a: [L; 3], b: [L; 3]) -> L {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// The ray's origin and direction broadcast to lanes, once per traversal.
 pub(super) struct PackRay<L> {
     o: [L; 3],
     d: [L; 3],
+    /// |d|^2, as the scalar sphere test computes it.
+    dd: L,
 }
 
 impl<L: Lanes> PackRay<L> {
@@ -36,7 +54,80 @@ impl<L: Lanes> PackRay<L> {
         PackRay {
             o: [L::splat(o.x), L::splat(o.y), L::splat(o.z)],
             d: [L::splat(d.x), L::splat(d.y), L::splat(d.z)],
+            dd: L::splat(d.length_squared()),
         }
+    }
+
+    /// Spheres `at..at + L::N`: the bits of those hit in (0, tmax), and t. The scalar
+    /// `intersect_sphere` lane by lane: its dot products sum as glam's, (x + y) + z.
+    #[inline(always)]
+    fn sphere_group(&self, p: &Sphere8, at: usize, tmax: L) -> (u32, L) {
+        let c = [
+            L::load(&p.c[0][at..]),
+            L::load(&p.c[1][at..]),
+            L::load(&p.c[2][at..]),
+        ];
+        let r = L::load(&p.r[at..]);
+        let (o, d, a) = (self.o, self.d, [self.dd; 3]);
+        let f = [o[0] - c[0], o[1] - c[1], o[2] - c[2]];
+        let zero = L::splat(0.0);
+        // Times -1, not 0 - x: the scalar test negates, and -0 must stay -0.
+        let b = L::splat(-1.0) * dot(f, d);
+        let k = b / a[0];
+        let l = [f[0] + k * d[0], f[1] + k * d[1], f[2] + k * d[2]];
+        let rr = r * r;
+        let disc = a[0] * (rr - dot(l, l));
+        let s = disc.max(zero).sqrt();
+        let q = L::select(b.ge(zero), b + s, b - s);
+        let t0 = q / a[0];
+        let t1 = (dot(f, f) - rr) / q;
+        let swap = t0.gt(t1);
+        let (lo, hi) = (L::select(swap, t1, t0), L::select(swap, t0, t1));
+        let t = L::select(lo.gt(zero), lo, hi);
+        let m = disc.nlt(zero) & t.gt(zero) & t.lt(tmax) & t.lt(L::splat(f32::INFINITY));
+        (L::bits(m) & (p.used >> at), t)
+    }
+
+    /// The nearest sphere hit in (0, tmax) as (lane, t); the first lane of equals, as
+    /// a scalar loop would.
+    #[inline(always)]
+    pub fn nearest_sphere(&self, p: &Sphere8, tmax: f32) -> Option<(usize, f32)> {
+        let tm = L::splat(tmax);
+        let mut best = None;
+        let mut best_t = tmax;
+        let mut at = 0;
+        while at < WIDTH {
+            let (mut m, t) = self.sphere_group(p, at, tm);
+            if m != 0 {
+                let mut ts = [0.0f32; WIDTH];
+                t.store(&mut ts);
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if ts[i] < best_t {
+                        best_t = ts[i];
+                        best = Some(at + i);
+                    }
+                }
+            }
+            at += L::N;
+        }
+        Some((best?, best_t))
+    }
+
+    /// Some sphere hit in (0, tmax), if any.
+    #[inline(always)]
+    pub fn any_sphere(&self, p: &Sphere8, tmax: f32) -> Option<usize> {
+        let tm = L::splat(tmax);
+        let mut at = 0;
+        while at < WIDTH {
+            let m = self.sphere_group(p, at, tm).0;
+            if m != 0 {
+                return Some(at + m.trailing_zeros() as usize);
+            }
+            at += L::N;
+        }
+        None
     }
 
     /// Lanes `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v.
