@@ -433,6 +433,11 @@ impl Bvh4 {
         sa: Stack,
     ) -> (Option<Hit>, Option<u32>) {
         let mut c = Closest::<L>::new(self, closest, sc);
+        if !(any.tmax > 0.0) {
+            // Nothing lies in (0, tmax): the closest-hit walk alone, in this kernel.
+            while !c.step(self, prims) {}
+            return (c.hit(), None);
+        }
         let mut a = Any::<L>::new(self, any, sa);
         let (mut c_done, mut a_code) = (false, GOING);
         while !c_done && a_code == GOING {
