@@ -233,15 +233,14 @@ mod tests {
             let (hit, occluded) = accel.intersect_and_occluded(&short, ray);
             assert_same_hit(hit, accel.intersect(&short), &short);
             assert_eq!(occluded, accel.occluded(ray), "ray {ray:?} paired");
-            // A negative limit makes an any-hit walk that meets nothing (pt pairs
-            // such a walk with rays that have no shadow ray to go with).
-            let none = Ray {
-                tmax: -1.0,
-                ..short
-            };
-            let (hit, occluded) = accel.intersect_and_occluded(ray, &none);
-            assert_same_hit(hit, got, ray);
-            assert!(!occluded, "ray {none:?}");
+            // A limit of zero, below or NaN makes an any-hit ray that meets nothing
+            // (pt pairs such a ray with rays that have no shadow ray to go with).
+            for tmax in [-1.0, 0.0, f32::NAN] {
+                let none = Ray { tmax, ..short };
+                let (hit, occluded) = accel.intersect_and_occluded(ray, &none);
+                assert_same_hit(hit, got, ray);
+                assert!(!occluded && !accel.occluded(&none), "ray {none:?}");
+            }
             // The primitive any-hit reports is one the ray really meets.
             if let Some(i) = accel.any_hit(&short) {
                 let own = &prims[accel.meta(i).shape as usize];

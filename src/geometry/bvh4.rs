@@ -433,8 +433,9 @@ impl Bvh4 {
         sa: Stack,
     ) -> (Option<Hit>, Option<u32>) {
         let mut c = Closest::<L>::new(self, closest, sc);
-        if !(any.tmax > 0.0) {
-            // Nothing lies in (0, tmax): the closest-hit walk alone, in this kernel.
+        if any.tmax.is_nan() || any.tmax <= 0.0 {
+            // Nothing lies in (0, tmax) (and a NaN limit meets nothing either): the
+            // closest-hit walk alone, in this kernel.
             while !c.step(self, prims) {}
             return (c.hit(), None);
         }
