@@ -79,7 +79,9 @@ impl AreaLight {
         self.point_on(i, u)
     }
 
-    #[inline]
+    // Forced: out of line it is a baseline-x86 call from the AVX2 kernels (seen once
+    // its sphere arm grew).
+    #[inline(always)]
     fn point_on(&self, i: usize, u: Vec2) -> (Vec3, Vec3) {
         match self.prims[i] {
             Prim::Tri { p0, e1, e2 } => {
