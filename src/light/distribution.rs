@@ -78,6 +78,12 @@ impl Distribution1D {
     /// remapped to [0, 1) within the bin for reuse).
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        if self.cdf.len() == 2 {
+            // One bin (one light, a light of one primitive), whose cdf is [0, 1]: the
+            // search and the remap's division are identities, and on the path of
+            // every light sample.
+            return (0, 1.0, u.clamp(0.0, 1.0 - f32::EPSILON));
+        }
         let i = self.find(u);
         let p = self.pmf(i);
         let width = self.cdf[i + 1] - self.cdf[i];
@@ -155,6 +161,25 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One bin takes a shortcut; it must give what the general remap gives.
+    #[test]
+    fn one_bin_shortcut_matches_the_general_remap() {
+        for w in [0.3f32, 5.0, 0.0] {
+            let d = Distribution1D::new(&[w]);
+            assert_eq!(d.cdf, vec![0.0, 1.0]);
+            let top = 1.0 - f32::EPSILON / 2.0;
+            for u in (0..=1000).map(|k| k as f32 / 1000.0 * top).chain([top]) {
+                let width = d.cdf[1] - d.cdf[0];
+                let general = ((u - d.cdf[0]) / width).clamp(0.0, 1.0 - f32::EPSILON);
+                let (i, p, ur) = d.sample_discrete(u);
+                assert_eq!(
+                    (i, p.to_bits(), ur.to_bits()),
+                    (0, width.to_bits(), general.to_bits())
+                );
+            }
+        }
+    }
 
     #[test]
     fn discrete_sampling_follows_weights_and_skips_zeros() {
