@@ -39,7 +39,7 @@ use std::mem::MaybeUninit;
 mod build;
 mod pack;
 
-use pack::{PackRay, Sphere8, Tri8};
+use pack::{Pack, PackRay, Sphere8, Tri8};
 
 // A child reference is one u32: an inner node index (top bit clear), or a leaf: a run
 // of triangle packs, (with SPHERES set) of sphere packs, or (with PRIMS set) of
@@ -380,25 +380,9 @@ impl Bvh4 {
 
     #[inline(always)]
     fn closest<L: Lanes>(&self, prims: &[Prim], ray: &Ray, stack: Stack) -> Option<Hit> {
-        // One loop of its own rather than `Closest::step` in a loop: the same code,
-        // but the compiler keeps this one's state in registers.
         let mut w = Closest::<L>::new(self, ray, stack);
-        'visit: loop {
-            if w.cur & LEAF == 0 {
-                let n = &self.nodes[w.cur as usize];
-                let (mask, tn) = w.r.slab(n, F4::splat(w.tmax));
-                if mask != 0 {
-                    w.cur = descend(&mut w.stack, n, mask, tn.to_array());
-                    continue 'visit;
-                }
-            } else {
-                w.leaf(self, prims);
-            }
-            match w.next() {
-                Some(c) => w.cur = c,
-                None => return w.hit(),
-            }
-        }
+        while !w.step(self, prims) {}
+        w.hit()
     }
 
     #[inline(always)]
@@ -549,24 +533,23 @@ impl<'s, L: Lanes> Closest<'s, L> {
     /// Tests the leaf `cur`, keeping its hit if nearer.
     #[inline(always)]
     fn leaf(&mut self, tree: &Bvh4, prims: &[Prim]) {
-        let cur = self.cur;
-        let first = (cur & INDEX_MASK) as usize;
-        let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-        if cur & PRIMS != 0 {
+        let (first, count) = run(self.cur);
+        if self.cur & PRIMS != 0 {
             if let Some(h) = run_closest(prims, first, count, self.r.o3, self.r.d3, self.tmax) {
                 (self.tmax, self.prim, self.uv) = (h.t, h.prim, h.uv);
             }
-        } else if cur & SPHERES != 0 {
-            for pack in &tree.spheres[first..first + count] {
-                if let Some((lane, t)) = self.pr.nearest_sphere(pack, self.tmax) {
-                    (self.tmax, self.prim, self.uv) = (t, pack.prim[lane], Vec2::ZERO);
-                }
-            }
+        } else if self.cur & SPHERES != 0 {
+            self.packs(&tree.spheres[first..first + count]);
         } else {
-            for pack in &tree.tris[first..first + count] {
-                if let Some((lane, t, uv)) = self.pr.nearest(pack, self.tmax) {
-                    (self.tmax, self.prim, self.uv) = (t, pack.prim[lane], uv);
-                }
+            self.packs(&tree.tris[first..first + count]);
+        }
+    }
+
+    #[inline(always)]
+    fn packs<P: Pack>(&mut self, packs: &[P]) {
+        for pack in packs {
+            if let Some((lane, t, uv)) = self.pr.nearest(pack, self.tmax) {
+                (self.tmax, self.prim, self.uv) = (t, pack.prim(lane), uv);
             }
         }
     }
@@ -605,6 +588,14 @@ impl<'s, L: Lanes> Closest<'s, L> {
             None => true,
         }
     }
+}
+
+/// A leaf reference's run: (first index, length).
+#[inline(always)]
+fn run(leaf: u32) -> (usize, usize) {
+    let first = (leaf & INDEX_MASK) as usize;
+    let count = ((leaf & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
+    (first, count)
 }
 
 /// The nearest child of `n` in `mask`, the others stacked farthest first.
@@ -683,28 +674,26 @@ impl<'s, L: Lanes> Any<'s, L> {
     /// Some primitive of the leaf `cur` that the ray hits.
     #[inline(always)]
     fn leaf(&self, tree: &Bvh4, prims: &[Prim]) -> Option<u32> {
-        let cur = self.cur;
-        let first = (cur & INDEX_MASK) as usize;
-        let count = ((cur & !(LEAF | PRIMS)) >> COUNT_SHIFT) as usize;
-        // Loops, not `find_map`: its closure could be compiled out of line, without
-        // the kernel's AVX features.
-        if cur & PRIMS != 0 {
+        let (first, count) = run(self.cur);
+        if self.cur & PRIMS != 0 {
             run_any(prims, first, count, self.r.o3, self.r.d3, self.tmax)
-        } else if cur & SPHERES != 0 {
-            for pack in &tree.spheres[first..first + count] {
-                if let Some(lane) = self.pr.any_sphere(pack, self.tmax) {
-                    return Some(pack.prim[lane]);
-                }
-            }
-            None
+        } else if self.cur & SPHERES != 0 {
+            self.packs(&tree.spheres[first..first + count])
         } else {
-            for pack in &tree.tris[first..first + count] {
-                if let Some(lane) = self.pr.any(pack, self.tmax) {
-                    return Some(pack.prim[lane]);
-                }
-            }
-            None
+            self.packs(&tree.tris[first..first + count])
         }
+    }
+
+    #[inline(always)]
+    fn packs<P: Pack>(&self, packs: &[P]) -> Option<u32> {
+        // A loop, not `find_map`: its closure could be compiled out of line, without
+        // the kernel's AVX features.
+        for pack in packs {
+            if let Some(lane) = self.pr.any(pack, self.tmax) {
+                return Some(pack.prim(lane));
+            }
+        }
+        None
     }
 
     /// Visits `cur` and chooses the next reference: [`GOING`], or the end of the walk

@@ -32,6 +32,39 @@ pub(super) struct Sphere8 {
     pub used: u32,
 }
 
+/// What the lane-group tests share: triangle packs and sphere packs.
+pub(super) trait Pack {
+    /// Lanes `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v (for
+    /// spheres u = v = 0, as their scalar test reports).
+    fn group<L: Lanes>(&self, ray: &PackRay<L>, at: usize, tmax: L) -> (u32, L, L, L);
+    /// The primitive in `lane`, as hits report it.
+    fn prim(&self, lane: usize) -> u32;
+}
+
+impl Pack for Tri8 {
+    #[inline(always)]
+    fn group<L: Lanes>(&self, ray: &PackRay<L>, at: usize, tmax: L) -> (u32, L, L, L) {
+        ray.tri_group(self, at, tmax)
+    }
+    #[inline(always)]
+    fn prim(&self, lane: usize) -> u32 {
+        self.prim[lane]
+    }
+}
+
+impl Pack for Sphere8 {
+    #[inline(always)]
+    fn group<L: Lanes>(&self, ray: &PackRay<L>, at: usize, tmax: L) -> (u32, L, L, L) {
+        let (m, t) = ray.sphere_group(self, at, tmax);
+        let zero = L::splat(0.0);
+        (m, t, zero, zero)
+    }
+    #[inline(always)]
+    fn prim(&self, lane: usize) -> u32 {
+        self.prim[lane]
+    }
+}
+
 /// (x + y) + z of the products, as glam's `Vec3A::dot` sums them.
 #[inline(always)]
 fn dot<L: Lanes>(a: [L; 3], b: [L; 3]) -> L {
@@ -88,51 +121,9 @@ impl<L: Lanes> PackRay<L> {
         (L::bits(m) & (p.used >> at), t)
     }
 
-    /// The nearest sphere hit in (0, tmax) as (lane, t); the first lane of equals, as
-    /// a scalar loop would.
+    /// Triangles `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v.
     #[inline(always)]
-    pub fn nearest_sphere(&self, p: &Sphere8, tmax: f32) -> Option<(usize, f32)> {
-        let tm = L::splat(tmax);
-        let mut best = None;
-        let mut best_t = tmax;
-        let mut at = 0;
-        while at < WIDTH {
-            let (mut m, t) = self.sphere_group(p, at, tm);
-            if m != 0 {
-                let mut ts = [0.0f32; WIDTH];
-                t.store(&mut ts);
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    if ts[i] < best_t {
-                        best_t = ts[i];
-                        best = Some(at + i);
-                    }
-                }
-            }
-            at += L::N;
-        }
-        Some((best?, best_t))
-    }
-
-    /// Some sphere hit in (0, tmax), if any.
-    #[inline(always)]
-    pub fn any_sphere(&self, p: &Sphere8, tmax: f32) -> Option<usize> {
-        let tm = L::splat(tmax);
-        let mut at = 0;
-        while at < WIDTH {
-            let m = self.sphere_group(p, at, tm).0;
-            if m != 0 {
-                return Some(at + m.trailing_zeros() as usize);
-            }
-            at += L::N;
-        }
-        None
-    }
-
-    /// Lanes `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v.
-    #[inline(always)]
-    fn group(&self, p: &Tri8, at: usize, tmax: L) -> (u32, L, L, L) {
+    fn tri_group(&self, p: &Tri8, at: usize, tmax: L) -> (u32, L, L, L) {
         #[inline(always)]
         fn ld<L: Lanes>(a: &[[f32; WIDTH]; 3], at: usize) -> [L; 3] {
             [
@@ -176,13 +167,13 @@ impl<L: Lanes> PackRay<L> {
     /// The nearest hit in (0, tmax) as (lane, t, uv); the first lane of equals, as a
     /// scalar loop would.
     #[inline(always)]
-    pub fn nearest(&self, p: &Tri8, tmax: f32) -> Option<(usize, f32, Vec2)> {
+    pub fn nearest<P: Pack>(&self, p: &P, tmax: f32) -> Option<(usize, f32, Vec2)> {
         let tm = L::splat(tmax);
         let mut best = None;
         let mut best_t = tmax;
         let mut at = 0;
         while at < WIDTH {
-            let (mut m, t, u, v) = self.group(p, at, tm);
+            let (mut m, t, u, v) = p.group(self, at, tm);
             at += L::N;
             if m == 0 {
                 continue;
@@ -207,11 +198,11 @@ impl<L: Lanes> PackRay<L> {
 
     /// Some lane hit in (0, tmax), if any.
     #[inline(always)]
-    pub fn any(&self, p: &Tri8, tmax: f32) -> Option<usize> {
+    pub fn any<P: Pack>(&self, p: &P, tmax: f32) -> Option<usize> {
         let tm = L::splat(tmax);
         let mut at = 0;
         while at < WIDTH {
-            let m = self.group(p, at, tm).0;
+            let m = p.group(self, at, tm).0;
             if m != 0 {
                 return Some(at + m.trailing_zeros() as usize);
             }
