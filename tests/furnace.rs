@@ -20,9 +20,15 @@ fn furnace_scene(albedo: f32, le: f32, width: u32) -> serde_json::Value {
 }
 
 fn check_furnace(albedo: f32, le: f32, heuristic: &str) {
+    check_furnace_with(albedo, le, json!({"heuristic": heuristic}));
+}
+
+/// The furnace with `pt` parameters `params` (max_depth 64 added).
+fn check_furnace_with(albedo: f32, le: f32, mut params: serde_json::Value) {
     let scene = compile(furnace_scene(albedo, le, 24));
     let depth = 64u32;
-    let s = settings("pt", json!({"max_depth": depth, "heuristic": heuristic}));
+    params["max_depth"] = json!(depth);
+    let s = settings("pt", params);
     let (film, n) = render(&scene, &s, 5, 32);
     assert_eq!(film.dropped(), 0);
     let a = albedo as f64;
@@ -42,6 +48,17 @@ fn check_furnace(albedo: f32, le: f32, heuristic: &str) {
 fn white_furnace_converges_to_le_over_one_minus_albedo() {
     check_furnace(0.5, 1.0, "power");
     check_furnace(0.8, 0.25, "balance");
+}
+
+/// SmallVCM's roulette (survival = albedo at every vertex, and in the BSDF's MIS
+/// density): the walls are emitters, so both strategies meet at every vertex and
+/// weights that left the survival out of one side would not sum to one.
+#[test]
+fn albedo_roulette_converges_to_the_same_furnace() {
+    for (albedo, heuristic) in [(0.5, "power"), (0.3, "balance")] {
+        let params = json!({"heuristic": heuristic, "roulette": "albedo", "rr_depth": 0});
+        check_furnace_with(albedo, 1.0, params);
+    }
 }
 
 #[test]

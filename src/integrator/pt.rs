@@ -68,18 +68,34 @@ pub(super) fn escaped(scene: &Scene, d: Vec3, specular: bool, pdf: f32, h: Heuri
     }
 }
 
+/// How Russian roulette picks a path's survival probability.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Roulette {
+    /// min(largest throughput channel, 0.95), as Mitsuba and pbrt: paths that carry
+    /// little are ended, whatever they hit.
+    #[default]
+    Throughput,
+    /// min(1, largest albedo channel of the material), as SmallVCM's path tracer: a
+    /// property of the vertex alone, so the BSDF's density in the MIS weights includes
+    /// it (the density of continuing in a direction is pdf x survival).
+    Albedo,
+}
+
 /// Path tracer parameters.
 ///
 /// | field | default | meaning |
 /// |---|---|---|
 /// | `max_depth` | 64 | longest path, in Mitsuba's sense (1 = emitters seen directly) |
 /// | `rr_depth` | 5 | scattering events before Russian roulette starts |
+/// | `roulette` | `throughput` | survival probability: `throughput` (min(largest throughput channel, 0.95)) or `albedo` (min(1, largest albedo channel) at each vertex, as SmallVCM; surfaces only, scenes with media use `throughput`) |
 /// | `heuristic` | `power` | MIS weights: `power` (beta = 2) or `balance` |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct PtSettings {
     pub max_depth: u32,
     pub rr_depth: u32,
+    pub roulette: Roulette,
     pub heuristic: Heuristic,
 }
 
@@ -88,6 +104,7 @@ impl Default for PtSettings {
         PtSettings {
             max_depth: 64,
             rr_depth: 5,
+            roulette: Roulette::Throughput,
             heuristic: Heuristic::Power,
         }
     }
@@ -126,6 +143,18 @@ impl PathTracer {
         self.s.heuristic.weight(a, b)
     }
 
+    /// Albedo roulette's survival probability at a vertex of material `m` that is the
+    /// path's scattering event number `event` (1 for the first); 1 where it does not
+    /// apply.
+    #[inline(always)]
+    fn albedo_survival(&self, m: &Material, event: u32) -> f32 {
+        if self.s.roulette == Roulette::Albedo && event >= self.s.rr_depth {
+            max_component(m.albedo()).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
     /// Next-event estimation at a non-delta vertex: one light sample and the shadow
     /// ray that decides it, not yet traced.
     #[inline(always)]
@@ -134,6 +163,7 @@ impl PathTracer {
         scene: &Scene,
         v: &Vertex<'_, 'm>,
         beta: Rgb,
+        survival: f32,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Option<Shadow<'m>> {
@@ -165,6 +195,7 @@ impl PathTracer {
             li: ls.li,
             pdf_light: sel_pdf * ls.pdf,
             delta: ls.delta,
+            survival,
             beta,
         })
     }
@@ -175,7 +206,7 @@ impl PathTracer {
         let w = if s.delta {
             1.0
         } else {
-            self.mis(s.pdf_light, s.m.pdf(s.wo, s.wi))
+            self.mis(s.pdf_light, s.m.pdf(s.wo, s.wi) * s.survival)
         };
         s.beta * (s.f * s.li * (w / s.pdf_light))
     }
@@ -243,6 +274,7 @@ impl PathTracer {
             }
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
+            let survival = self.albedo_survival(m, depth + 1);
             if !m.is_delta() && !scene.lights.is_empty() {
                 let v = Vertex {
                     it: &it,
@@ -250,7 +282,7 @@ impl PathTracer {
                     wo,
                     m,
                 };
-                shadow = self.direct(scene, &v, beta, rng, stats);
+                shadow = self.direct(scene, &v, beta, survival, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
@@ -262,11 +294,14 @@ impl PathTracer {
             }
             beta *= s.weight;
             specular = s.delta;
-            pdf_bsdf = s.pdf;
+            pdf_bsdf = s.pdf * survival;
             prev_p = it.p;
             depth += 1;
-            if depth >= self.s.rr_depth {
-                let q = max_component(beta).min(0.95);
+            let q = match self.s.roulette {
+                Roulette::Throughput if depth >= self.s.rr_depth => max_component(beta).min(0.95),
+                _ => survival,
+            };
+            if q < 1.0 {
                 if rng.next_f32() >= q {
                     break;
                 }
@@ -293,6 +328,9 @@ struct Shadow<'a> {
     li: Rgb,
     pdf_light: f32,
     delta: bool,
+    /// Albedo roulette's survival probability at the vertex (1 without it): part of
+    /// the BSDF strategy's density.
+    survival: f32,
     /// Path throughput at the vertex.
     beta: Rgb,
 }
