@@ -11,6 +11,7 @@ use crate::integrator::{huge, RenderStats};
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
+use crate::scene::Surfacing;
 use rayon::prelude::*;
 
 /// Light paths per parallel chunk: fixed, so the split never depends on threads.
@@ -396,16 +397,23 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
     }
     let store = pass.technique.connects() || pass.technique.merges();
     let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
+    // The last vertex's connection to the lens, whose shadow ray (without media) is
+    // traced together with the ray that continues the path.
+    let mut lens: Option<LensShadow> = None;
     loop {
         chunk.stats.rays += 1;
-        let (event, tr) = next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays);
+        let (event, tr) = if M::ON {
+            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays)
+        } else {
+            (next_event_and_lens(pass, chunk, &mut ray, lens.take()), 1.0)
+        };
         let v = match event {
             Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
             Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
-            Event::Escaped | Event::End => return,
+            Event::Escaped | Event::End => break,
         };
         let Some(v) = v else {
-            return;
+            break;
         };
         let dist2 = (v.p() - walk.origin).length_squared();
         if walk.len == 1 {
@@ -426,16 +434,61 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
                 chunk.vertices.push(stored(&v, &walk, ray.d, scene));
             }
             if to_camera {
-                connect_to_camera(pass, rng, chunk, &walk, &v);
+                lens = connect_to_camera(pass, rng, chunk, &walk, &v);
             }
         }
         if walk.len + 2 > pass.s.max_depth {
-            return;
+            break;
         }
         let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None) else {
-            return;
+            break;
         };
         ray = next;
+    }
+    // A path that ends at a vertex with a lens connection traces its shadow ray alone.
+    if let Some(l) = lens {
+        if scene.visible(&l.ray) {
+            push_splat(pass, chunk, l.raster, l.value, l.layer);
+        }
+    }
+}
+
+/// A light vertex's connection to the lens, its shadow ray not yet traced.
+struct LensShadow {
+    ray: Ray,
+    raster: crate::math::Vec2,
+    /// The splat if nothing blocks the ray.
+    value: Rgb,
+    layer: Option<usize>,
+}
+
+/// [`next_event`] without media, tracing the pending lens connection's shadow ray
+/// together with `ray` (`Scene::next_scattering_and_visible`: the traversals overlap,
+/// as in `pt`); its splat is added if nothing blocks it.
+#[inline(always)]
+fn next_event_and_lens<'a>(
+    pass: &Pass<'a>,
+    chunk: &mut Chunk,
+    ray: &mut Ray,
+    lens: Option<LensShadow>,
+) -> Event<'a> {
+    let scene = pass.scene;
+    // An empty any-hit ray (tmax -1) when there is none: the kernel skips its walk.
+    let shadow = match &lens {
+        Some(l) => l.ray,
+        None => Ray { tmax: -1.0, ..*ray },
+    };
+    let (surfacing, visible) =
+        scene.next_scattering_and_visible(ray, &shadow, &mut chunk.stats.rays);
+    if let Some(l) = lens {
+        if visible {
+            push_splat(pass, chunk, l.raster, l.value, l.layer);
+        }
+    }
+    match surfacing {
+        Surfacing::Hit(it, m) => Event::Surface(it, m),
+        Surfacing::Escaped => Event::Escaped,
+        Surfacing::Lost => Event::End,
     }
 }
 
@@ -538,7 +591,8 @@ pub(super) fn scatter(
 }
 
 /// Connects a light vertex to a point on the lens and splats the result, through
-/// the media between them ([TR] eqs. 46-47; SmallVCM's ConnectToCamera).
+/// the media between them ([TR] eqs. 46-47; SmallVCM's ConnectToCamera). Without
+/// media the shadow ray is returned untraced, with the splat it decides.
 #[inline(always)]
 fn connect_to_camera<M: Media>(
     pass: &Pass,
@@ -546,39 +600,58 @@ fn connect_to_camera<M: Media>(
     chunk: &mut Chunk,
     walk: &Walk,
     v: &Vertex<M>,
-) {
-    let Some(LensLink {
+) -> Option<LensShadow> {
+    let LensLink {
         lens,
         raster,
         dir,
         dist2,
         camera_pdf,
-    }) = lens_link(pass, rng, v.p())
-    else {
-        return;
-    };
-    let Some(e) = v.eval(dir, Mode::Importance) else {
-        return;
-    };
+    } = lens_link(pass, rng, v.p())?;
+    let e = v.eval(dir, Mode::Importance)?;
     chunk.stats.connections += 1;
     chunk.stats.shadow_rays += 1;
     let (ray, medium) = v.ray_to(pass, walk.medium, lens, Vec3::ZERO, Vec3::ZERO);
+    let layer = pass.layers.connection(walk.len + 1, 1);
+    let link = (camera_pdf, dist2);
+    if !M::ON {
+        return Some(LensShadow {
+            ray,
+            raster,
+            value: lens_value(pass, walk, &e, v.cont(), link, Rgb::ONE, 1.0),
+            layer,
+        });
+    }
     let rays = &mut chunk.stats.shadow_rays;
-    let Some((tr, tr_mis)) = shadow::<M>(pass.scene, &ray, medium, rng, rays) else {
-        return;
-    };
+    let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
+    let value = lens_value(pass, walk, &e, v.cont(), link, tr, tr_mis);
+    push_splat(pass, chunk, raster, value, layer);
+    None
+}
+
+/// The splat of a light vertex connected to the lens: `e` is its scattering towards
+/// the lens, `link` the camera ray's density per unit pixel area and the squared
+/// distance, `tr` and `tr_mis` the segment's transmittance and MIS transmittance.
+#[inline(always)]
+fn lens_value(
+    pass: &Pass,
+    walk: &Walk,
+    e: &Eval,
+    cont: f32,
+    (camera_pdf, dist2): (f32, f32),
+    tr: Rgb,
+    tr_mis: f32,
+) -> Rgb {
     let camera_a = camera_pdf * e.cos / (dist2 / tr_mis);
     let w = if pass.technique == super::Technique::Lt {
         1.0
     } else {
         pass.mis
-            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * v.cont())
+            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * cont)
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.
-    let value = walk.throughput * e.f * (w * camera_pdf / dist2 / pass.light_paths as f32) * tr;
-    let layer = pass.layers.connection(walk.len + 1, 1);
-    push_splat(pass, chunk, raster, value, layer);
+    walk.throughput * e.f * (w * camera_pdf / dist2 / pass.light_paths as f32) * tr
 }
 
 /// A point connected to a sampled lens point.
