@@ -571,12 +571,7 @@ fn diffuse(r: f32, two_sided: bool) -> Material {
 }
 
 fn phong(kd: f32, ks: f32, n: f32, two_sided: bool) -> Material {
-    Material::Phong(Phong {
-        kd: Rgb::splat(kd),
-        ks: Rgb::splat(ks),
-        exponent: n,
-        two_sided,
-    })
+    Material::Phong(Phong::new(Rgb::splat(kd), Rgb::splat(ks), n, two_sided))
 }
 
 /// Gold (eta, k at roughly 650, 550, 450 nm), GGX-rough.
@@ -914,7 +909,7 @@ fn bsdf_albedo_is_bounded_and_agrees_with_uniform_estimate() {
                     );
                 }
                 if let Material::Phong(p) = &case.m {
-                    let bound = (p.kd[c] + p.ks[c]) as f64;
+                    let bound = (p.kd()[c] + p.ks()[c]) as f64;
                     assert!(m <= bound + 3.0 * se + 1e-6, "{name}: albedo {m} > kd + ks");
                 }
             }

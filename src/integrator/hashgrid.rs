@@ -89,15 +89,21 @@ impl HashGrid {
     /// (`data` in the caller's original order), in a fixed order, prefetching each
     /// point's data as soon as the scan finds it. Hash collisions could visit a point
     /// twice only if two visited cells shared a slot, which [`HashGrid::runs`] prevents.
-    #[inline]
+    ///
+    /// Queries and their closures are forced inline: left out of line they were
+    /// compiled for baseline x86-64, without the callers' AVX2, and their `floor`
+    /// became a libm call.
+    #[inline(always)]
     pub fn query_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
-        let at = |k: u32| &data[self.entries[k as usize] as usize];
+        let entries = &self.entries;
         self.batches(
             p,
-            |k| prefetch(at(k)),
+            #[inline(always)]
+            |k| prefetch(&data[entries[k as usize] as usize]),
+            #[inline(always)]
             |hits| {
                 for &(k, d2) in hits {
-                    f(at(k), d2);
+                    f(&data[entries[k as usize] as usize], d2);
                 }
             },
         );
@@ -111,12 +117,14 @@ impl HashGrid {
 
     /// Like [`HashGrid::query_in`] for data laid out in storage order (see
     /// [`HashGrid::rank`]): a query then reads it in runs too.
-    #[inline]
+    #[inline(always)]
     pub fn query_sorted_in<'d, T>(&self, p: Vec3, data: &'d [T], mut f: impl FnMut(&'d T, f32)) {
         debug_assert_eq!(data.len(), self.sorted.len());
         self.batches(
             p,
+            #[inline(always)]
             |k| prefetch(&data[k as usize]),
+            #[inline(always)]
             |hits| {
                 for &(k, d2) in hits {
                     f(&data[k as usize], d2);
@@ -242,7 +250,7 @@ fn prefetch<T>(r: &T) {
 }
 
 /// Teschner et al. 2003's spatial hash.
-#[inline]
+#[inline(always)]
 fn hash(c: [i32; 3]) -> u64 {
     let h = (c[0] as u32).wrapping_mul(73_856_093)
         ^ (c[1] as u32).wrapping_mul(19_349_663)

@@ -166,7 +166,7 @@ impl Material {
     pub fn albedo(&self) -> Rgb {
         match self {
             Material::Diffuse(m) => m.reflectance,
-            Material::Phong(m) => m.kd + m.ks,
+            Material::Phong(m) => m.kd() + m.ks(),
             Material::Mirror(m) => m.reflectance,
             Material::Dielectric(m) => m.specular_transmittance,
             Material::Conductor(m) => m.normal_reflectance(),

@@ -9,10 +9,13 @@ use super::BsdfSample;
 /// VCM thesis: f = kd / pi + ks (n + 2) / (2 pi) max(0, R(wo) . wi)^n.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Phong {
-    pub kd: Rgb,
-    pub ks: Rgb,
-    pub exponent: f32,
+    kd: Rgb,
+    ks: Rgb,
+    exponent: f32,
     pub two_sided: bool,
+    /// Probability of sampling the glossy lobe: its share of the luminance (fixed at
+    /// construction, as it sits on the chain of every sample and density).
+    p_glossy: f32,
 }
 
 #[inline]
@@ -21,15 +24,28 @@ fn mirror_local(w: Vec3) -> Vec3 {
 }
 
 impl Phong {
-    /// Probability of sampling the glossy lobe: its share of the luminance.
-    #[inline]
-    fn p_glossy(&self) -> f32 {
-        let (d, s) = (luminance(self.kd), luminance(self.ks));
-        if d + s > 0.0 {
-            s / (d + s)
-        } else {
-            0.0
+    pub fn new(kd: Rgb, ks: Rgb, exponent: f32, two_sided: bool) -> Self {
+        let (d, s) = (luminance(kd), luminance(ks));
+        Phong {
+            kd,
+            ks,
+            exponent,
+            two_sided,
+            p_glossy: if d + s > 0.0 { s / (d + s) } else { 0.0 },
         }
+    }
+
+    pub fn kd(&self) -> Rgb {
+        self.kd
+    }
+
+    pub fn ks(&self) -> Rgb {
+        self.ks
+    }
+
+    #[inline(always)]
+    fn p_glossy(&self) -> f32 {
+        self.p_glossy
     }
 
     #[inline(always)]

@@ -58,12 +58,7 @@ fn material(m: &MaterialDesc) -> Material {
             ks,
             exponent,
             two_sided,
-        } => Material::Phong(Phong {
-            kd: rgb(*kd),
-            ks: rgb(*ks),
-            exponent: *exponent,
-            two_sided: *two_sided,
-        }),
+        } => Material::Phong(Phong::new(rgb(*kd), rgb(*ks), *exponent, *two_sided)),
         MaterialDesc::Mirror {
             reflectance,
             two_sided,

@@ -317,23 +317,28 @@ fn merge(
 ) -> Rgb {
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.grid.query_sorted_in(it.p, &ws.merge, |y, _| {
-        if y.len + walk.len > pass.s.max_depth {
-            return;
-        }
-        let Some(e) = surface.eval(y.wo, Mode::Radiance) else {
-            return;
-        };
-        if e.cos < MIN_COS {
-            return;
-        }
-        let w = pass
-            .mis
-            .weight_merge(y.q, walk.q, e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
-        merges += 1;
-        // The photon's flux already holds the cosine at its surface: f without it.
-        sum += y.throughput * e.f * (w / e.cos);
-    });
+    ws.grid.query_sorted_in(
+        it.p,
+        &ws.merge,
+        #[inline(always)]
+        |y, _| {
+            if y.len + walk.len > pass.s.max_depth {
+                return;
+            }
+            let Some(e) = surface.eval(y.wo, Mode::Radiance) else {
+                return;
+            };
+            if e.cos < MIN_COS {
+                return;
+            }
+            let w =
+                pass.mis
+                    .weight_merge(y.q, walk.q, e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
+            merges += 1;
+            // The photon's flux already holds the cosine at its surface: f without it.
+            sum += y.throughput * e.f * (w / e.cos);
+        },
+    );
     stats.merges += merges;
     sum * pass.vm_norm
 }
