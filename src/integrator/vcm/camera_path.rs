@@ -2,7 +2,7 @@
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
 use super::light_path::{Surface, Walk, MIN_COS};
-use super::media::{next_event, shadow, Event};
+use super::media::{next_event, next_event_with, shadow, Event};
 use super::vertex::{Media, NoMedia, Vertex, WithMedia};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
@@ -50,8 +50,22 @@ fn radiance_in<M: Media>(
         medium: if M::ON { scene.camera_medium } else { None },
     };
     let mut l = Rgb::ZERO;
+    // The last vertex's light sample, whose shadow ray (without media) is traced
+    // together with the ray that continues the path.
+    let mut pending: Option<(Ray, Rgb)> = None;
+    let light_layer = |len: u32| pass.layers.connection(1, len + 1);
     loop {
-        let (event, tr) = next_event::<M>(scene, &mut ray, &mut walk, rng, &mut stats.rays);
+        let (event, tr) = if M::ON {
+            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut stats.rays)
+        } else {
+            let shadow = pending.as_ref().map(|p| &p.0);
+            let (event, visible) = next_event_with(scene, &mut ray, shadow, &mut stats.rays);
+            if let Some((_, e)) = pending.take().filter(|_| visible) {
+                record(layers, light_layer(walk.len - 1), e);
+                l += e;
+            }
+            (event, 1.0)
+        };
         let v = match event {
             Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
             Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
@@ -83,9 +97,15 @@ fn radiance_in<M: Media>(
         }
         if !v.skips_connections() {
             if pass.technique.connects() {
-                let e = walk.throughput * light_sample(pass, &walk, &v, rng, stats);
-                record(layers, pass.layers.connection(1, walk.len + 1), e);
-                l += e;
+                let (e, shadow) = light_sample(pass, &walk, &v, rng, stats);
+                let e = walk.throughput * e;
+                match shadow {
+                    Some(ray) => pending = Some((ray, e)),
+                    None => {
+                        record(layers, light_layer(walk.len), e);
+                        l += e;
+                    }
+                }
                 l += connect(pass, ws, pixel, &walk, &v, rng, stats, layers);
             }
             // Merging is not offered in media (Settings::check_scene): surfaces only.
@@ -103,6 +123,13 @@ fn radiance_in<M: Media>(
         };
         ray = next;
         stats.rays += 1;
+    }
+    // A path that ends at a vertex with a light sample traces its shadow ray alone.
+    if let Some((shadow, e)) = pending {
+        if scene.visible(&shadow) {
+            record(layers, light_layer(walk.len), e);
+            l += e;
+        }
     }
     l
 }
@@ -180,7 +207,8 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
 
 /// Light sampling from a camera vertex through the media on the way ([TR] eqs.
 /// 44-45, with the segment's MIS transmittance dividing the light's density as it
-/// divides d^2, mis.rs).
+/// divides d^2, mis.rs). Without media the shadow ray is returned untraced: the
+/// contribution counts only if it is unblocked.
 #[inline(always)]
 fn light_sample<M: Media>(
     pass: &Pass,
@@ -188,19 +216,20 @@ fn light_sample<M: Media>(
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
-) -> Rgb {
+) -> (Rgb, Option<Ray>) {
     let scene = pass.scene;
+    let none = (Rgb::ZERO, None);
     if scene.lights.is_empty() {
-        return Rgb::ZERO;
+        return none;
     }
     let (li, pick, _) = scene.light_sampler.sample(rng.next_f32());
     let u = rng.next_2d();
     let light = &scene.lights[li];
     let Some(ls) = light.sample_li(v.p(), u) else {
-        return Rgb::ZERO;
+        return none;
     };
     let Some(e) = v.eval(ls.wi, Mode::Radiance) else {
-        return Rgb::ZERO;
+        return none;
     };
     stats.connections += 1;
     stats.shadow_rays += 1;
@@ -209,9 +238,14 @@ fn light_sample<M: Media>(
     } else {
         v.ray_along(pass, walk.medium, ls.wi)
     };
-    let rays = &mut stats.shadow_rays;
-    let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
-        return Rgb::ZERO;
+    let (tr, tr_mis, untraced) = if M::ON {
+        let rays = &mut stats.shadow_rays;
+        let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
+            return none;
+        };
+        (tr, tr_mis, None)
+    } else {
+        (Rgb::ONE, 1.0, Some(ray))
     };
     // SmallVCM's conventions: point-like lights have unit area density, so their
     // solid-angle density is dist^2; lights without a surface have cos 1.
@@ -238,7 +272,7 @@ fn light_sample<M: Media>(
         bsdf_dir,
         e.pdf_rev * cont,
     );
-    e.f * ls.li * tr * (w / (pick * ls.pdf))
+    (e.f * ls.li * tr * (w / (pick * ls.pdf)), untraced)
 }
 
 /// Connections to the vertices of the light subpath paired with this pixel, through

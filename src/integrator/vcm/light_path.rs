@@ -2,7 +2,7 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
-use super::media::{next_event, shadow, Event};
+use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::Partial;
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::{Pass, Splat, Workspace};
@@ -11,7 +11,6 @@ use crate::integrator::{huge, RenderStats};
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
-use crate::scene::Surfacing;
 use rayon::prelude::*;
 
 /// Light paths per parallel chunk: fixed, so the split never depends on threads.
@@ -405,7 +404,14 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
         let (event, tr) = if M::ON {
             next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays)
         } else {
-            (next_event_and_lens(pass, chunk, &mut ray, lens.take()), 1.0)
+            let pending = lens.take();
+            let shadow = pending.as_ref().map(|l| &l.ray);
+            let rays = &mut chunk.stats.rays;
+            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays);
+            if let Some(l) = pending.filter(|_| visible) {
+                push_splat(pass, chunk, l.raster, l.value, l.layer);
+            }
+            (event, 1.0)
         };
         let v = match event {
             Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
@@ -460,36 +466,6 @@ struct LensShadow {
     /// The splat if nothing blocks the ray.
     value: Rgb,
     layer: Option<usize>,
-}
-
-/// [`next_event`] without media, tracing the pending lens connection's shadow ray
-/// together with `ray` (`Scene::next_scattering_and_visible`: the traversals overlap,
-/// as in `pt`); its splat is added if nothing blocks it.
-#[inline(always)]
-fn next_event_and_lens<'a>(
-    pass: &Pass<'a>,
-    chunk: &mut Chunk,
-    ray: &mut Ray,
-    lens: Option<LensShadow>,
-) -> Event<'a> {
-    let scene = pass.scene;
-    // An empty any-hit ray (tmax -1) when there is none: the kernel skips its walk.
-    let shadow = match &lens {
-        Some(l) => l.ray,
-        None => Ray { tmax: -1.0, ..*ray },
-    };
-    let (surfacing, visible) =
-        scene.next_scattering_and_visible(ray, &shadow, &mut chunk.stats.rays);
-    if let Some(l) = lens {
-        if visible {
-            push_splat(pass, chunk, l.raster, l.value, l.layer);
-        }
-    }
-    match surfacing {
-        Surfacing::Hit(it, m) => Event::Surface(it, m),
-        Surfacing::Escaped => Event::Escaped,
-        Surfacing::Lost => Event::End,
-    }
 }
 
 /// The medium light emitted as `es` by light `li` starts in: the light's, except that

@@ -90,6 +90,29 @@ pub(crate) fn next_event<'a, M: Media>(
     (Event::End, 1.0)
 }
 
+/// [`next_event`] in a scene without media, with a pending shadow ray traced
+/// alongside (`Scene::next_scattering_and_visible`: the two traversals overlap, as in
+/// `pt`). Also returns whether the shadow ray is unblocked (true when there is none).
+#[inline(always)]
+pub(crate) fn next_event_with<'a>(
+    scene: &'a Scene,
+    ray: &mut Ray,
+    shadow: Option<&Ray>,
+    rays: &mut u64,
+) -> (Event<'a>, bool) {
+    // An empty any-hit ray (tmax -1) when there is none: the kernel skips its walk, and
+    // one traversal kernel stays hot.
+    let none = Ray { tmax: -1.0, ..*ray };
+    let (surfacing, visible) =
+        scene.next_scattering_and_visible(ray, shadow.unwrap_or(&none), rays);
+    let e = match surfacing {
+        Surfacing::Hit(it, m) => Event::Surface(it, m),
+        Surfacing::Escaped => Event::Escaped,
+        Surfacing::Lost => Event::End,
+    };
+    (e, visible)
+}
+
 /// A connection's shadow ray that starts in `medium`: its transmittance and MIS
 /// transmittance, None when nothing gets through. `rays` counts rays beyond the first.
 #[inline(always)]
