@@ -92,7 +92,7 @@ impl Accel {
     }
 
     /// True when anything blocks the ray before `ray.tmax`.
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.tree.any_hit(&self.prims, ray).is_some()
     }

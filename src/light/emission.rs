@@ -36,8 +36,9 @@ impl EmissionSample {
 }
 
 impl Light {
-    /// Samples a point and a direction of emission.
-    #[inline]
+    /// Samples a point and a direction of emission. Forced inline: out of line it is
+    /// compiled for baseline x86-64, outside the light-path kernel's AVX2.
+    #[inline(always)]
     pub fn sample_le(
         &self,
         sphere: &SceneSphere,

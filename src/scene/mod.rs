@@ -220,12 +220,19 @@ impl Scene {
     }
 
     /// True when nothing opaque blocks the shadow ray. Index-matched (`null`) surfaces
-    /// let light through; scenes without them take the plain any-hit query.
-    #[inline]
+    /// let light through; scenes without them take the plain any-hit query, inlined
+    /// into the callers' kernels.
+    #[inline(always)]
     pub fn visible(&self, ray: &Ray) -> bool {
         if !self.has_null {
             return !self.accel.occluded(ray);
         }
+        self.visible_through_null(ray)
+    }
+
+    /// [`visible`](Self::visible) in a scene with null boundaries.
+    #[inline(never)]
+    fn visible_through_null(&self, ray: &Ray) -> bool {
         match self.any_blocker(ray) {
             Blocker::Nothing => return true,
             Blocker::Opaque => return false,

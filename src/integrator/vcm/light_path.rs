@@ -186,6 +186,14 @@ pub(super) fn trace_light_paths(
         / std::mem::size_of::<LightVertex>() as f64
         / chunks as f64) as usize;
     ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
+        if chunk.ends.capacity() == 0 {
+            // The first iteration: room for a typical chunk (light paths store two or
+            // three vertices in closed scenes), rather than growth by doubling, each
+            // step a copy into freshly faulted pages. Later iterations reuse it all.
+            chunk.vertices.reserve((CHUNK * 3).min(budget));
+            chunk.ends.reserve(CHUNK);
+            chunk.splats.reserve(CHUNK * 2);
+        }
         chunk.vertices.clear();
         chunk.ends.clear();
         chunk.splats.clear();
