@@ -100,11 +100,7 @@ pub(crate) fn next_event_with<'a>(
     shadow: Option<&Ray>,
     rays: &mut u64,
 ) -> (Event<'a>, bool) {
-    // An empty any-hit ray (tmax -1) when there is none: the kernel skips its walk, and
-    // one traversal kernel stays hot.
-    let none = Ray { tmax: -1.0, ..*ray };
-    let (surfacing, visible) =
-        scene.next_scattering_and_visible(ray, shadow.unwrap_or(&none), rays);
+    let (surfacing, visible) = scene.next_scattering_and_visible(ray, shadow, rays);
     let e = match surfacing {
         Surfacing::Hit(it, m) => Event::Surface(it, m),
         Surfacing::Escaped => Event::Escaped,
