@@ -749,7 +749,7 @@ fn bsdf_sampling_matches_pdf_chi2() {
                 1_000_000,
                 || {
                     let s = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance)?;
-                    Some(s.wi)
+                    Some(s.wi.into())
                 },
                 |wi| m.pdf(wo, wi) as f64,
                 DEFAULT_ADAPTIVE,
@@ -798,8 +798,8 @@ fn bsdf_weight_equals_eval_over_pdf() {
                     "{}: reflection on the wrong side",
                     case.name
                 );
-                let f = case.m.eval(wo, s.wi, Mode::Radiance);
-                let pdf = case.m.pdf(wo, s.wi);
+                let f = case.m.eval(wo, s.wi.into(), Mode::Radiance);
+                let pdf = case.m.pdf(wo, s.wi.into());
                 assert!(
                     pdf > 0.0 && s.pdf > 0.0,
                     "{}: zero pdf for a sample",
@@ -877,7 +877,7 @@ fn bsdf_albedo_is_bounded_and_agrees_with_uniform_estimate() {
                 let w = case
                     .m
                     .sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance)
-                    .map_or(Rgb::ZERO, |s| s.weight);
+                    .map_or(Rgb::ZERO, |s| s.weight.into());
                 // Uniform on the hemisphere on wo's side: pdf 1 / (2 pi).
                 let mut wi = uniform_sphere(&mut rng);
                 if wi.z * wo.z < 0.0 {
@@ -1043,10 +1043,10 @@ fn mirror_reflects_with_its_reflectance() {
                 .sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance)
                 .expect("mirror sample");
             assert!(s.delta);
-            assert_eq!(s.wi, Vec3::new(-wo.x, -wo.y, wo.z));
-            assert_eq!(s.weight, r);
-            assert_eq!(m.eval(wo, s.wi, Mode::Radiance), Rgb::ZERO);
-            assert_eq!(m.pdf(wo, s.wi), 0.0);
+            assert_eq!(Vec3::from(s.wi), Vec3::new(-wo.x, -wo.y, wo.z));
+            assert_eq!(Rgb::from(s.weight), r);
+            assert_eq!(m.eval(wo, s.wi.into(), Mode::Radiance), Rgb::ZERO);
+            assert_eq!(m.pdf(wo, s.wi.into()), 0.0);
         }
         assert!(one
             .sample(below(wo), 0.5, Vec2::splat(0.5), Mode::Radiance)
@@ -1150,7 +1150,7 @@ fn dielectric_refraction_obeys_snell_from_both_sides() {
         let critical = sin_i * n_i / n_t >= 1.0;
         if s.wi.z * wo.z > 0.0 {
             assert!(critical || fresnel_ref(wo.z as f64, eta as f64) > 0.999_99);
-            assert_eq!(s.wi, Vec3::new(-wo.x, -wo.y, wo.z));
+            assert_eq!(Vec3::from(s.wi), Vec3::new(-wo.x, -wo.y, wo.z));
             continue;
         }
         assert!(!critical, "refraction beyond the critical angle: wo {wo}");
@@ -1190,9 +1190,13 @@ fn dielectric_total_internal_reflection() {
             let s = m
                 .sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance)
                 .unwrap();
-            assert_eq!(s.wi, Vec3::new(-wo.x, -wo.y, wo.z), "cos {c}: no TIR");
+            assert_eq!(
+                Vec3::from(s.wi),
+                Vec3::new(-wo.x, -wo.y, wo.z),
+                "cos {c}: no TIR"
+            );
             assert_eq!(s.pdf, 1.0);
-            assert_eq!(s.weight, Rgb::ONE);
+            assert_eq!(Rgb::from(s.weight), Rgb::ONE);
         }
         // The largest u_lobe an Rng can produce.
         let s = m
@@ -1486,22 +1490,22 @@ fn area_light_chi2(case: &AreaCase, rng: &mut Rng, n: u64) -> DirTest {
         || {
             let s = light.sample_li(case.p, rng.next_2d())?;
             assert!(!s.delta);
-            let pdf = light.pdf_li(case.p, s.wi, s.p, s.n);
+            let pdf = light.pdf_li(case.p, s.wi(), s.p(), s.n());
             assert!(
                 rel_close(s.pdf as f64, pdf as f64, 1e-3),
                 "{}: sample pdf {} vs pdf_li {pdf}",
                 case.name,
                 s.pdf
             );
-            let to = s.p - case.p;
+            let to = s.p() - case.p;
             assert!(
                 (to.length() - s.dist).abs() <= 1e-4 * s.dist
-                    && (to / s.dist - s.wi).length() < 1e-4,
+                    && (to / s.dist - s.wi()).length() < 1e-4,
                 "{}: wi/dist do not point at p",
                 case.name
             );
-            assert_eq!(s.li, Rgb::new(2.0, 3.0, 4.0));
-            Some(s.wi)
+            assert_eq!(s.li(), Rgb::new(2.0, 3.0, 4.0));
+            Some(s.wi())
         },
         |d| case.pdf(&light, d),
         DEFAULT_ADAPTIVE,
@@ -1564,9 +1568,9 @@ fn distant_sphere_light_sampling_chi2() {
             1_000_000,
             || {
                 let s = light.sample_li(case.p, rng.next_2d())?;
-                let pdf = light.pdf_li(case.p, s.wi, s.p, s.n);
+                let pdf = light.pdf_li(case.p, s.wi(), s.p(), s.n());
                 assert!(rel_close(s.pdf as f64, pdf as f64, 1e-4));
-                Some(s.wi)
+                Some(s.wi())
             },
             |d| case.pdf(&light, d),
             DEFAULT_ADAPTIVE,
@@ -1718,10 +1722,10 @@ fn area_light_solid_angle_and_irradiance() {
         let (mut omega, mut irr) = (Stats::new(), Stats::new());
         for _ in 0..N {
             match light.sample_li(e.case.p, rng.next_2d()) {
-                Some(s) if s.li.x > 0.0 => {
+                Some(s) if s.li().x > 0.0 => {
                     omega.push(1.0 / s.pdf as f64);
-                    let cos = s.wi.dot(e.normal).max(0.0) as f64;
-                    irr.push(s.li.x as f64 * cos / s.pdf as f64);
+                    let cos = s.wi().dot(e.normal).max(0.0) as f64;
+                    irr.push(s.li().x as f64 * cos / s.pdf as f64);
                 }
                 _ => {
                     omega.push(0.0);
@@ -1788,11 +1792,11 @@ fn envmap_sampling_matches_pdf_li_chi2() {
         || {
             let s = light.sample_li(Vec3::ZERO, rng.next_2d())?;
             assert!(!s.delta && s.dist.is_infinite());
-            let pdf = light.pdf_li(Vec3::ZERO, s.wi, s.p, s.n);
-            if env.eval(s.wi) != s.li || !rel_close(s.pdf as f64, pdf as f64, 1e-3) {
+            let pdf = light.pdf_li(Vec3::ZERO, s.wi(), s.p(), s.n());
+            if env.eval(s.wi()) != s.li() || !rel_close(s.pdf as f64, pdf as f64, 1e-3) {
                 mismatched += 1;
             }
-            Some(s.wi)
+            Some(s.wi())
         },
         |d| light.pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO) as f64,
         Quadrature::Midpoint(4),
@@ -1831,7 +1835,7 @@ fn envmap_never_samples_black_texels() {
     let mut black = 0;
     for _ in 0..n {
         if let Some(s) = light.sample_li(Vec3::ZERO, rng.next_2d()) {
-            if s.li == Rgb::ZERO {
+            if s.li() == Rgb::ZERO {
                 black += 1;
             }
         }
@@ -1883,8 +1887,8 @@ fn spot_light_falloff_values() {
         let s = light.sample_li(p, Vec2::ZERO).unwrap();
         assert!(s.delta && s.pdf == 1.0);
         assert!(
-            (s.li - Rgb::new(3.0, 2.0, 1.0) * (want / (d * d))).length()
-                < 1e-4 * s.li.length().max(1e-3)
+            (s.li() - Rgb::new(3.0, 2.0, 1.0) * (want / (d * d))).length()
+                < 1e-4 * s.li().length().max(1e-3)
         );
     }
     assert!(light
@@ -1961,18 +1965,18 @@ fn point_light_inverse_square() {
         let d = (pos - p).as_dvec3();
         let d2 = d.length_squared();
         assert!(s.delta && s.pdf == 1.0);
-        assert_eq!(s.p, pos);
+        assert_eq!(s.p(), pos);
         assert!(rel_close(s.dist as f64, d2.sqrt(), 1e-6));
-        assert!((s.wi.as_dvec3() - d / d2.sqrt()).length() < 1e-6);
+        assert!((s.wi().as_dvec3() - d / d2.sqrt()).length() < 1e-6);
         for c in 0..3 {
             assert!(
-                rel_close(s.li[c] as f64, intensity[c] as f64 / d2, 1e-6),
+                rel_close(s.li()[c] as f64, intensity[c] as f64 / d2, 1e-6),
                 "li {} vs I/d^2 {}",
-                s.li[c],
+                s.li()[c],
                 intensity[c] as f64 / d2
             );
         }
-        assert_eq!(light.pdf_li(p, s.wi, s.p, s.n), 0.0);
+        assert_eq!(light.pdf_li(p, s.wi(), s.p(), s.n()), 0.0);
     }
 }
 

@@ -108,6 +108,28 @@ impl Isa {
     }
 }
 
+/// A ray as the kernels take it: origin and direction in four lanes each, so the
+/// caller writes them with one vector store apiece and the kernel reads them back
+/// with one load. Handed a [`Ray`] (three scalars per vector, written by scalar
+/// stores), the kernel's wider loads missed store forwarding and waited for the
+/// stores to retire (perf, Cornell box `pt`).
+struct TraceRay {
+    o: Vec3A,
+    d: Vec3A,
+    tmax: f32,
+}
+
+impl From<&Ray> for TraceRay {
+    #[inline(always)]
+    fn from(r: &Ray) -> Self {
+        TraceRay {
+            o: Vec3A::new(r.o.x, r.o.y, r.o.z),
+            d: Vec3A::new(r.d.x, r.d.y, r.d.z),
+            tmax: r.tmax,
+        }
+    }
+}
+
 /// Per-ray values shared by every slab and triangle test.
 struct RayLanes {
     o: [F4; 3],
@@ -120,8 +142,8 @@ struct RayLanes {
 
 impl RayLanes {
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        let (o3, d3) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
+    fn new(ray: &TraceRay) -> Self {
+        let (o3, d3) = (ray.o, ray.d);
         // 1 / +-0 = +-inf is intended: the slab test below copes with it.
         let d = F4::from_vec3a(d3);
         let inv = F4::splat(1.0) / d;
@@ -237,11 +259,11 @@ impl Bvh4 {
         #[cfg(target_arch = "x86_64")]
         match self.isa {
             // SAFETY: `isa` names only instruction sets detected on this processor.
-            Isa::Avx512 => return unsafe { self.intersect_avx512(prims, ray) },
-            Isa::Avx => return unsafe { self.intersect_avx(prims, ray) },
+            Isa::Avx512 => return unsafe { self.intersect_avx512(prims, &ray.into()) },
+            Isa::Avx => return unsafe { self.intersect_avx(prims, &ray.into()) },
             Isa::Base => {}
         }
-        self.intersect_base(prims, ray)
+        self.intersect_base(prims, &ray.into())
     }
 
     /// Some primitive in (0, ray.tmax), if there is one: children in any order, and the
@@ -251,11 +273,11 @@ impl Bvh4 {
         #[cfg(target_arch = "x86_64")]
         match self.isa {
             // SAFETY: `isa` names only instruction sets detected on this processor.
-            Isa::Avx512 => return unsafe { self.any_hit_avx512(prims, ray) },
-            Isa::Avx => return unsafe { self.any_hit_avx(prims, ray) },
+            Isa::Avx512 => return unsafe { self.any_hit_avx512(prims, &ray.into()) },
+            Isa::Avx => return unsafe { self.any_hit_avx(prims, &ray.into()) },
             Isa::Base => {}
         }
-        self.any_hit_base(prims, ray)
+        self.any_hit_base(prims, &ray.into())
     }
 
     /// The closest hit along `closest` and some hit along `any`, the two traversals
@@ -268,18 +290,19 @@ impl Bvh4 {
         closest: &Ray,
         any: &Ray,
     ) -> (Option<Hit>, Option<u32>) {
+        let (c, a): (&TraceRay, &TraceRay) = (&closest.into(), &any.into());
         #[cfg(target_arch = "x86_64")]
         match self.isa {
             // SAFETY: `isa` names only instruction sets detected on this processor.
-            Isa::Avx512 => return unsafe { self.pair_avx512(prims, closest, any) },
-            Isa::Avx => return unsafe { self.pair_avx(prims, closest, any) },
+            Isa::Avx512 => return unsafe { self.pair_avx512(prims, c, a) },
+            Isa::Avx => return unsafe { self.pair_avx(prims, c, a) },
             Isa::Base => {}
         }
-        self.pair_base(prims, closest, any)
+        self.pair_base(prims, c, a)
     }
 
     #[inline(never)]
-    fn pair_base(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+    fn pair_base(&self, prims: &[Prim], c: &TraceRay, a: &TraceRay) -> (Option<Hit>, Option<u32>) {
         self.pair_on_stack::<F4>(prims, c, a)
     }
 
@@ -287,7 +310,12 @@ impl Bvh4 {
     /// The processor must support AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn pair_avx(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+    unsafe fn pair_avx(
+        &self,
+        prims: &[Prim],
+        c: &TraceRay,
+        a: &TraceRay,
+    ) -> (Option<Hit>, Option<u32>) {
         self.pair_on_stack::<F8>(prims, c, a)
     }
 
@@ -295,7 +323,12 @@ impl Bvh4 {
     /// The processor must support AVX-512F and AVX-512VL.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn pair_avx512(&self, prims: &[Prim], c: &Ray, a: &Ray) -> (Option<Hit>, Option<u32>) {
+    unsafe fn pair_avx512(
+        &self,
+        prims: &[Prim],
+        c: &TraceRay,
+        a: &TraceRay,
+    ) -> (Option<Hit>, Option<u32>) {
         self.pair_on_stack::<F8>(prims, c, a)
     }
 
@@ -303,8 +336,8 @@ impl Bvh4 {
     fn pair_on_stack<L: Lanes>(
         &self,
         prims: &[Prim],
-        c: &Ray,
-        a: &Ray,
+        c: &TraceRay,
+        a: &TraceRay,
     ) -> (Option<Hit>, Option<u32>) {
         stack_buffer!(self, buf_c);
         stack_buffer!(self, buf_a);
@@ -314,12 +347,12 @@ impl Bvh4 {
     /// The kernels compiled for the baseline target (SSE2 on x86_64). Out of line, so
     /// the dispatch above stays small enough to inline into callers.
     #[inline(never)]
-    fn intersect_base(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    fn intersect_base(&self, prims: &[Prim], ray: &TraceRay) -> Option<Hit> {
         self.closest_on_stack::<F4>(prims, ray)
     }
 
     #[inline(never)]
-    fn any_hit_base(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
+    fn any_hit_base(&self, prims: &[Prim], ray: &TraceRay) -> Option<u32> {
         self.any_on_stack::<F4>(prims, ray)
     }
 
@@ -330,7 +363,7 @@ impl Bvh4 {
     /// The processor must support AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn intersect_avx(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    unsafe fn intersect_avx(&self, prims: &[Prim], ray: &TraceRay) -> Option<Hit> {
         self.closest_on_stack::<F8>(prims, ray)
     }
 
@@ -338,7 +371,7 @@ impl Bvh4 {
     /// The processor must support AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn any_hit_avx(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
+    unsafe fn any_hit_avx(&self, prims: &[Prim], ray: &TraceRay) -> Option<u32> {
         self.any_on_stack::<F8>(prims, ray)
     }
 
@@ -349,7 +382,7 @@ impl Bvh4 {
     /// The processor must support AVX-512F and AVX-512VL.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn intersect_avx512(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    unsafe fn intersect_avx512(&self, prims: &[Prim], ray: &TraceRay) -> Option<Hit> {
         self.closest_on_stack::<F8>(prims, ray)
     }
 
@@ -357,7 +390,7 @@ impl Bvh4 {
     /// The processor must support AVX-512F and AVX-512VL.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn any_hit_avx512(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
+    unsafe fn any_hit_avx512(&self, prims: &[Prim], ray: &TraceRay) -> Option<u32> {
         self.any_on_stack::<F8>(prims, ray)
     }
 
@@ -367,26 +400,26 @@ impl Bvh4 {
     // instruction set as the rest (an out-of-line copy would lose the AVX features).
 
     #[inline(always)]
-    fn closest_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    fn closest_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &TraceRay) -> Option<Hit> {
         stack_buffer!(self, buf);
         self.closest::<L>(prims, ray, Stack::new(buf))
     }
 
     #[inline(always)]
-    fn any_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &Ray) -> Option<u32> {
+    fn any_on_stack<L: Lanes>(&self, prims: &[Prim], ray: &TraceRay) -> Option<u32> {
         stack_buffer!(self, buf);
         self.any::<L>(prims, ray, Stack::new(buf))
     }
 
     #[inline(always)]
-    fn closest<L: Lanes>(&self, prims: &[Prim], ray: &Ray, stack: Stack) -> Option<Hit> {
+    fn closest<L: Lanes>(&self, prims: &[Prim], ray: &TraceRay, stack: Stack) -> Option<Hit> {
         let mut w = Closest::<L>::new(self, ray, stack);
         while !w.step(self, prims) {}
         w.hit()
     }
 
     #[inline(always)]
-    fn any<L: Lanes>(&self, prims: &[Prim], ray: &Ray, stack: Stack) -> Option<u32> {
+    fn any<L: Lanes>(&self, prims: &[Prim], ray: &TraceRay, stack: Stack) -> Option<u32> {
         let mut w = Any::<L>::new(self, ray, stack);
         loop {
             if w.cur & LEAF == 0 {
@@ -411,8 +444,8 @@ impl Bvh4 {
     fn closest_and_any<L: Lanes>(
         &self,
         prims: &[Prim],
-        closest: &Ray,
-        any: &Ray,
+        closest: &TraceRay,
+        any: &TraceRay,
         sc: Stack,
         sa: Stack,
     ) -> (Option<Hit>, Option<u32>) {
@@ -507,7 +540,7 @@ struct Closest<'s, L> {
 
 impl<'s, L: Lanes> Closest<'s, L> {
     #[inline(always)]
-    fn new(tree: &Bvh4, ray: &Ray, stack: Stack<'s>) -> Self {
+    fn new(tree: &Bvh4, ray: &TraceRay, stack: Stack<'s>) -> Self {
         let r = RayLanes::new(ray);
         let pr = PackRay::<L>::new(r.o3, r.d3);
         Closest {
@@ -646,7 +679,7 @@ struct Any<'s, L> {
 
 impl<'s, L: Lanes> Any<'s, L> {
     #[inline(always)]
-    fn new(tree: &Bvh4, ray: &Ray, stack: Stack<'s>) -> Self {
+    fn new(tree: &Bvh4, ray: &TraceRay, stack: Stack<'s>) -> Self {
         let r = RayLanes::new(ray);
         let pr = PackRay::<L>::new(r.o3, r.d3);
         Any {

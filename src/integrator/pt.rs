@@ -161,19 +161,19 @@ impl PathTracer {
     fn direct<'m>(
         &self,
         scene: &Scene,
-        v: &Vertex<'_, 'm>,
+        v: Vertex<'_, 'm>,
         beta: Rgb,
         survival: f32,
         rng: &mut Rng,
         stats: &mut RenderStats,
-    ) -> Option<Shadow<'m>> {
-        let Vertex { it, frame, wo, m } = *v;
+    ) -> Option<Shadow> {
+        let Vertex { it, frame, wo, m } = v;
         let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
         let u = rng.next_2d();
         let ls = scene.lights[li].sample_li(it.p, u)?;
-        let wi = frame.to_local(ls.wi);
+        let wi = frame.to_local(ls.wi());
         // Light arriving from behind the geometric surface would leak through it.
-        if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) {
+        if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) {
             return None;
         }
         let f = m.eval(wo, wi, Mode::Radiance);
@@ -181,21 +181,22 @@ impl PathTracer {
             return None;
         }
         let ray = if ls.dist.is_finite() {
-            spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+            spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
         } else {
-            spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+            spawn_ray(it.p, it.p_err, it.ng, ls.wi())
         };
         stats.shadow_rays += 1;
+        let pdf_bsdf = if ls.delta {
+            0.0
+        } else {
+            m.pdf(wo, wi) * survival
+        };
         Some(Shadow {
             ray,
-            m,
-            wo,
-            wi,
-            f,
-            li: ls.li,
+            fl: f * ls.li(),
             pdf_light: sel_pdf * ls.pdf,
+            pdf_bsdf,
             delta: ls.delta,
-            survival,
             beta,
         })
     }
@@ -206,9 +207,9 @@ impl PathTracer {
         let w = if s.delta {
             1.0
         } else {
-            self.mis(s.pdf_light, s.m.pdf(s.wo, s.wi) * s.survival)
+            self.mis(s.pdf_light, s.pdf_bsdf)
         };
-        s.beta * (s.f * s.li * (w / s.pdf_light))
+        s.beta * (s.fl * (w / s.pdf_light))
     }
 
     /// Traces a shadow ray on its own, where the path ends at its vertex.
@@ -273,17 +274,17 @@ impl PathTracer {
                     wo,
                     m,
                 };
-                shadow = self.direct(scene, &v, beta, survival, rng, stats);
+                shadow = self.direct(scene, v, beta, survival, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
                 break;
             };
-            let wi = frame.to_world(s.wi);
+            let wi = frame.to_world(s.wi.into());
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 break;
             }
-            beta *= s.weight;
+            beta *= Rgb::from(s.weight);
             specular = s.delta;
             pdf_bsdf = s.pdf * survival;
             prev_p = it.p;
@@ -309,19 +310,19 @@ impl PathTracer {
     }
 }
 
-/// A shadow ray waiting to be traced, with what it adds if nothing blocks it.
-struct Shadow<'a> {
+/// A shadow ray waiting to be traced, with what it adds if nothing blocks it. It
+/// lives across the traversal, so it holds finished numbers rather than the
+/// directions they come from: copying a vertex's direction into it stalled on store
+/// forwarding (perf, Cornell box).
+struct Shadow {
     ray: Ray,
-    m: &'a Material,
-    wo: Vec3,
-    wi: Vec3,
-    f: Rgb,
-    li: Rgb,
+    /// f times the light's radiance.
+    fl: Rgb,
     pdf_light: f32,
+    /// The BSDF strategy's density towards the light, albedo roulette's survival
+    /// included; unused for delta lights.
+    pdf_bsdf: f32,
     delta: bool,
-    /// Albedo roulette's survival probability at the vertex (1 without it): part of
-    /// the BSDF strategy's density.
-    survival: f32,
     /// Path throughput at the vertex.
     beta: Rgb,
 }

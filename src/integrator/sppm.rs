@@ -410,11 +410,11 @@ impl PhotonMapper {
             let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
                 return (l, None);
             };
-            let wi = frame.to_world(s.wi);
+            let wi = frame.to_world(s.wi.into());
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 return (l, None);
             }
-            beta *= s.weight;
+            beta *= Rgb::from(s.weight);
             depth += 1;
             if beta == Rgb::ZERO {
                 return (l, None);
@@ -482,7 +482,7 @@ impl PhotonMapper {
             let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance) else {
                 return;
             };
-            let wi = frame.to_world(s.wi);
+            let wi = frame.to_world(s.wi.into());
             let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
             if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
                 return;
@@ -493,7 +493,7 @@ impl PhotonMapper {
             if !corr.is_finite() {
                 return;
             }
-            let new_beta = beta * s.weight * corr;
+            let new_beta = beta * Rgb::from(s.weight) * corr;
             depth += 1;
             // Russian roulette with survival new / old power, so surviving photons keep
             // about the power they had (pbrt-v4's SPPM does the same).
@@ -596,8 +596,8 @@ fn direct(
     let Some(ls) = scene.lights[li].sample_li(it.p, rng.next_2d()) else {
         return Rgb::ZERO;
     };
-    let wi = frame.to_local(ls.wi);
-    if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
+    let wi = frame.to_local(ls.wi());
+    if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
         return Rgb::ZERO;
     }
     let f = m.eval(wo, wi, Mode::Radiance);
@@ -605,16 +605,16 @@ fn direct(
         return Rgb::ZERO;
     }
     let ray = if ls.dist.is_finite() {
-        spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+        spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
     } else {
-        spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+        spawn_ray(it.p, it.p_err, it.ng, ls.wi())
     };
     stats.shadow_rays += 1;
     stats.connections += 1;
     if !scene.visible(&ray) {
         return Rgb::ZERO;
     }
-    f * ls.li / (sel_pdf * ls.pdf)
+    f * ls.li() / (sel_pdf * ls.pdf)
 }
 
 impl Integrator for PhotonMapper {

@@ -188,28 +188,28 @@ impl VolPath {
         };
         let (f, pdf_scatter, ray, start_medium) = match *at {
             At::Surface { it, frame, wo, m } => {
-                let wi = frame.to_local(ls.wi);
-                if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) {
+                let wi = frame.to_local(ls.wi());
+                if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) {
                     return Rgb::ZERO;
                 }
                 let ray = if ls.dist.is_finite() {
-                    spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+                    spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
                 } else {
-                    spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+                    spawn_ray(it.p, it.p_err, it.ng, ls.wi())
                 };
-                let med = scene.medium_after(it, ls.wi, medium);
+                let med = scene.medium_after(it, ls.wi(), medium);
                 (m.eval(wo, wi, Mode::Radiance), m.pdf(wo, wi), ray, med)
             }
             At::Medium { p, d, phase, .. } => {
-                let ph = phase.eval(d, ls.wi);
+                let ph = phase.eval(d, ls.wi());
                 let ray = if ls.dist.is_finite() {
                     Ray {
                         o: p,
-                        d: ls.p - p,
+                        d: ls.p() - p,
                         tmax: 1.0 - SHADOW_EPSILON,
                     }
                 } else {
-                    Ray::new(p, ls.wi)
+                    Ray::new(p, ls.wi())
                 };
                 (Rgb::splat(ph), ph, ray, medium)
             }
@@ -228,7 +228,7 @@ impl VolPath {
         } else {
             self.equiangular_partner(at, light)
         };
-        f * tr * ls.li * (w / pdf_light)
+        f * tr * ls.li() * (w / pdf_light)
     }
 
     /// MIS weight of a distance-sampled connection to a point or spot light against
@@ -278,20 +278,20 @@ impl VolPath {
         let Some(ls) = light.sample_li(p, rng.next_2d()) else {
             return Rgb::ZERO;
         };
-        let ph = med.phase.eval(ray.d, ls.wi);
+        let ph = med.phase.eval(ray.d, ls.wi());
         let scatter = med.transmittance(t) * med.sigma_s * ph;
-        if scatter == Rgb::ZERO || ls.li == Rgb::ZERO {
+        if scatter == Rgb::ZERO || ls.li() == Rgb::ZERO {
             return Rgb::ZERO;
         }
         stats.shadow_rays += 1;
         let shadow = Ray {
             o: p,
-            d: ls.p - p,
+            d: ls.p() - p,
             tmax: 1.0 - SHADOW_EPSILON,
         };
         let tr = scene.transmittance(&shadow, medium, rng, &mut stats.shadow_rays);
         let w = self.mis(pdf_t, med.flight_pdf(t, beta));
-        beta * scatter * tr * ls.li * (w / (sel_pdf * pdf_t))
+        beta * scatter * tr * ls.li() * (w / (sel_pdf * pdf_t))
     }
 
     /// Radiance along one camera ray.
@@ -406,11 +406,11 @@ impl VolPath {
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
                 break;
             };
-            let wi = frame.to_world(s.wi);
+            let wi = frame.to_world(s.wi.into());
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 break;
             }
-            beta *= s.weight;
+            beta *= Rgb::from(s.weight);
             specular = s.delta;
             pdf_dir = s.pdf;
             prev_p = it.p;

@@ -518,11 +518,11 @@ impl Vpm {
             let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
                 break;
             };
-            let wi = frame.to_world(s.wi);
+            let wi = frame.to_world(s.wi.into());
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 break;
             }
-            beta *= s.weight;
+            beta *= Rgb::from(s.weight);
             specular = s.delta;
             depth += 1;
             if !self.camera_roulette(depth, &mut beta, rng) {
@@ -695,13 +695,13 @@ fn photon_bounce(
     let frame = Frame::from_normal(it.ns);
     let wo = frame.to_local(wo_world);
     let s = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance)?;
-    let wi = frame.to_world(s.wi);
+    let wi = frame.to_world(s.wi.into());
     let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
     if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
         return None;
     }
     let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
-    corr.is_finite().then_some((wi, s.weight * corr))
+    corr.is_finite().then_some((wi, Rgb::from(s.weight) * corr))
 }
 
 /// How a photon's free flight through a medium ended.
@@ -757,8 +757,8 @@ fn direct(
     let Some(ls) = scene.lights[li].sample_li(it.p, rng.next_2d()) else {
         return Rgb::ZERO;
     };
-    let wi = frame.to_local(ls.wi);
-    if (ls.wi.dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
+    let wi = frame.to_local(ls.wi());
+    if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
         return Rgb::ZERO;
     }
     let f = m.eval(wo, wi, Mode::Radiance);
@@ -766,15 +766,15 @@ fn direct(
         return Rgb::ZERO;
     }
     let ray = if ls.dist.is_finite() {
-        spawn_ray_to(it.p, it.p_err, it.ng, ls.p, Vec3::ZERO, Vec3::ZERO)
+        spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
     } else {
-        spawn_ray(it.p, it.p_err, it.ng, ls.wi)
+        spawn_ray(it.p, it.p_err, it.ng, ls.wi())
     };
     stats.shadow_rays += 1;
     stats.connections += 1;
-    let start = scene.medium_after(it, ls.wi, medium);
+    let start = scene.medium_after(it, ls.wi(), medium);
     let tr = scene.transmittance(&ray, start, rng, &mut stats.shadow_rays);
-    f * tr * ls.li / (sel_pdf * ls.pdf)
+    f * tr * ls.li() / (sel_pdf * ls.pdf)
 }
 
 impl Integrator for Vpm {

@@ -122,15 +122,15 @@ impl AreaLight {
         if cos_l.abs() <= 0.0 || li == Rgb::ZERO {
             return None;
         }
-        Some(LightSample {
-            p: pl,
+        Some(LightSample::new(
+            pl,
             n,
             wi,
             dist,
             li,
-            pdf: dist2 / (cos_l.abs() * self.area),
-            delta: false,
-        })
+            dist2 / (cos_l.abs() * self.area),
+            false,
+        ))
     }
 
     /// Uniform sampling of the cone the sphere subtends (pbrt-v4, sec. 6.2.4, with its
@@ -166,15 +166,15 @@ impl AreaLight {
         if li == Rgb::ZERO {
             return None;
         }
-        Some(LightSample {
-            p: pl,
+        Some(LightSample::new(
+            pl,
             n,
             wi,
             dist,
             li,
-            pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
-            delta: false,
-        })
+            1.0 / (2.0 * PI * one_minus_cos_max),
+            false,
+        ))
     }
 
     /// Solid-angle density of reaching `pl` (front normal `n`) from `p`.

@@ -65,7 +65,7 @@ impl Light {
             Light::Constant { .. } | Light::EnvMap(_) => {
                 // Towards the light, as direct lighting samples it; light travels the other way.
                 let s = self.sample_li(Vec3::ZERO, u_dir)?;
-                Some(from_infinity(sphere, -s.wi, s.li, s.pdf, u_pos))
+                Some(from_infinity(sphere, -s.wi(), s.li(), s.pdf, u_pos))
             }
         }
     }

@@ -101,16 +101,18 @@ impl EnvMap {
         if pdf_uv <= 0.0 || sin_t <= 0.0 {
             return None;
         }
-        Some(LightSample {
-            p: Vec3::ZERO,
-            n: Vec3::ZERO,
-            wi: self.to_world * local,
-            dist: f32::INFINITY,
-            li: self.texel(uv),
-            // dA(uv) = 2 pi^2 sin(theta) dw.
-            pdf: pdf_uv / (2.0 * PI * PI * sin_t),
-            delta: false,
-        })
+        // dA(uv) = 2 pi^2 sin(theta) dw.
+        let pdf = pdf_uv / (2.0 * PI * PI * sin_t);
+        let wi = self.to_world * local;
+        Some(LightSample::new(
+            Vec3::ZERO,
+            Vec3::ZERO,
+            wi,
+            f32::INFINITY,
+            self.texel(uv),
+            pdf,
+            false,
+        ))
     }
 
     #[inline]

@@ -17,7 +17,7 @@ pub use point::{DirectionalLight, PointLight};
 pub use selection::LightSampler;
 pub use spot::SpotLight;
 
-use crate::math::{Rgb, Vec2, Vec3, PI};
+use crate::math::{Rgb, Vec2, Vec3, Vec3A, PI};
 
 /// A sphere bounding the scene, for lights at infinity.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,20 +27,61 @@ pub struct SceneSphere {
 }
 
 /// A direct-lighting sample as seen from a reference point.
+///
+/// The vectors are kept in four lanes and read through accessors: integrators copy
+/// the sample on its way out of the light's `match`, and a copy of three-float
+/// fields, read with wider loads than they were written with, stalled on store
+/// forwarding (perf: Cornell box `pt`, gbs_p `bpt`).
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
     /// Point on the light (for lights at infinity, unused: `dist` is infinite).
-    pub p: Vec3,
+    p: Vec3A,
     /// Surface normal at `p` (zero for lights that are not surfaces).
-    pub n: Vec3,
+    n: Vec3A,
     /// Unit direction from the reference point towards the light.
-    pub wi: Vec3,
-    pub dist: f32,
+    wi: Vec3A,
     /// Incident radiance (or intensity / d^2 for point-like lights) along `wi`.
-    pub li: Rgb,
+    li: Vec3A,
+    pub dist: f32,
     /// Solid-angle density of `wi` for this light (1 for delta lights).
     pub pdf: f32,
     pub delta: bool,
+}
+
+impl LightSample {
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(p: Vec3, n: Vec3, wi: Vec3, dist: f32, li: Rgb, pdf: f32, delta: bool) -> Self {
+        LightSample {
+            p: p.into(),
+            n: n.into(),
+            wi: wi.into(),
+            li: li.into(),
+            dist,
+            pdf,
+            delta,
+        }
+    }
+
+    #[inline(always)]
+    pub fn p(&self) -> Vec3 {
+        self.p.into()
+    }
+
+    #[inline(always)]
+    pub fn n(&self) -> Vec3 {
+        self.n.into()
+    }
+
+    #[inline(always)]
+    pub fn wi(&self) -> Vec3 {
+        self.wi.into()
+    }
+
+    #[inline(always)]
+    pub fn li(&self) -> Rgb {
+        self.li.into()
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -65,15 +106,15 @@ impl Light {
             Light::Directional(l) => l.sample_li(),
             Light::Constant { radiance } => {
                 let wi = crate::math::warp::square_to_uniform_sphere(u);
-                Some(LightSample {
-                    p: Vec3::ZERO,
-                    n: Vec3::ZERO,
+                Some(LightSample::new(
+                    Vec3::ZERO,
+                    Vec3::ZERO,
                     wi,
-                    dist: f32::INFINITY,
-                    li: *radiance,
-                    pdf: crate::math::warp::UNIFORM_SPHERE_PDF,
-                    delta: false,
-                })
+                    f32::INFINITY,
+                    *radiance,
+                    crate::math::warp::UNIFORM_SPHERE_PDF,
+                    false,
+                ))
             }
             Light::EnvMap(l) => l.sample_li(u),
         }

@@ -17,15 +17,15 @@ impl PointLight {
             return None;
         }
         let dist = dist2.sqrt();
-        Some(LightSample {
-            p: self.position,
-            n: Vec3::ZERO,
-            wi: d / dist,
+        Some(LightSample::new(
+            self.position,
+            Vec3::ZERO,
+            d / dist,
             dist,
-            li: self.intensity / dist2,
-            pdf: 1.0,
-            delta: true,
-        })
+            self.intensity / dist2,
+            1.0,
+            true,
+        ))
     }
 }
 
@@ -39,14 +39,14 @@ pub struct DirectionalLight {
 impl DirectionalLight {
     #[inline]
     pub fn sample_li(&self) -> Option<LightSample> {
-        Some(LightSample {
-            p: Vec3::ZERO,
-            n: Vec3::ZERO,
-            wi: -self.direction,
-            dist: f32::INFINITY,
-            li: self.irradiance,
-            pdf: 1.0,
-            delta: true,
-        })
+        Some(LightSample::new(
+            Vec3::ZERO,
+            Vec3::ZERO,
+            -self.direction,
+            f32::INFINITY,
+            self.irradiance,
+            1.0,
+            true,
+        ))
     }
 }

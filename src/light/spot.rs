@@ -56,15 +56,15 @@ impl SpotLight {
         if f <= 0.0 {
             return None;
         }
-        Some(LightSample {
-            p: self.position,
-            n: Vec3::ZERO,
+        Some(LightSample::new(
+            self.position,
+            Vec3::ZERO,
             wi,
             dist,
-            li: self.intensity * (f / dist2),
-            pdf: 1.0,
-            delta: true,
-        })
+            self.intensity * (f / dist2),
+            1.0,
+            true,
+        ))
     }
 
     /// Exact integral of the falloff over the sphere times I: 2 pi I [ (1 - cos b) +

@@ -1,4 +1,4 @@
-use crate::math::{reflect, Rgb, Vec2, Vec3};
+use crate::math::{reflect, Rgb, Vec2, Vec3, Vec3A};
 
 use super::ggx::Ggx;
 use super::{fresnel, BsdfSample};
@@ -64,8 +64,9 @@ impl Conductor {
         }
         if self.is_smooth() {
             return Some(BsdfSample {
-                wi: Vec3::new(-wo.x, -wo.y, wo.z),
-                weight: fresnel::conductor(wo.z, self.eta, self.k) * self.specular_reflectance,
+                wi: Vec3A::new(-wo.x, -wo.y, wo.z),
+                weight: (fresnel::conductor(wo.z, self.eta, self.k) * self.specular_reflectance)
+                    .into(),
                 pdf: 1.0,
                 delta: true,
             });
@@ -84,8 +85,8 @@ impl Conductor {
         let f = fresnel::conductor(wo.dot(m), self.eta, self.k);
         let weight = f * self.specular_reflectance * (ggx.g2(wo, wi) / ggx.g1(wo));
         Some(BsdfSample {
-            wi,
-            weight,
+            wi: wi.into(),
+            weight: weight.into(),
             pdf,
             delta: false,
         })

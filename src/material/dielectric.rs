@@ -1,4 +1,4 @@
-use crate::math::{Rgb, Vec3};
+use crate::math::{Rgb, Vec3, Vec3A};
 
 use super::{fresnel, BsdfSample, Mode};
 
@@ -17,8 +17,8 @@ impl Dielectric {
         let (r, cos_t, eta_ti) = fresnel::dielectric(wo.z, self.eta);
         if u_lobe < r {
             return Some(BsdfSample {
-                wi: Vec3::new(-wo.x, -wo.y, wo.z),
-                weight: self.specular_reflectance,
+                wi: Vec3A::new(-wo.x, -wo.y, wo.z),
+                weight: self.specular_reflectance.into(),
                 pdf: r,
                 delta: true,
             });
@@ -31,8 +31,8 @@ impl Dielectric {
             Mode::Importance => 1.0,
         };
         Some(BsdfSample {
-            wi,
-            weight: self.specular_transmittance * scale,
+            wi: wi.into(),
+            weight: (self.specular_transmittance * scale).into(),
             pdf: 1.0 - r,
             delta: true,
         })

@@ -27,7 +27,9 @@ impl Diffuse {
         cosine_hemisphere_pdf(wi.z)
     }
 
-    #[inline]
+    // Forced: left out of line, it is compiled for baseline x86 and called from the
+    // AVX2 kernels.
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -37,8 +39,8 @@ impl Diffuse {
             return None;
         }
         Some(BsdfSample {
-            wi,
-            weight: self.reflectance,
+            wi: wi.into(),
+            weight: self.reflectance.into(),
             pdf: cosine_hemisphere_pdf(wi.z),
             delta: false,
         })

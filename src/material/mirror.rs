@@ -1,4 +1,4 @@
-use crate::math::{Rgb, Vec3};
+use crate::math::{Rgb, Vec3, Vec3A};
 
 use super::BsdfSample;
 
@@ -16,8 +16,8 @@ impl Mirror {
             return None;
         }
         Some(BsdfSample {
-            wi: Vec3::new(-wo.x, -wo.y, wo.z),
-            weight: self.reflectance,
+            wi: Vec3A::new(-wo.x, -wo.y, wo.z),
+            weight: self.reflectance.into(),
             pdf: 1.0,
             delta: true,
         })

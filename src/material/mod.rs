@@ -18,7 +18,7 @@ pub use diffuse::Diffuse;
 pub use mirror::Mirror;
 pub use phong::Phong;
 
-use crate::math::{Rgb, Vec2, Vec3};
+use crate::math::{Rgb, Vec2, Vec3, Vec3A};
 
 /// Which quantity flows along the path: radiance (camera paths) or importance (light
 /// paths). Only non-symmetric BSDFs care (refraction scales radiance by 1/eta^2).
@@ -30,10 +30,12 @@ pub enum Mode {
 
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
-    /// Sampled direction, local frame.
-    pub wi: Vec3,
-    /// f |cos theta_i| / pdf.
-    pub weight: Rgb,
+    /// Sampled direction, local frame. Four lanes, so the sample is built and
+    /// read as one vector: as three scalars, the integrators' loads of it stalled on
+    /// store forwarding (perf, Cornell box).
+    pub wi: Vec3A,
+    /// f |cos theta_i| / pdf, in four lanes for the same reason as `wi`.
+    pub weight: Vec3A,
     /// Solid-angle density of `wi` (for delta lobes, the discrete probability of the
     /// chosen lobe, which MIS never compares with a continuous pdf).
     pub pdf: f32,
@@ -115,6 +117,13 @@ impl Material {
                 } else {
                     r
                 }
+            }
+            // Diffuse scatters only between directions on one side, so orienting by
+            // `wo` alone gives all three (both pdfs are zero otherwise). Its own arm
+            // also keeps f out of the memory that `eval`'s match joins through.
+            Material::Diffuse(m) => {
+                let (wo_o, wi_o, _) = orient(m.two_sided, wo, wi);
+                (m.eval(wo_o, wi_o), m.pdf(wo_o, wi_o), m.pdf(wi_o, wo_o))
             }
             _ => (self.eval(wo, wi, mode), self.pdf(wo, wi), self.pdf(wi, wo)),
         }

@@ -112,8 +112,8 @@ impl Phong {
             return None;
         }
         Some(BsdfSample {
-            wi,
-            weight: f / pdf,
+            wi: wi.into(),
+            weight: (f / pdf).into(),
             pdf,
             delta: false,
         })

@@ -206,8 +206,14 @@ impl Scene {
             let visible = shadow.is_none_or(|s| self.visible(s));
             return (self.next_scattering(ray, rays), visible);
         }
-        let none = Ray { tmax: -1.0, ..*ray };
-        let shadow = shadow.unwrap_or(&none);
+        // A constant, not a copy of `ray`: copying the ray just written by the
+        // caller's scalar stores stalled on store forwarding (perf, Cornell box).
+        const NONE: Ray = Ray {
+            o: Vec3::ZERO,
+            d: Vec3::Z,
+            tmax: -1.0,
+        };
+        let shadow = shadow.unwrap_or(&NONE);
         let (hit, occluded) = self.accel.intersect_and_occluded(ray, shadow);
         let surfacing = match hit {
             // Without null boundaries in the tree the first hit scatters.

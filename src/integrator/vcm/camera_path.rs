@@ -228,15 +228,15 @@ fn light_sample<M: Media>(
     let Some(ls) = light.sample_li(v.p(), u) else {
         return none;
     };
-    let Some(e) = v.eval(ls.wi, Mode::Radiance) else {
+    let Some(e) = v.eval(ls.wi(), Mode::Radiance) else {
         return none;
     };
     stats.connections += 1;
     stats.shadow_rays += 1;
     let (ray, medium) = if ls.dist.is_finite() {
-        v.ray_to(pass, walk.medium, ls.p, Vec3::ZERO, Vec3::ZERO)
+        v.ray_to(pass, walk.medium, ls.p(), Vec3::ZERO, Vec3::ZERO)
     } else {
-        v.ray_along(pass, walk.medium, ls.wi)
+        v.ray_along(pass, walk.medium, ls.wi())
     };
     let (tr, tr_mis, untraced) = if M::ON {
         let rays = &mut stats.shadow_rays;
@@ -250,11 +250,11 @@ fn light_sample<M: Media>(
     // SmallVCM's conventions: point-like lights have unit area density, so their
     // solid-angle density is dist^2; lights without a surface have cos 1.
     let (direct, cos_light) = match light {
-        Light::Area(_) => (ls.pdf, ls.n.dot(ls.wi).abs()),
+        Light::Area(_) => (ls.pdf, ls.n().dot(ls.wi()).abs()),
         Light::Point(_) | Light::Spot(_) => (ls.dist * ls.dist, 1.0),
         _ => (ls.pdf, 1.0),
     };
-    let (pos, dir) = light.pdf_le(&scene.sphere, ls.n, -ls.wi);
+    let (pos, dir) = light.pdf_le(&scene.sphere, ls.n(), -ls.wi());
     let cont = v.cont();
     let bsdf_dir = if light.is_delta() {
         0.0
@@ -272,7 +272,7 @@ fn light_sample<M: Media>(
         bsdf_dir,
         e.pdf_rev * cont,
     );
-    (e.f * ls.li * tr * (w / (pick * ls.pdf)), untraced)
+    (e.f * ls.li() * tr * (w / (pick * ls.pdf)), untraced)
 }
 
 /// Connections to the vertices of the light subpath paired with this pixel, through

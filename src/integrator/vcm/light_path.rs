@@ -544,7 +544,7 @@ pub(super) fn scatter(
 ) -> Option<Ray> {
     let u_lobe = rng.next_f32();
     let s = surface.m.sample(surface.wo, u_lobe, rng.next_2d(), mode)?;
-    let wi = surface.frame.to_world(s.wi);
+    let wi = surface.frame.to_world(s.wi.into());
     if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
         return None;
     }
@@ -556,7 +556,7 @@ pub(super) fn scatter(
     let pdf_rev = if s.delta {
         pdf_dir
     } else {
-        surface.m.pdf(s.wi, surface.wo) * cont
+        surface.m.pdf(s.wi.into(), surface.wo) * cont
     };
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
@@ -565,7 +565,7 @@ pub(super) fn scatter(
         .mis
         .on_scatter(walk.q, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta, camera_len);
     walk.specular &= s.delta;
-    walk.throughput *= s.weight / cont;
+    walk.throughput *= Rgb::from(s.weight) / cont;
     if walk.throughput == Rgb::ZERO {
         return None;
     }
