@@ -123,8 +123,8 @@ impl From<&Ray> for TraceRay {
     #[inline(always)]
     fn from(r: &Ray) -> Self {
         TraceRay {
-            o: Vec3A::new(r.o.x, r.o.y, r.o.z),
-            d: Vec3A::new(r.d.x, r.d.y, r.d.z),
+            o: r.o.into(),
+            d: r.d.into(),
             tmax: r.tmax,
         }
     }
