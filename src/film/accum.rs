@@ -279,6 +279,7 @@ impl TileBuffer {
     }
 
     /// Adds a sample at film coordinates (x, y), which must lie in the tile.
+    #[inline(always)]
     pub fn add(&mut self, x: u32, y: u32, v: Rgb) {
         let t = self.tile;
         assert!(

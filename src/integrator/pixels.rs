@@ -3,13 +3,16 @@
 //! the thread count.
 
 use super::{Counters, RenderStats};
-use crate::film::{tiles, Film, TileBuffer};
+use crate::film::{tiles, Film, Tile, TileBuffer};
 use crate::geometry::Ray;
 use crate::math::{Rgb, Rng, Vec2};
 use crate::scene::Scene;
 use rayon::prelude::*;
 
 pub const TILE: u32 = 16;
+/// Camera paths in flight per thread in [`render_paths`]. Three and four measured
+/// the same as two (Cornell box `pt`).
+const LANES: usize = 2;
 
 /// Calls `radiance(ray, rng, stats)` for one jittered camera ray per pixel and adds the
 /// results to `film`.
@@ -48,13 +51,34 @@ pub fn render_pixels_indexed<F>(
 where
     F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
+    render_tiles(
+        scene,
+        film,
+        #[inline(always)]
+        |buf| tile_loop(scene, seed, iteration, buf, &radiance),
+    )
+}
+
+/// Runs `body` over every tile, in parallel, and adds the tiles to `film` in a fixed
+/// order.
+#[inline(always)]
+fn render_tiles<B>(scene: &Scene, film: &mut Film, body: B) -> RenderStats
+where
+    B: Fn(&mut TileBuffer) -> RenderStats + Sync,
+{
     let (w, h) = (scene.width(), scene.height());
     let counters = Counters::default();
     let buffers: Vec<TileBuffer> = tiles(w, h, TILE)
         .into_par_iter()
         .map(|tile| {
             let mut buf = TileBuffer::new(tile);
-            let stats = render_tile(scene, seed, iteration, &mut buf, &radiance);
+            // A closure, not `&body`: the call through a reference is a function of
+            // its own, compiled for baseline x86 outside the AVX2 copy.
+            let stats = render_tile(
+                &mut buf,
+                #[inline(always)]
+                |b| body(b),
+            );
             counters.add(&stats);
             buf
         })
@@ -67,40 +91,29 @@ where
 
 /// One tile, compiled twice: for AVX2 + FMA processors (chosen at run time) and for
 /// baseline x86-64, so one binary runs everywhere and uses wide instructions where
-/// they exist. The integrator's kernel is inlined into both.
-fn render_tile<F>(
-    scene: &Scene,
-    seed: u64,
-    iteration: u64,
-    buf: &mut TileBuffer,
-    radiance: &F,
-) -> RenderStats
+/// they exist. The tile loop `body`, and the integrator's kernel inside it, are inlined
+/// into both.
+fn render_tile<B>(buf: &mut TileBuffer, body: B) -> RenderStats
 where
-    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    B: Fn(&mut TileBuffer) -> RenderStats,
 {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
             // SAFETY: the features were detected on this processor just above.
-            return unsafe { render_tile_avx2(scene, seed, iteration, buf, radiance) };
+            return unsafe { render_tile_avx2(buf, body) };
         }
     }
-    tile_loop(scene, seed, iteration, buf, radiance)
+    body(buf)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-unsafe fn render_tile_avx2<F>(
-    scene: &Scene,
-    seed: u64,
-    iteration: u64,
-    buf: &mut TileBuffer,
-    radiance: &F,
-) -> RenderStats
+unsafe fn render_tile_avx2<B>(buf: &mut TileBuffer, body: B) -> RenderStats
 where
-    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    B: Fn(&mut TileBuffer) -> RenderStats,
 {
-    tile_loop(scene, seed, iteration, buf, radiance)
+    body(buf)
 }
 
 #[inline(always)]
@@ -120,13 +133,142 @@ where
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let index = y as u64 * w + x as u64;
-            let mut rng = Rng::new(seed, iteration, index);
-            let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
-            let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
-            stats.samples += 1;
-            stats.rays += 1;
+            let (ray, mut rng) = camera_sample(scene, seed, iteration, index, x, y, &mut stats);
             buf.add(x, y, radiance(index, ray, &mut rng, &mut stats));
         }
     }
     stats
+}
+
+/// Pixel (x, y)'s jittered camera ray and the RNG stream that continues its path.
+#[inline(always)]
+fn camera_sample(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    index: u64,
+    x: u32,
+    y: u32,
+    stats: &mut RenderStats,
+) -> (Ray, Rng) {
+    let mut rng = Rng::new(seed, iteration, index);
+    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+    let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
+    stats.samples += 1;
+    stats.rays += 1;
+    (ray, rng)
+}
+
+/// An integrator whose camera paths advance one traced segment at a time, so that
+/// [`render_paths`] can keep two paths in flight per thread.
+pub trait PathKernel: Sync {
+    type Path;
+    /// A path starting along a camera ray.
+    fn start(&self, ray: Ray) -> Self::Path;
+    /// Traces the path's next segment and scatters where it lands: the path's
+    /// radiance when it has ended.
+    fn advance(&self, path: &mut Self::Path, rng: &mut Rng, stats: &mut RenderStats)
+        -> Option<Rgb>;
+}
+
+/// Like [`render_pixels`], with two camera paths in flight per thread, advanced a
+/// segment each in turn. One path is a single chain of dependent work (a hit decides
+/// the next ray, whose traversal decides the next hit), and the processor sat idle
+/// waiting on it; the segments of two paths are independent, so it overlaps them.
+/// Each pixel keeps its own RNG stream, so the image is that of one path at a time.
+pub fn render_paths<K: PathKernel>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    film: &mut Film,
+    kernel: &K,
+) -> RenderStats {
+    render_tiles(
+        scene,
+        film,
+        #[inline(always)]
+        |buf| two_path_loop(scene, seed, iteration, buf, kernel),
+    )
+}
+
+/// The pixels of a tile still to start, in row-major order.
+struct Pixels {
+    seed: u64,
+    iteration: u64,
+    tile: Tile,
+    /// The film's width.
+    w: u64,
+    next: u32,
+}
+
+impl Pixels {
+    /// The camera path of the next pixel, if any is left. Forced inline: a closure
+    /// doing this was compiled out of line, for baseline x86 rather than with the tile
+    /// loop's AVX2.
+    #[inline(always)]
+    fn start<K: PathKernel>(
+        &mut self,
+        scene: &Scene,
+        kernel: &K,
+        stats: &mut RenderStats,
+    ) -> Option<Lane<K::Path>> {
+        let t = self.tile;
+        if self.next as usize == t.area() {
+            return None;
+        }
+        let (x, y) = (t.x0 + self.next % t.width(), t.y0 + self.next / t.width());
+        self.next += 1;
+        let index = y as u64 * self.w + x as u64;
+        let (ray, rng) = camera_sample(scene, self.seed, self.iteration, index, x, y, stats);
+        Some(Lane {
+            x,
+            y,
+            rng,
+            path: kernel.start(ray),
+        })
+    }
+}
+
+/// A pixel's path in flight.
+struct Lane<P> {
+    x: u32,
+    y: u32,
+    rng: Rng,
+    path: P,
+}
+
+#[inline(always)]
+fn two_path_loop<K: PathKernel>(
+    scene: &Scene,
+    seed: u64,
+    iteration: u64,
+    buf: &mut TileBuffer,
+    kernel: &K,
+) -> RenderStats {
+    let mut stats = RenderStats::default();
+    let mut pixels = Pixels {
+        seed,
+        iteration,
+        tile: buf.tile,
+        w: scene.width() as u64,
+        next: 0,
+    };
+    let mut lanes: [Option<Lane<K::Path>>; LANES] = std::array::from_fn(|_| None);
+    for lane in &mut lanes {
+        *lane = pixels.start(scene, kernel, &mut stats);
+    }
+    loop {
+        let mut busy = false;
+        for lane in &mut lanes {
+            let Some(l) = lane else { continue };
+            busy = true;
+            if let Some(v) = kernel.advance(&mut l.path, &mut l.rng, &mut stats) {
+                buf.add(l.x, l.y, v);
+                *lane = pixels.start(scene, kernel, &mut stats);
+            }
+        }
+        if !busy {
+            return stats;
+        }
+    }
 }

@@ -2,7 +2,7 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
-use super::pixels::render_pixels;
+use super::pixels::{render_paths, PathKernel};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
@@ -220,93 +220,134 @@ impl PathTracer {
             _ => Rgb::ZERO,
         }
     }
+}
 
-    /// Radiance along one camera ray.
-    ///
+/// A camera path in flight: what carries over from one traced segment to the next.
+pub struct Path {
+    ray: Ray,
+    /// The last vertex's shadow ray, traced together with `ray`.
+    shadow: Option<Shadow>,
+    l: Rgb,
+    beta: Rgb,
+    /// Towards the previous vertex (the ray's origin), for emission's MIS weight.
+    prev_p: Vec3,
+    /// Density of the BSDF sample that chose `ray`, survival included.
+    pdf_bsdf: f32,
+    /// Scattering events so far.
+    depth: u32,
+    /// The last event was a delta lobe (or the camera).
+    specular: bool,
+}
+
+/// The path tracer bound to a scene, as [`render_paths`] drives it.
+struct Walk<'a> {
+    t: &'a PathTracer,
+    scene: &'a Scene,
+}
+
+impl PathKernel for Walk<'_> {
+    type Path = Path;
+
+    #[inline(always)]
+    fn start(&self, ray: Ray) -> Path {
+        Path {
+            prev_p: ray.o,
+            ray,
+            shadow: None,
+            l: Rgb::ZERO,
+            beta: Rgb::ONE,
+            pdf_bsdf: 0.0,
+            depth: 0,
+            specular: true,
+        }
+    }
+
     /// A vertex's shadow ray is traced together with the ray that continues the path
     /// (`Scene::next_scattering_and_visible`): the two traversals overlap.
     #[inline(always)]
-    fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
-        let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut depth = 0u32; // scattering events so far
-        let mut specular = true; // the last event was a delta lobe (or the camera)
-        let mut pdf_bsdf = 0.0f32;
-        let mut prev_p = ray.o;
-        let mut shadow: Option<Shadow> = None;
-        loop {
-            let to_light = shadow.as_ref().map(|s| &s.ray);
-            let (surfacing, visible) =
-                scene.next_scattering_and_visible(&mut ray, to_light, &mut stats.rays);
-            if let Some(s) = shadow.take() {
-                if visible {
-                    l += self.unblocked(&s);
-                }
+    fn advance(&self, p: &mut Path, rng: &mut Rng, stats: &mut RenderStats) -> Option<Rgb> {
+        let scene = self.scene;
+        let to_light = p.shadow.as_ref().map(|s| &s.ray);
+        let (surfacing, visible) =
+            scene.next_scattering_and_visible(&mut p.ray, to_light, &mut stats.rays);
+        if let Some(s) = p.shadow.take() {
+            if visible {
+                p.l += self.t.unblocked(&s);
             }
-            let (it, m) = match surfacing {
-                Surfacing::Hit(it, m) => (it, m),
-                Surfacing::Escaped => {
-                    l += beta * escaped(scene, ray.d, specular, pdf_bsdf, self.s.heuristic);
-                    break;
-                }
-                Surfacing::Lost => break,
+        }
+        let (it, m) = match surfacing {
+            Surfacing::Hit(it, m) => (it, m),
+            Surfacing::Escaped => {
+                let le = escaped(scene, p.ray.d, p.specular, p.pdf_bsdf, self.t.s.heuristic);
+                return Some(p.l + p.beta * le);
+            }
+            Surfacing::Lost => return Some(p.l),
+        };
+        p.l += p.beta
+            * emitted(
+                scene,
+                &it,
+                p.ray.d,
+                p.prev_p,
+                p.specular,
+                p.pdf_bsdf,
+                self.t.s.heuristic,
+            );
+        if p.depth + 1 >= self.t.s.max_depth {
+            return Some(p.l);
+        }
+        let frame = Frame::from_normal(it.ns);
+        let wo = frame.to_local(-p.ray.d);
+        let survival = self.t.albedo_survival(m, p.depth + 1);
+        let mut shadow = None;
+        if !m.is_delta() && !scene.lights.is_empty() {
+            let v = Vertex {
+                it: &it,
+                frame: &frame,
+                wo,
+                m,
             };
-            l += beta
-                * emitted(
-                    scene,
-                    &it,
-                    ray.d,
-                    prev_p,
-                    specular,
-                    pdf_bsdf,
-                    self.s.heuristic,
-                );
-            if depth + 1 >= self.s.max_depth {
-                break;
-            }
-            let frame = Frame::from_normal(it.ns);
-            let wo = frame.to_local(-ray.d);
-            let survival = self.albedo_survival(m, depth + 1);
-            if !m.is_delta() && !scene.lights.is_empty() {
-                let v = Vertex {
-                    it: &it,
-                    frame: &frame,
-                    wo,
-                    m,
-                };
-                shadow = self.direct(scene, v, beta, survival, rng, stats);
-            }
+            shadow = self.t.direct(scene, v, p.beta, survival, rng, stats);
+        }
+        let scattered = 'scatter: {
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
-                break;
+                break 'scatter false;
             };
             let wi = frame.to_world(s.wi.into());
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-                break;
+                break 'scatter false;
             }
-            beta *= Rgb::from(s.weight);
-            specular = s.delta;
-            pdf_bsdf = s.pdf * survival;
-            prev_p = it.p;
-            depth += 1;
-            let q = match self.s.roulette {
-                Roulette::Throughput if depth >= self.s.rr_depth => max_component(beta).min(0.95),
+            p.beta *= Rgb::from(s.weight);
+            p.specular = s.delta;
+            p.pdf_bsdf = s.pdf * survival;
+            p.prev_p = it.p;
+            p.depth += 1;
+            let q = match self.t.s.roulette {
+                Roulette::Throughput if p.depth >= self.t.s.rr_depth => {
+                    max_component(p.beta).min(0.95)
+                }
                 _ => survival,
             };
             if q < 1.0 {
                 if rng.next_f32() >= q {
-                    break;
+                    break 'scatter false;
                 }
-                beta /= q;
+                p.beta /= q;
             }
-            if beta == Rgb::ZERO {
-                break;
+            if p.beta == Rgb::ZERO {
+                break 'scatter false;
             }
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            stats.rays += 1;
+            p.ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+            true
+        };
+        if !scattered {
+            // A path that ends at a vertex with a shadow ray traces it alone.
+            return Some(p.l + self.t.resolve(scene, shadow));
         }
-        // A path that ends at a vertex with a shadow ray traces it alone.
-        l + self.resolve(scene, shadow)
+        stats.rays += 1;
+        p.shadow = shadow;
+        None
     }
 }
 
@@ -342,13 +383,6 @@ impl Integrator for PathTracer {
         }
         // Inlined into render_pixels' per-processor copies of the tile loop, so that the
         // whole kernel, not just the loop around it, is compiled with AVX2 and FMA.
-        render_pixels(
-            scene,
-            seed,
-            iteration,
-            film,
-            #[inline(always)]
-            |ray, rng, stats| self.li(scene, ray, rng, stats),
-        )
+        render_paths(scene, seed, iteration, film, &Walk { t: self, scene })
     }
 }
