@@ -26,31 +26,6 @@ pub fn render_pixels<F>(
 where
     F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
-    // Inlined like the kernel itself: without it this wrapper is a function of its own,
-    // compiled for the baseline target and called per pixel, and the kernel inside it
-    // never gets the AVX2 copy of the tile loop.
-    render_pixels_indexed(
-        scene,
-        seed,
-        iteration,
-        film,
-        #[inline(always)]
-        |_, ray, rng, stats| radiance(ray, rng, stats),
-    )
-}
-
-/// Like [`render_pixels`], also passing the row-major pixel index (bidirectional
-/// methods pair each camera path with the light path of the same index).
-pub fn render_pixels_indexed<F>(
-    scene: &Scene,
-    seed: u64,
-    iteration: u64,
-    film: &mut Film,
-    radiance: F,
-) -> RenderStats
-where
-    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
-{
     render_tiles(
         scene,
         film,
@@ -125,7 +100,7 @@ fn tile_loop<F>(
     radiance: &F,
 ) -> RenderStats
 where
-    F: Fn(u64, Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
+    F: Fn(Ray, &mut Rng, &mut RenderStats) -> Rgb + Sync,
 {
     let w = scene.width() as u64;
     let tile = buf.tile;
@@ -134,7 +109,7 @@ where
         for x in tile.x0..tile.x1 {
             let index = y as u64 * w + x as u64;
             let (ray, mut rng) = camera_sample(scene, seed, iteration, index, x, y, &mut stats);
-            buf.add(x, y, radiance(index, ray, &mut rng, &mut stats));
+            buf.add(x, y, radiance(ray, &mut rng, &mut stats));
         }
     }
     stats
@@ -163,8 +138,8 @@ fn camera_sample(
 /// [`render_paths`] can keep two paths in flight per thread.
 pub trait PathKernel: Sync {
     type Path;
-    /// A path starting along a camera ray.
-    fn start(&self, ray: Ray) -> Self::Path;
+    /// The path of pixel `index` (row-major), starting along a camera ray.
+    fn start(&self, index: u64, ray: Ray) -> Self::Path;
     /// Traces the path's next segment and scatters where it lands: the path's
     /// radiance when it has ended.
     fn advance(&self, path: &mut Self::Path, rng: &mut Rng, stats: &mut RenderStats)
@@ -224,7 +199,7 @@ impl Pixels {
             x,
             y,
             rng,
-            path: kernel.start(ray),
+            path: kernel.start(index, ray),
         })
     }
 }

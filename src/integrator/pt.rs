@@ -249,7 +249,7 @@ impl PathKernel for Walk<'_> {
     type Path = Path;
 
     #[inline(always)]
-    fn start(&self, ray: Ray) -> Path {
+    fn start(&self, _: u64, ray: Ray) -> Path {
         Path {
             prev_p: ray.o,
             ray,

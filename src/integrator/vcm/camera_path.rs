@@ -3,66 +3,109 @@
 
 use super::light_path::{Surface, Walk, MIN_COS};
 use super::media::{next_event, next_event_with, shadow, Event};
-use super::vertex::{Media, NoMedia, Vertex, WithMedia};
+use super::vertex::{Media, Vertex};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
+use crate::integrator::pixels::PathKernel;
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
 use crate::math::{Rgb, Rng, Vec3};
+use std::marker::PhantomData;
+use std::sync::atomic::{AtomicU32, Ordering};
 
-/// Radiance along one camera ray of pixel `pixel`.
-#[inline(always)]
-pub(super) fn radiance(
-    pass: &Pass,
-    ws: &Workspace,
+/// The camera pass of one iteration, as [`render_paths`] drives it: `M` says whether
+/// the scene has media (decided once per pass).
+pub(super) struct CameraPass<'a, M> {
+    pub pass: &'a Pass<'a>,
+    pub ws: &'a Workspace,
+    /// Per pixel, its `layers` values (three f32 bit patterns each, zero at the start
+    /// of the pass); each pixel's slots are touched only by that pixel's one path.
+    pub side: &'a [AtomicU32],
+    pub layers: usize,
+    pub media: PhantomData<M>,
+}
+
+/// A camera subpath in flight.
+pub(super) struct CameraPath {
     pixel: usize,
     ray: Ray,
-    rng: &mut Rng,
-    stats: &mut RenderStats,
-    layers: &mut [Rgb],
-) -> Rgb {
-    if pass.scene.has_media {
-        radiance_in::<WithMedia>(pass, ws, pixel, ray, rng, stats, layers)
-    } else {
-        radiance_in::<NoMedia>(pass, ws, pixel, ray, rng, stats, layers)
+    walk: Walk,
+    l: Rgb,
+    /// The last vertex's light sample, whose shadow ray (without media) is traced
+    /// together with the ray that continues the path.
+    pending: Option<(Ray, Rgb)>,
+}
+
+impl<M: Media + Sync> PathKernel for CameraPass<'_, M> {
+    type Path = CameraPath;
+
+    #[inline(always)]
+    fn start(&self, index: u64, ray: Ray) -> CameraPath {
+        let scene = self.pass.scene;
+        CameraPath {
+            pixel: index as usize,
+            walk: Walk {
+                origin: ray.o,
+                throughput: Rgb::ONE,
+                len: 1,
+                q: self.pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
+                specular: true,
+                medium: if M::ON { scene.camera_medium } else { None },
+            },
+            ray,
+            l: Rgb::ZERO,
+            pending: None,
+        }
+    }
+
+    #[inline(always)]
+    fn advance(&self, p: &mut CameraPath, rng: &mut Rng, stats: &mut RenderStats) -> Option<Rgb> {
+        if self.step(p, rng, stats) {
+            return None;
+        }
+        // A path that ends at a vertex with a light sample traces its shadow ray alone.
+        if let Some((shadow, e)) = p.pending.take() {
+            if self.pass.scene.visible(&shadow) {
+                let layer = self.pass.layers.connection(1, p.walk.len + 1);
+                record(self.slots(p.pixel), layer, e);
+                p.l += e;
+            }
+        }
+        Some(p.l)
     }
 }
 
-/// [`radiance`], compiled with and without media (`M`, decided once per path).
-#[inline(always)]
-fn radiance_in<M: Media>(
-    pass: &Pass,
-    ws: &Workspace,
-    pixel: usize,
-    mut ray: Ray,
-    rng: &mut Rng,
-    stats: &mut RenderStats,
-    layers: &mut [Rgb],
-) -> Rgb {
-    let scene = pass.scene;
-    let mut walk = Walk {
-        origin: ray.o,
-        throughput: Rgb::ONE,
-        len: 1,
-        q: pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
-        specular: true,
-        medium: if M::ON { scene.camera_medium } else { None },
-    };
-    let mut l = Rgb::ZERO;
-    // The last vertex's light sample, whose shadow ray (without media) is traced
-    // together with the ray that continues the path.
-    let mut pending: Option<(Ray, Rgb)> = None;
-    let light_layer = |len: u32| pass.layers.connection(1, len + 1);
-    loop {
+impl<M: Media> CameraPass<'_, M> {
+    /// Pixel `pixel`'s layer slots.
+    #[inline(always)]
+    fn slots(&self, pixel: usize) -> &[AtomicU32] {
+        let n = 3 * self.layers;
+        &self.side[pixel * n..(pixel + 1) * n]
+    }
+
+    /// One traced segment and what its vertex contributes; false when the path ends.
+    #[inline(always)]
+    fn step(&self, p: &mut CameraPath, rng: &mut Rng, stats: &mut RenderStats) -> bool {
+        let (pass, ws) = (self.pass, self.ws);
+        let scene = pass.scene;
+        let CameraPath {
+            pixel,
+            ray,
+            walk,
+            l,
+            pending,
+        } = p;
+        let layers = self.slots(*pixel);
+        let light_layer = |len: u32| pass.layers.connection(1, len + 1);
         let (event, tr) = if M::ON {
-            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut stats.rays)
+            next_event::<M>(scene, ray, walk, rng, &mut stats.rays)
         } else {
             let shadow = pending.as_ref().map(|p| &p.0);
-            let (event, visible) = next_event_with(scene, &mut ray, shadow, &mut stats.rays);
+            let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays);
             if let Some((_, e)) = pending.take().filter(|_| visible) {
                 record(layers, light_layer(walk.len - 1), e);
-                l += e;
+                *l += e;
             }
             (event, 1.0)
         };
@@ -75,69 +118,66 @@ fn radiance_in<M: Media>(
                     // infinity; there is no distance and no cosine (mis.rs).
                     walk.q = pass.mis.on_hit(walk.q, 1.0 / tr, 1.0);
                 }
-                let v = walk.throughput * escaped(pass, &walk, ray.d);
+                let v = walk.throughput * escaped(pass, walk, ray.d);
                 record(layers, pass.layers.connection(0, walk.len + 1), v);
-                l += v;
-                break;
+                *l += v;
+                return false;
             }
-            Event::End => break,
+            Event::End => return false,
         };
         let Some(v) = v else {
-            break;
+            return false;
         };
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
         if let Vertex::Surface { it, .. } = &v {
-            let e = walk.throughput * emitter_hit(pass, &walk, it, ray.d, dist2);
+            let e = walk.throughput * emitter_hit(pass, walk, it, ray.d, dist2);
             record(layers, pass.layers.connection(0, walk.len + 1), e);
-            l += e;
+            *l += e;
         }
         if walk.len >= pass.s.max_depth {
-            break;
+            return false;
         }
         if !v.skips_connections() {
             if pass.technique.connects() {
-                let (e, shadow) = light_sample(pass, &walk, &v, rng, stats);
+                let (e, shadow) = light_sample(pass, walk, &v, rng, stats);
                 let e = walk.throughput * e;
                 match shadow {
-                    Some(ray) => pending = Some((ray, e)),
+                    Some(ray) => *pending = Some((ray, e)),
                     None => {
                         record(layers, light_layer(walk.len), e);
-                        l += e;
+                        *l += e;
                     }
                 }
-                l += connect(pass, ws, pixel, &walk, &v, rng, stats, layers);
+                *l += connect(pass, ws, *pixel, walk, &v, rng, stats, layers);
             }
             // Merging is not offered in media (Settings::check_scene): surfaces only.
             if let Vertex::Surface { it, s: surface, .. } = &v {
                 if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
-                    let e = walk.throughput * merge(pass, ws, &walk, it, surface, stats);
+                    let e = walk.throughput * merge(pass, ws, walk, it, surface, stats);
                     record(layers, pass.layers.merge(), e);
-                    l += e;
+                    *l += e;
                 }
             }
         }
         let len = walk.len;
-        let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Radiance, Some(len)) else {
-            break;
+        let Some(next) = v.scatter(pass, rng, walk, Mode::Radiance, Some(len)) else {
+            return false;
         };
-        ray = next;
+        *ray = next;
         stats.rays += 1;
+        true
     }
-    // A path that ends at a vertex with a light sample traces its shadow ray alone.
-    if let Some((shadow, e)) = pending {
-        if scene.visible(&shadow) {
-            record(layers, light_layer(walk.len), e);
-            l += e;
-        }
-    }
-    l
 }
 
 #[inline(always)]
-fn record(layers: &mut [Rgb], layer: Option<usize>, v: Rgb) {
-    if let Some(l) = layer.and_then(|i| layers.get_mut(i)) {
-        *l += v;
+fn record(layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
+    let Some(slot) = layer.and_then(|i| layers.get(3 * i..3 * i + 3)) else {
+        return;
+    };
+    for (c, a) in slot.iter().enumerate() {
+        let sum = f32::from_bits(a.load(Ordering::Relaxed)) + v[c];
+        a.store(sum.to_bits(), Ordering::Relaxed);
     }
 }
 
@@ -287,7 +327,7 @@ fn connect<M: Media>(
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
-    layers: &mut [Rgb],
+    layers: &[AtomicU32],
 ) -> Rgb {
     let scene = pass.scene;
     if ws.paths == 0 {

@@ -21,18 +21,21 @@ pub mod mis;
 mod vertex;
 
 use super::hashgrid::HashGrid;
-use super::pixels::render_pixels_indexed;
+use super::pixels::render_paths;
 use super::pt::Heuristic;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::material::Material;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
+use camera_path::CameraPass;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::Mis;
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
+use vertex::{NoMedia, WithMedia};
 
 /// Which techniques an iteration uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -333,35 +336,26 @@ impl Integrator for Vcm {
             .map(|_| AtomicU32::new(0))
             .collect();
         if pass.technique != Technique::Lt {
-            let ws = &*ws;
-            // Inlined (like pt's kernel) so that the camera pass is compiled into the
-            // AVX2 copy of the tile loop rather than called as baseline-x86 code.
-            stats += render_pixels_indexed(
-                scene,
-                seed,
-                iteration,
-                film,
-                #[inline(always)]
-                |index, ray, rng, st| {
-                    let mut acc = [Rgb::ZERO; MAX_LAYERS];
-                    let l = camera_path::radiance(
-                        &pass,
-                        ws,
-                        index as usize,
-                        ray,
-                        rng,
-                        st,
-                        &mut acc[..k],
-                    );
-                    for (j, v) in acc[..k].iter().enumerate() {
-                        let base = (index as usize * k + j) * 3;
-                        for c in 0..3 {
-                            side[base + c].store(v[c].to_bits(), Ordering::Relaxed);
-                        }
-                    }
-                    l
-                },
-            );
+            let (ws, side) = (&*ws, &side[..]);
+            stats += if scene.has_media {
+                let kernel = CameraPass::<WithMedia> {
+                    pass: &pass,
+                    ws,
+                    side,
+                    layers: k,
+                    media: PhantomData,
+                };
+                render_paths(scene, seed, iteration, film, &kernel)
+            } else {
+                let kernel = CameraPass::<NoMedia> {
+                    pass: &pass,
+                    ws,
+                    side,
+                    layers: k,
+                    media: PhantomData,
+                };
+                render_paths(scene, seed, iteration, film, &kernel)
+            };
         }
         for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
             for (j, &id) in ids.iter().enumerate() {
@@ -386,9 +380,6 @@ impl Integrator for Vcm {
         stats
     }
 }
-
-/// Most layers a pass can have (strategies for lengths 1..=MAX_STRATEGY_LENGTH).
-const MAX_LAYERS: usize = ((MAX_STRATEGY_LENGTH * (MAX_STRATEGY_LENGTH + 3)) / 2) as usize;
 
 /// A light-tracing contribution: (pixel, value, layer or u16::MAX).
 pub(crate) type Splat = (u32, Rgb, u16);
