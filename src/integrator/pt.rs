@@ -240,12 +240,12 @@ pub struct Path {
 }
 
 /// The path tracer bound to a scene, as [`render_paths`] drives it.
-struct Walk<'a> {
+struct PtPass<'a> {
     t: &'a PathTracer,
     scene: &'a Scene,
 }
 
-impl PathKernel for Walk<'_> {
+impl PathKernel for PtPass<'_> {
     type Path = Path;
 
     #[inline(always)]
@@ -381,8 +381,8 @@ impl Integrator for PathTracer {
             });
             return v.iterate(scene, seed, iteration, film);
         }
-        // Inlined into render_pixels' per-processor copies of the tile loop, so that the
+        // Inlined into render_paths' per-processor copies of the tile loop, so that the
         // whole kernel, not just the loop around it, is compiled with AVX2 and FMA.
-        render_paths(scene, seed, iteration, film, &Walk { t: self, scene })
+        render_paths(scene, seed, iteration, film, &PtPass { t: self, scene })
     }
 }
