@@ -176,7 +176,9 @@ impl PathTracer {
         if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) {
             return None;
         }
-        let f = m.eval(wo, wi, Mode::Radiance);
+        // With the pdf: `eval_pdfs` shares the orientation and the material's dispatch
+        // (the reverse pdf is unused, and compiled away).
+        let (f, pdf_bsdf, _) = m.eval_pdfs(wo, wi, Mode::Radiance);
         if f == Rgb::ZERO {
             return None;
         }
@@ -186,11 +188,7 @@ impl PathTracer {
             spawn_ray(it.p, it.p_err, it.ng, ls.wi())
         };
         stats.shadow_rays += 1;
-        let pdf_bsdf = if ls.delta {
-            0.0
-        } else {
-            m.pdf(wo, wi) * survival
-        };
+        let pdf_bsdf = if ls.delta { 0.0 } else { pdf_bsdf * survival };
         Some(Shadow {
             ray,
             fl: f * ls.li(),
