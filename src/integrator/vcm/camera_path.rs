@@ -103,10 +103,12 @@ impl<M: Media> CameraPass<'_, M> {
         } else {
             let shadow = pending.as_ref().map(|p| &p.0);
             let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays);
-            if let Some((_, e)) = pending.take().filter(|_| visible) {
+            // Read in place, then cleared: `take` copied the whole pending sample.
+            if let Some(&(_, e)) = pending.as_ref().filter(|_| visible) {
                 record(layers, light_layer(walk.len - 1), e);
                 *l += e;
             }
+            *pending = None;
             (event, 1.0)
         };
         let v = match event {
