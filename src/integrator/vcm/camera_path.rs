@@ -17,13 +17,30 @@ use std::sync::atomic::{AtomicU32, Ordering};
 /// The camera pass of one iteration, as [`render_paths`] drives it: `M` says whether
 /// the scene has media (decided once per pass).
 pub(super) struct CameraPass<'a, M> {
-    pub pass: &'a Pass<'a>,
-    pub ws: &'a Workspace,
+    pass: &'a Pass<'a>,
+    ws: &'a Workspace,
     /// Per pixel, its `layers` values (three f32 bit patterns each, zero at the start
     /// of the pass); each pixel's slots are touched only by that pixel's one path.
-    pub side: &'a [AtomicU32],
-    pub layers: usize,
-    pub media: PhantomData<M>,
+    side: &'a [AtomicU32],
+    layers: usize,
+    media: PhantomData<M>,
+}
+
+impl<'a, M> CameraPass<'a, M> {
+    pub fn new(
+        pass: &'a Pass<'a>,
+        ws: &'a Workspace,
+        side: &'a [AtomicU32],
+        layers: usize,
+    ) -> Self {
+        CameraPass {
+            pass,
+            ws,
+            side,
+            layers,
+            media: PhantomData,
+        }
+    }
 }
 
 /// A camera subpath in flight.

@@ -32,7 +32,6 @@ use camera_path::CameraPass;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::Mis;
 use serde::{Deserialize, Serialize};
-use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 use vertex::{NoMedia, WithMedia};
@@ -338,22 +337,10 @@ impl Integrator for Vcm {
         if pass.technique != Technique::Lt {
             let (ws, side) = (&*ws, &side[..]);
             stats += if scene.has_media {
-                let kernel = CameraPass::<WithMedia> {
-                    pass: &pass,
-                    ws,
-                    side,
-                    layers: k,
-                    media: PhantomData,
-                };
+                let kernel = CameraPass::<WithMedia>::new(&pass, ws, side, k);
                 render_paths(scene, seed, iteration, film, &kernel)
             } else {
-                let kernel = CameraPass::<NoMedia> {
-                    pass: &pass,
-                    ws,
-                    side,
-                    layers: k,
-                    media: PhantomData,
-                };
+                let kernel = CameraPass::<NoMedia>::new(&pass, ws, side, k);
                 render_paths(scene, seed, iteration, film, &kernel)
             };
         }
