@@ -14,7 +14,8 @@ use crate::math::{Rgb, Rng, Vec3};
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 
-/// The camera pass of one iteration, as [`render_paths`] drives it: `M` says whether
+/// The camera pass of one iteration, as
+/// [`render_paths`](crate::integrator::pixels::render_paths) drives it: `M` says whether
 /// the scene has media (decided once per pass).
 pub(super) struct CameraPass<'a, M> {
     pass: &'a Pass<'a>,
