@@ -412,13 +412,14 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
         let (event, tr) = if M::ON {
             next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays)
         } else {
-            let pending = lens.take();
-            let shadow = pending.as_ref().map(|l| &l.ray);
+            // Read in place, then cleared: `take` copied the whole lens connection.
+            let shadow = lens.as_ref().map(|l| &l.ray);
             let rays = &mut chunk.stats.rays;
             let (event, visible) = next_event_with(scene, &mut ray, shadow, rays);
-            if let Some(l) = pending.filter(|_| visible) {
+            if let Some(l) = lens.as_ref().filter(|_| visible) {
                 push_splat(pass, chunk, l.raster, l.value, l.layer);
             }
+            lens = None;
             (event, 1.0)
         };
         let v = match event {
@@ -426,7 +427,8 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
             Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
             Event::Escaped | Event::End => break,
         };
-        let Some(v) = v else {
+        // By reference, as in the camera pass: moving it out copied the vertex.
+        let Some(v) = &v else {
             break;
         };
         let dist2 = (v.p() - walk.origin).length_squared();
@@ -445,10 +447,10 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
             if store && chunk.vertices.len() >= budget {
                 chunk.over_budget = true;
             } else if store {
-                chunk.vertices.push(stored(&v, &walk, ray.d, scene));
+                chunk.vertices.push(stored(v, &walk, ray.d, scene));
             }
             if to_camera {
-                lens = connect_to_camera(pass, rng, chunk, &walk, &v);
+                lens = connect_to_camera(pass, rng, chunk, &walk, v);
             }
         }
         if walk.len + 2 > pass.s.max_depth {
