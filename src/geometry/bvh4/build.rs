@@ -90,6 +90,12 @@ pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
             expand(bvh, &plans, l, j, &mut items);
             expand(bvh, &plans, r, 4 - j, &mut items);
         }
+        // Shadow rays visit children in slot order and stop at the first hit: solid
+        // objects first, where a blocked ray is most likely to stop early.
+        items.sort_by_key(|&(i, how)| {
+            let p = &plans[i];
+            !(how == Choice::Leaf && p.tris == 0 && p.spheres == p.others)
+        });
         let mut node = EMPTY_NODE;
         for (slot, &(i, how)) in items.iter().enumerate() {
             let r = if how == Choice::Leaf {
