@@ -299,55 +299,62 @@ impl PathKernel for PtPass<'_> {
         let frame = Frame::from_normal(it.ns);
         let wo = frame.to_local(-p.ray.d);
         let survival = self.t.albedo_survival(m, p.depth + 1);
+        let v = Vertex {
+            it: &it,
+            frame: &frame,
+            wo,
+            m,
+        };
         p.shadow = if !m.is_delta() && !scene.lights.is_empty() {
-            let v = Vertex {
-                it: &it,
-                frame: &frame,
-                wo,
-                m,
-            };
             self.t.direct(scene, v, p.beta, survival, rng, stats)
         } else {
             None
         };
-        let scattered = 'scatter: {
-            let u_lobe = rng.next_f32();
-            let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
-                break 'scatter false;
-            };
-            let wi = frame.to_world(s.wi.into());
-            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-                break 'scatter false;
-            }
-            p.beta *= Rgb::from(s.weight);
-            p.specular = s.delta;
-            p.pdf_bsdf = s.pdf * survival;
-            p.prev_p = it.p;
-            p.depth += 1;
-            let q = match self.t.s.roulette {
-                Roulette::Throughput if p.depth >= self.t.s.rr_depth => {
-                    max_component(p.beta).min(0.95)
-                }
-                _ => survival,
-            };
-            if q < 1.0 {
-                if rng.next_f32() >= q {
-                    break 'scatter false;
-                }
-                p.beta /= q;
-            }
-            if p.beta == Rgb::ZERO {
-                break 'scatter false;
-            }
-            p.ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            true
-        };
+        let scattered = self.scatter(p, &v, survival, rng);
         if !scattered {
             // A path that ends at a vertex with a shadow ray traces it alone.
             return Some(p.l + self.t.resolve(scene, p.shadow.as_ref()));
         }
         stats.rays += 1;
         None
+    }
+}
+
+impl PtPass<'_> {
+    /// Samples the BSDF at `v` and moves the path on: false when it ends there (no
+    /// sample, a sample through the geometric surface, Russian roulette, or zero
+    /// throughput).
+    #[inline(always)]
+    fn scatter(&self, p: &mut Path, v: &Vertex, survival: f32, rng: &mut Rng) -> bool {
+        let &Vertex { it, frame, wo, m } = v;
+        let u_lobe = rng.next_f32();
+        let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+            return false;
+        };
+        let wi = frame.to_world(s.wi.into());
+        if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+            return false;
+        }
+        p.beta *= Rgb::from(s.weight);
+        p.specular = s.delta;
+        p.pdf_bsdf = s.pdf * survival;
+        p.prev_p = it.p;
+        p.depth += 1;
+        let q = match self.t.s.roulette {
+            Roulette::Throughput if p.depth >= self.t.s.rr_depth => max_component(p.beta).min(0.95),
+            _ => survival,
+        };
+        if q < 1.0 {
+            if rng.next_f32() >= q {
+                return false;
+            }
+            p.beta /= q;
+        }
+        if p.beta == Rgb::ZERO {
+            return false;
+        }
+        p.ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+        true
     }
 }
 
