@@ -475,6 +475,37 @@ mod tests {
         }
     }
 
+    /// A room like SmallVCM's: five walls and two spheres on the floor. The binary
+    /// builder splits the floor (a flat box) from the other walls, but in one pack it
+    /// costs nothing more, so the leaves of the root join: one pack of walls, one of
+    /// spheres, and nothing tested alone.
+    #[test]
+    fn walls_of_a_room_share_one_pack() {
+        let (x, y, z) = (Vec3A::X * 2.0, Vec3A::Y * 2.0, Vec3A::Z * 2.0);
+        let o = Vec3A::splat(-1.0);
+        let quad = |p0, e1, e2| Prim::Quad { p0, e1, e2 };
+        let prims = vec![
+            quad(o, x, y),
+            quad(o + z, y, x),
+            quad(o, z, x),
+            quad(o, y, z),
+            quad(o + x, z, y),
+            Prim::Sphere {
+                c: Vec3A::new(-0.5, 0.0, -0.5),
+                r: 0.5,
+            },
+            Prim::Sphere {
+                c: Vec3A::new(0.5, 0.0, -0.5),
+                r: 0.5,
+            },
+        ];
+        let accel = build(&prims);
+        assert_eq!(accel.tree.leaf_kinds(), (1, 1, 0));
+        for accel in variants(&prims) {
+            check_many(&accel, &prims, &mut Rng::new(14, 0, 0), 500);
+        }
+    }
+
     #[test]
     fn single_primitive_and_empty_scenes() {
         let mut rng = Rng::new(13, 0, 0);

@@ -482,6 +482,21 @@ impl Bvh4 {
         self.spheres.is_empty()
     }
 
+    /// Leaf references of each kind: (triangle packs, sphere packs, runs tested one
+    /// primitive at a time).
+    #[cfg(test)]
+    pub fn leaf_kinds(&self) -> (usize, usize, usize) {
+        let leaves = self.nodes.iter().flat_map(|n| n.child);
+        let leaves: Vec<u32> = leaves.filter(|&c| c & LEAF != 0 && c != EMPTY).collect();
+        let of = |kind: u32| {
+            leaves
+                .iter()
+                .filter(|&&c| c & (PRIMS | SPHERES) == kind)
+                .count()
+        };
+        (of(0), of(SPHERES), of(PRIMS))
+    }
+
     /// Chooses the baseline kernels even where AVX exists.
     #[cfg(test)]
     pub fn disable_avx(&mut self) {

@@ -83,29 +83,28 @@ pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
         if bvh.nodes[src].is_leaf() {
             // Only the root: a tree of one leaf still gets a node, so that traversal
             // always starts with a slab test.
-            items.push((src, Choice::Leaf));
+            items.push(Item::new(bvh, &plans, src, Choice::Leaf));
         } else {
             let (l, r) = children(bvh, src);
             let j = best_split(&plans, l, r, 4).1 as usize;
             expand(bvh, &plans, l, j, &mut items);
             expand(bvh, &plans, r, 4 - j, &mut items);
         }
+        merge_leaves(&mut items);
         // Shadow rays visit children in slot order and stop at the first hit: solid
         // objects first, where a blocked ray is most likely to stop early.
-        items.sort_by_key(|&(i, how)| {
-            let p = &plans[i];
-            !(how == Choice::Leaf && p.tris == 0 && p.spheres == p.others)
-        });
+        items
+            .sort_by_key(|it| !(it.how == Choice::Leaf && it.tris == 0 && it.spheres == it.others));
         let mut node = EMPTY_NODE;
-        for (slot, &(i, how)) in items.iter().enumerate() {
-            let r = if how == Choice::Leaf {
-                out.push_leaf(bvh, i, prims, &mut order)
+        for (slot, it) in items.iter().enumerate() {
+            let r = if it.how == Choice::Leaf {
+                out.push_leaf(bvh, &it.sources, prims, &mut order)
             } else {
                 nodes.push(EMPTY_NODE);
-                work.push((i, nodes.len() - 1, d + 1));
+                work.push((it.sources[0], nodes.len() - 1, d + 1));
                 (nodes.len() - 1) as u32
             };
-            set_slot(&mut node, slot, bvh.nodes[i].aabb(), r);
+            set_slot(&mut node, slot, &it.aabb, r);
         }
         nodes[dst] = node;
     }
@@ -136,8 +135,38 @@ fn best_split(plans: &[Plan], l: usize, r: usize, k: usize) -> (f32, u8) {
         .unwrap_or((f32::INFINITY, 1))
 }
 
+/// A child of a wide node being built: a binary subtree that becomes a node, or the
+/// binary subtrees whose primitives make one leaf.
+struct Item {
+    sources: Vec<usize>,
+    how: Choice,
+    aabb: Aabb,
+    tris: u32,
+    others: u32,
+    spheres: u32,
+}
+
+impl Item {
+    fn new(bvh: &Bvh2, plans: &[Plan], n: usize, how: Choice) -> Item {
+        let p = &plans[n];
+        Item {
+            sources: vec![n],
+            how,
+            aabb: *bvh.nodes[n].aabb(),
+            tris: p.tris,
+            others: p.others,
+            spheres: p.spheres,
+        }
+    }
+
+    /// The leaf's cost as the surface area heuristic counts it.
+    fn leaf_cost(&self) -> f32 {
+        self.aabb.half_area() * leaf_cost(self.tris, self.others, self.spheres).0
+    }
+}
+
 /// The children that binary node `n` contributes to a wide node through `k` slots.
-fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<(usize, Choice)>) {
+fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<Item>) {
     match plans[n].choice[k] {
         Choice::Split(j) => {
             let (l, r) = children(bvh, n);
@@ -145,7 +174,46 @@ fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<(usize, 
             expand(bvh, plans, l, j, out);
             expand(bvh, plans, r, k - j, out);
         }
-        how => out.push((n, how)),
+        how => out.push(Item::new(bvh, plans, n, how)),
+    }
+}
+
+/// Joins leaves of one wide node while the surface area heuristic gains, best pair
+/// first. Leaves are whole binary subtrees, so the binary builder's splits decide what
+/// can share a pack; siblings across those splits often belong together. In the
+/// SmallVCM boxes the floor (a flat box) was split from the other walls and tested
+/// alone, out of line, by every ray that went down; in the walls' pack it costs
+/// nothing, since the pack tests up to eight at once.
+fn merge_leaves(items: &mut Vec<Item>) {
+    loop {
+        let mut best: Option<(f32, usize, usize)> = None;
+        for i in 0..items.len() {
+            for j in i + 1..items.len() {
+                let (a, b) = (&items[i], &items[j]);
+                if a.how != Choice::Leaf || b.how != Choice::Leaf {
+                    continue;
+                }
+                let (tris, others) = (a.tris + b.tris, a.others + b.others);
+                let Some(cost) = leaf_cost_within(tris, others, a.spheres + b.spheres) else {
+                    continue;
+                };
+                let joined = a.aabb.union(&b.aabb).half_area() * cost;
+                let gain = a.leaf_cost() + b.leaf_cost() - joined;
+                if gain > 0.0 && best.is_none_or(|(g, ..)| gain > g) {
+                    best = Some((gain, i, j));
+                }
+            }
+        }
+        let Some((_, i, j)) = best else {
+            return;
+        };
+        let b = items.remove(j);
+        let a = &mut items[i];
+        a.sources.extend(b.sources);
+        a.aabb = a.aabb.union(&b.aabb);
+        a.tris += b.tris;
+        a.others += b.others;
+        a.spheres += b.spheres;
     }
 }
 
@@ -192,11 +260,7 @@ fn plan(bvh: &Bvh2, prims: &[Prim]) -> Vec<Plan> {
             plans[l].others + plans[r].others,
             plans[l].spheres + plans[r].spheres,
         );
-        let leaf = if tris + others <= LEAF_SIZE {
-            area * leaf_cost(tris, others, spheres).0
-        } else {
-            f32::INFINITY
-        };
+        let leaf = leaf_cost_within(tris, others, spheres).map_or(f32::INFINITY, |c| area * c);
         let inner = area * COST_NODE + best_split(&plans, l, r, 4).0;
         let (one, how) = if leaf <= inner {
             (leaf, Choice::Leaf)
@@ -235,12 +299,28 @@ fn leaf_cost(tris: u32, others: u32, spheres: u32) -> (f32, LeafKind) {
     }
 }
 
+/// [`leaf_cost`] of a leaf one reference can hold: one pack, or a run of at most
+/// [`MAX_RUN`] primitives.
+fn leaf_cost_within(tris: u32, others: u32, spheres: u32) -> Option<f32> {
+    if tris + others > LEAF_SIZE {
+        return None;
+    }
+    let (cost, kind) = leaf_cost(tris, others, spheres);
+    (kind != LeafKind::Run || tris + others <= MAX_RUN as u32).then_some(cost)
+}
+
 impl Bvh4 {
-    /// Stores the leaf made of a binary subtree: its primitives go next in `order`,
+    /// Stores the leaf made of binary subtrees: their primitives go next in `order`,
     /// and triangles-only leaves worth it are also packed. Returns its reference.
-    fn push_leaf(&mut self, bvh: &Bvh2, n: usize, prims: &[Prim], order: &mut Vec<u32>) -> u32 {
+    fn push_leaf(
+        &mut self,
+        bvh: &Bvh2,
+        sources: &[usize],
+        prims: &[Prim],
+        order: &mut Vec<u32>,
+    ) -> u32 {
         let first = order.len();
-        let mut stack = vec![n];
+        let mut stack: Vec<usize> = sources.iter().rev().copied().collect();
         while let Some(n) = stack.pop() {
             let node = &bvh.nodes[n];
             if node.is_leaf() {
