@@ -1,7 +1,7 @@
 //! Camera subpaths: emitter hits, light sampling, connections to the paired light
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
-use super::light_path::{Surface, Walk, MIN_COS};
+use super::light_path::{LightVertex, Surface, Walk, MIN_COS};
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::vertex::{Media, Vertex};
 use super::{Pass, Workspace};
@@ -45,8 +45,10 @@ impl<'a, M> CameraPass<'a, M> {
 }
 
 /// A camera subpath in flight.
-pub(super) struct CameraPath {
+pub(super) struct CameraPath<'a> {
     pixel: usize,
+    /// The stored vertices of the light subpath paired with this pixel.
+    light: &'a [LightVertex],
     ray: Ray,
     walk: Walk,
     l: Rgb,
@@ -55,14 +57,21 @@ pub(super) struct CameraPath {
     pending: Option<(Ray, Rgb)>,
 }
 
-impl<M: Media + Sync> PathKernel for CameraPass<'_, M> {
-    type Path = CameraPath;
+impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
+    type Path = CameraPath<'a>;
 
     #[inline(always)]
-    fn start(&self, index: u64, ray: Ray) -> CameraPath {
+    fn start(&self, index: u64, ray: Ray) -> CameraPath<'a> {
         let scene = self.pass.scene;
+        let pixel = index as usize;
+        let ws = self.ws;
         CameraPath {
-            pixel: index as usize,
+            pixel,
+            light: if ws.paths == 0 {
+                &[]
+            } else {
+                ws.light_path(pixel % ws.paths)
+            },
             walk: Walk {
                 origin: ray.o,
                 throughput: Rgb::ONE,
@@ -78,7 +87,12 @@ impl<M: Media + Sync> PathKernel for CameraPass<'_, M> {
     }
 
     #[inline(always)]
-    fn advance(&self, p: &mut CameraPath, rng: &mut Rng, stats: &mut RenderStats) -> Option<Rgb> {
+    fn advance(
+        &self,
+        p: &mut CameraPath<'a>,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Option<Rgb> {
         if self.step(p, rng, stats) {
             return None;
         }
@@ -113,6 +127,7 @@ impl<M: Media> CameraPass<'_, M> {
         let scene = pass.scene;
         let CameraPath {
             pixel,
+            light,
             ray,
             walk,
             l,
@@ -175,7 +190,7 @@ impl<M: Media> CameraPass<'_, M> {
                         *l += e;
                     }
                 }
-                *l += connect(pass, ws, *pixel, walk, v, rng, stats, layers);
+                *l += connect(pass, light, walk, v, rng, stats, layers);
             }
             // Merging is not offered in media (Settings::check_scene): surfaces only.
             if let Vertex::Surface { it, s: surface, .. } = v {
@@ -343,12 +358,10 @@ fn light_sample<M: Media>(
 
 /// Connections to the vertices of the light subpath paired with this pixel, through
 /// the media between them ([TR] eqs. 40-41 with d^2 / T, mis.rs), throughput included.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn connect<M: Media>(
     pass: &Pass,
-    ws: &Workspace,
-    pixel: usize,
+    light: &[LightVertex],
     walk: &Walk,
     v: &Vertex<M>,
     rng: &mut Rng,
@@ -356,12 +369,9 @@ fn connect<M: Media>(
     layers: &[AtomicU32],
 ) -> Rgb {
     let scene = pass.scene;
-    if ws.paths == 0 {
-        return Rgb::ZERO;
-    }
     let cont = v.cont();
     let mut l = Rgb::ZERO;
-    for y in ws.light_path(pixel % ws.paths) {
+    for y in light {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
             break;
