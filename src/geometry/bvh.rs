@@ -478,7 +478,8 @@ mod tests {
     /// A room like SmallVCM's: five walls and two spheres on the floor. The binary
     /// builder splits the floor (a flat box) from the other walls, but in one pack it
     /// costs nothing more, so the leaves of the root join: one pack of walls, one of
-    /// spheres, and nothing tested alone.
+    /// spheres, and nothing tested alone. Every ray enters the walls' box, so the
+    /// tree is flat: walks test both packs without a slab test.
     #[test]
     fn walls_of_a_room_share_one_pack() {
         let (x, y, z) = (Vec3A::X * 2.0, Vec3A::Y * 2.0, Vec3A::Z * 2.0);
@@ -501,6 +502,7 @@ mod tests {
         ];
         let accel = build(&prims);
         assert_eq!(accel.tree.leaf_kinds(), (1, 1, 0));
+        assert!(accel.tree.is_flat());
         for accel in variants(&prims) {
             check_many(&accel, &prims, &mut Rng::new(14, 0, 0), 500);
         }

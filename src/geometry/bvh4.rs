@@ -78,6 +78,11 @@ pub struct Bvh4 {
     root: u32,
     /// Stack entries a traversal can need: at most three per inner level.
     stack_len: usize,
+    /// The root's leaves, when the tree is one node with only leaves below it and
+    /// testing them all costs less than the slab test that picks among them (see
+    /// `build`): walks then start with them stacked. `flat_len` is 0 otherwise.
+    flat: [u32; 4],
+    flat_len: usize,
     /// Which compilation of the kernels to run (detected when built).
     isa: Isa,
 }
@@ -482,6 +487,11 @@ impl Bvh4 {
         self.spheres.is_empty()
     }
 
+    #[cfg(test)]
+    pub fn is_flat(&self) -> bool {
+        self.flat_len > 0
+    }
+
     /// Leaf references of each kind: (triangle packs, sphere packs, runs tested one
     /// primitive at a time).
     #[cfg(test)]
@@ -518,6 +528,8 @@ impl Bvh4 {
             spheres: Vec::new(),
             root: EMPTY,
             stack_len: 0,
+            flat: [EMPTY; 4],
+            flat_len: 0,
             isa: Isa::detect(),
         }
     }
@@ -558,7 +570,7 @@ impl<'s, L: Lanes> Closest<'s, L> {
     fn new(tree: &Bvh4, ray: &TraceRay, stack: Stack<'s>) -> Self {
         let r = RayLanes::new(ray);
         let pr = PackRay::<L>::new(r.o3, r.d3);
-        Closest {
+        let mut w = Closest {
             r,
             pr,
             tmax: ray.tmax,
@@ -566,7 +578,11 @@ impl<'s, L: Lanes> Closest<'s, L> {
             uv: Vec2::ZERO,
             cur: tree.root,
             stack,
+        };
+        if tree.flat_len > 0 {
+            w.cur = start_flat(tree, &mut w.stack);
         }
+        w
     }
 
     #[inline(always)]
@@ -638,6 +654,16 @@ impl<'s, L: Lanes> Closest<'s, L> {
     }
 }
 
+/// Stacks the leaves of a flat tree but the first, which it returns: every one is
+/// tested, at distance 0 so that no closest hit culls it.
+#[inline(always)]
+fn start_flat(tree: &Bvh4, stack: &mut Stack) -> u32 {
+    for &c in tree.flat[1..tree.flat_len].iter().rev() {
+        stack.push(c, 0.0);
+    }
+    tree.flat[0]
+}
+
 /// A leaf reference's run: (first index, length).
 #[inline(always)]
 fn run(leaf: u32) -> (usize, usize) {
@@ -697,14 +723,18 @@ impl<'s, L: Lanes> Any<'s, L> {
     fn new(tree: &Bvh4, ray: &TraceRay, stack: Stack<'s>) -> Self {
         let r = RayLanes::new(ray);
         let pr = PackRay::<L>::new(r.o3, r.d3);
-        Any {
+        let mut w = Any {
             r,
             pr,
             tmax: ray.tmax,
             tmax4: F4::splat(ray.tmax),
             cur: tree.root,
             stack,
+        };
+        if tree.flat_len > 0 {
+            w.cur = start_flat(tree, &mut w.stack);
         }
+        w
     }
 
     /// The first child of `n` in `mask`; the others are stacked.

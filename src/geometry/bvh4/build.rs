@@ -95,6 +95,9 @@ pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
         // objects first, where a blocked ray is most likely to stop early.
         items
             .sort_by_key(|it| !(it.how == Choice::Leaf && it.tris == 0 && it.spheres == it.others));
+        if dst == 0 && flat_is_cheaper(&items, bvh.nodes[src].aabb()) {
+            out.flat_len = items.len();
+        }
         let mut node = EMPTY_NODE;
         for (slot, it) in items.iter().enumerate() {
             let r = if it.how == Choice::Leaf {
@@ -105,6 +108,9 @@ pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
                 (nodes.len() - 1) as u32
             };
             set_slot(&mut node, slot, &it.aabb, r);
+            if slot < out.flat_len {
+                out.flat[slot] = r;
+            }
         }
         nodes[dst] = node;
     }
@@ -176,6 +182,25 @@ fn expand(bvh: &Bvh2, plans: &[Plan], n: usize, k: usize, out: &mut Vec<Item>) {
         }
         how => out.push(Item::new(bvh, plans, n, how)),
     }
+}
+
+/// Whether a root whose children are `items` is better left out: when they are all
+/// leaves, a ray can test every one instead of first slab-testing their boxes. By the
+/// surface area heuristic (costs relative to the root's area), the slab test costs
+/// `COST_NODE` and leaf i is tested with probability A_i / A; testing all costs the
+/// sum of the leaves' costs. In the SmallVCM boxes the walls' pack spans the root's
+/// box, so the slab test saves only the spheres' pack for rays that miss its box.
+fn flat_is_cheaper(items: &[Item], root: &Aabb) -> bool {
+    if items.iter().any(|it| it.how != Choice::Leaf) {
+        return false;
+    }
+    let area = root.half_area();
+    let each: f32 = items
+        .iter()
+        .map(|it| leaf_cost(it.tris, it.others, it.spheres).0)
+        .sum();
+    let picked: f32 = items.iter().map(Item::leaf_cost).sum();
+    area * each < area * COST_NODE + picked
 }
 
 /// Joins leaves of one wide node while the surface area heuristic gains, best pair
