@@ -81,8 +81,8 @@ pub(super) fn from_bvh2(bvh: &Bvh2, prims: &[Prim]) -> (Bvh4, Vec<u32>) {
         depth = depth.max(d);
         items.clear();
         if bvh.nodes[src].is_leaf() {
-            // Only the root: a tree of one leaf still gets a node, so that traversal
-            // always starts with a slab test.
+            // Only the root: a tree of one leaf still gets a node (which the flat
+            // test below then leaves out of every walk).
             items.push(Item::new(bvh, &plans, src, Choice::Leaf));
         } else {
             let (l, r) = children(bvh, src);
