@@ -110,6 +110,12 @@ impl<L: Lanes> PackRay<L> {
         let l = [f[0] + k * d[0], f[1] + k * d[1], f[2] + k * d[2]];
         let rr = r * r;
         let disc = a[0] * (rr - dot(l, l));
+        // Every sphere's line missed (disc < 0 fails the mask below): skip the square
+        // root and both divisions on the way to the same empty result.
+        let used = p.used >> at;
+        if L::bits(disc.nlt(zero)) & used == 0 {
+            return (0, zero);
+        }
         let s = disc.max(zero).sqrt();
         let q = L::select(b.ge(zero), b + s, b - s);
         let t0 = q / a[0];
@@ -118,7 +124,7 @@ impl<L: Lanes> PackRay<L> {
         let (lo, hi) = (L::select(swap, t1, t0), L::select(swap, t0, t1));
         let t = L::select(lo.gt(zero), lo, hi);
         let m = disc.nlt(zero) & t.gt(zero) & t.lt(tmax) & t.lt(L::splat(f32::INFINITY));
-        (L::bits(m) & (p.used >> at), t)
+        (L::bits(m) & used, t)
     }
 
     /// Triangles `at..at + L::N`: the bits of those hit in (0, tmax), and t, u, v.
