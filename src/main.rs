@@ -26,7 +26,8 @@ struct Cli {
 enum Command {
     /// Render a scene file to EXR (and optionally PNG).
     Render(RenderArgs),
-    /// Compare two EXR images: RMSE and relative MSE, optional false-colour PNG.
+    /// Compare two images (EXR, or Radiance .hdr such as SmallVCM writes): RMSE and
+    /// relative MSE, optional false-colour PNG.
     Diff {
         a: PathBuf,
         /// The reference.
@@ -304,10 +305,10 @@ struct BenchArgs {
     /// --reference-from).
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
-    /// Equal-time mode: the reference image.
+    /// Equal-time mode: the reference image (EXR, or Radiance .hdr).
     #[arg(
         long,
-        value_name = "EXR",
+        value_name = "IMAGE",
         requires = "time",
         conflicts_with = "reference_from"
     )]
@@ -593,8 +594,8 @@ fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats,
 }
 
 fn diff(a: &Path, b: &Path, png: Option<&Path>) -> Result<()> {
-    let ia = film::read_exr(a)?;
-    let ib = film::read_exr(b)?;
+    let ia = film::read_image(a)?;
+    let ib = film::read_image(b)?;
     let m = film::compare(&ia, &ib)?;
     println!("rmse {:.6e}\nrel_mse {:.6e}", m.rmse, m.rel_mse);
     let (ma, mb) = (ia.mean(), ib.mean());
@@ -711,7 +712,7 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
     std::fs::create_dir_all(&a.output)
         .with_context(|| format!("creating {}", a.output.display()))?;
     let reference = match (&a.reference, &a.reference_from) {
-        (Some(path), _) => film::read_exr(path)?,
+        (Some(path), _) => film::read_image(path)?,
         (None, Some(spec)) => {
             let (alg, secs) = parse_reference_from(spec)?;
             let params = parse_params(&a.params)?;

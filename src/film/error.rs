@@ -17,6 +17,9 @@ pub enum FilmError {
     /// The message starts with the file name (or "<memory>").
     #[error("PNG error: {0}")]
     Png(String),
+    /// The message starts with the file name (or "<memory>").
+    #[error("Radiance HDR error: {0}")]
+    Hdr(String),
     #[error("image sizes differ: {}x{} vs {}x{}", a.0, a.1, b.0, b.1)]
     SizeMismatch { a: (u32, u32), b: (u32, u32) },
     #[error("{}: no R, G, B channels found", .0.display())]

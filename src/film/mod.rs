@@ -8,6 +8,7 @@ mod accum;
 mod atomic;
 mod error;
 mod exr_io;
+mod hdr_io;
 mod image;
 mod metrics;
 mod png_io;
@@ -19,6 +20,7 @@ pub use exr_io::{
     decode_exr, decode_exr_layer, encode_exr, encode_exr_layers, read_exr, read_exr_layer,
     write_exr, write_exr_layers,
 };
+pub use hdr_io::{decode_hdr, read_hdr, read_image};
 pub use image::Image;
 pub use metrics::{compare, false_colour_diff, rel_mse, rmse, ErrorMetrics};
 pub use png_io::{encode_png, srgb_eotf, srgb_oetf, to_srgb8, write_png};
