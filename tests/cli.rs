@@ -113,3 +113,54 @@ fn bad_arguments_fail_with_a_message() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/scene.json"));
 }
+
+/// The README's `caustic diff` on a Radiance `.hdr` file (as SmallVCM writes it: flat
+/// scan lines) against an EXR: the values are decoded at the middle of each RGBE step.
+#[test]
+fn diff_reads_radiance_hdr() {
+    use caustic::film::{write_exr, Image};
+    use glam::Vec3;
+    let dir = tempfile::tempdir().unwrap();
+    let hdr = dir.path().join("smallvcm.hdr");
+    let mut bytes = b"#?RADIANCE\n# SmallVCM\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
+    // (128, 64, 0) and (200, 100, 50) under exponent bytes 129 and 127: steps of 1/128
+    // and 1/512.
+    bytes.extend_from_slice(&[128, 64, 0, 129, 200, 100, 50, 127]);
+    std::fs::write(&hdr, &bytes).unwrap();
+    let mid = |m: [f32; 3], step: f32| Vec3::new(m[0] + 0.5, m[1] + 0.5, m[2] + 0.5) * step;
+    let exact = Image::from_pixels(
+        2,
+        1,
+        vec![
+            mid([128.0, 64.0, 0.0], 1.0 / 128.0),
+            mid([200.0, 100.0, 50.0], 1.0 / 512.0),
+        ],
+    );
+    let exr = dir.path().join("same.exr");
+    write_exr(&exr, &exact).unwrap();
+    let text = run(caustic().arg("diff").arg(&hdr).arg(&exr));
+    assert!(text.contains("rmse 0.000000e0"), "{text}");
+
+    // Half a step lower everywhere (the truncated values): the RMSE is the half step's.
+    let low = Image::from_pixels(
+        2,
+        1,
+        vec![
+            Vec3::new(128.0, 64.0, 0.0) / 128.0,
+            Vec3::new(200.0, 100.0, 50.0) / 512.0,
+        ],
+    );
+    write_exr(&exr, &low).unwrap();
+    let text = run(caustic().arg("diff").arg(&hdr).arg(&exr));
+    let rmse: f64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("rmse "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let want = ((3.0 * (0.5f64 / 128.0).powi(2) + 3.0 * (0.5f64 / 512.0).powi(2)) / 6.0).sqrt();
+    assert!(
+        (rmse - want).abs() < 1e-6 * want,
+        "rmse {rmse}, want {want}"
+    );
+}

@@ -87,7 +87,6 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * e) / (1.0 - n as f32 * e)
 }
 
-/// Reflects `w` about `n` (both pointing away from the surface).
 /// x^n for the cosine-power lobes (x in [0, 1], n >= 0). Whole exponents, the usual
 /// case, go by repeated squaring: at most twenty multiplications with a relative error
 /// of about n / 2 ulp (under 3e-6 for n = 90), several times cheaper than `powf`,
@@ -110,6 +109,7 @@ pub fn pow_lobe(x: f32, n: f32) -> f32 {
     }
 }
 
+/// Reflects `w` about `n` (both pointing away from the surface).
 #[inline]
 pub fn reflect(w: Vec3, n: Vec3) -> Vec3 {
     2.0 * w.dot(n) * n - w
