@@ -50,10 +50,20 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image, FilmError> {
     }
 }
 
+/// Most pixels an image may declare (an 8K x 4K image): the header alone sizes the
+/// buffers, and a few bytes claiming 60000 x 60000 must be an error, not an attempt to
+/// allocate 43 GB.
+const MAX_PIXELS: u64 = 1 << 25;
+
 fn decode(reader: impl Read, what: &str) -> Result<Image, FilmError> {
     let err = |e: image::ImageError| FilmError::Hdr(format!("{what}: {e}"));
     let decoder = HdrDecoder::new(BufReader::new(reader)).map_err(err)?;
     let (width, height) = decoder.dimensions();
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(FilmError::Hdr(format!(
+            "{what}: {width} x {height} pixels, more than the {MAX_PIXELS} caustic reads"
+        )));
+    }
     let mut bytes = vec![0u8; decoder.total_bytes() as usize];
     decoder.read_image(&mut bytes).map_err(err)?;
     let pixels = bytes
@@ -147,5 +157,10 @@ mod tests {
         assert!(err.contains("not.hdr"), "{err}");
         let missing = read_image(dir.path().join("missing.hdr")).unwrap_err();
         assert!(matches!(missing, FilmError::Io { .. }), "{missing}");
+        // A header that claims more than a file could hold is refused before any
+        // buffer is sized by it.
+        let huge = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 60000 +X 60000\n";
+        let err = decode_hdr(huge).unwrap_err().to_string();
+        assert!(err.contains("60000 x 60000"), "{err}");
     }
 }
