@@ -8,6 +8,15 @@ fn caustic() -> Command {
     c
 }
 
+/// The `rmse` line of `caustic diff`'s output.
+fn rmse_of(text: &str) -> f64 {
+    text.lines()
+        .find_map(|l| l.strip_prefix("rmse "))
+        .unwrap_or_else(|| panic!("no rmse line in:\n{text}"))
+        .parse()
+        .unwrap()
+}
+
 fn run(c: &mut Command) -> String {
     let out = c.output().expect("runs");
     let text = format!(
@@ -58,12 +67,7 @@ fn readme_render_command_writes_exr_and_png() {
         .arg(&exr)
         .arg("--png")
         .arg(&diff_png));
-    let rmse: f64 = text
-        .lines()
-        .find_map(|l| l.strip_prefix("rmse "))
-        .unwrap()
-        .parse()
-        .unwrap();
+    let rmse = rmse_of(&text);
     assert!(rmse > 0.0 && rmse.is_finite());
     assert!(diff_png.exists());
 
@@ -152,12 +156,7 @@ fn diff_reads_radiance_hdr() {
     );
     write_exr(&exr, &low).unwrap();
     let text = run(caustic().arg("diff").arg(&hdr).arg(&exr));
-    let rmse: f64 = text
-        .lines()
-        .find_map(|l| l.strip_prefix("rmse "))
-        .unwrap()
-        .parse()
-        .unwrap();
+    let rmse = rmse_of(&text);
     let want = ((3.0 * (0.5f64 / 128.0).powi(2) + 3.0 * (0.5f64 / 512.0).powi(2)) / 6.0).sqrt();
     assert!(
         (rmse - want).abs() < 1e-6 * want,

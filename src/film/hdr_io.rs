@@ -12,7 +12,7 @@
 //! that order.
 
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use glam::Vec3 as Rgb;
@@ -55,9 +55,9 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image, FilmError> {
 /// allocate 43 GB.
 const MAX_PIXELS: u64 = 1 << 25;
 
-fn decode(reader: impl Read, what: &str) -> Result<Image, FilmError> {
+fn decode(reader: impl BufRead, what: &str) -> Result<Image, FilmError> {
     let err = |e: image::ImageError| FilmError::Hdr(format!("{what}: {e}"));
-    let decoder = HdrDecoder::new(BufReader::new(reader)).map_err(err)?;
+    let decoder = HdrDecoder::new(reader).map_err(err)?;
     let (width, height) = decoder.dimensions();
     if width as u64 * height as u64 > MAX_PIXELS {
         return Err(FilmError::Hdr(format!(

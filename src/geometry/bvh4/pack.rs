@@ -110,10 +110,11 @@ impl<L: Lanes> PackRay<L> {
         let l = [f[0] + k * d[0], f[1] + k * d[1], f[2] + k * d[2]];
         let rr = r * r;
         let disc = a[0] * (rr - dot(l, l));
-        // Every sphere's line missed (disc < 0 fails the mask below): skip the square
-        // root and both divisions on the way to the same empty result.
+        // Every sphere's line missed: skip the square root and both divisions on the
+        // way to the same empty result.
         let used = p.used >> at;
-        if L::bits(disc.nlt(zero)) & used == 0 {
+        let on_line = disc.nlt(zero);
+        if L::bits(on_line) & used == 0 {
             return (0, zero);
         }
         let s = disc.max(zero).sqrt();
@@ -123,7 +124,7 @@ impl<L: Lanes> PackRay<L> {
         let swap = t0.gt(t1);
         let (lo, hi) = (L::select(swap, t1, t0), L::select(swap, t0, t1));
         let t = L::select(lo.gt(zero), lo, hi);
-        let m = disc.nlt(zero) & t.gt(zero) & t.lt(tmax) & t.lt(L::splat(f32::INFINITY));
+        let m = on_line & t.gt(zero) & t.lt(tmax) & t.lt(L::splat(f32::INFINITY));
         (L::bits(m) & used, t)
     }
 
