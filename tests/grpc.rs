@@ -364,6 +364,13 @@ async fn errors_map_to_status_codes() {
     };
     let err = c.upload_scene(too_big).await.unwrap_err();
     assert_eq!(err.code(), Code::ResourceExhausted, "{err:?}");
+    // Far above the limit, the message is refused before the service sees it: the
+    // code is still the documented one.
+    let far_too_big = pb::UploadSceneRequest {
+        data: vec![b' '; (server.svc.config().max_upload + (1 << 20)) as usize],
+    };
+    let err = c.upload_scene(far_too_big).await.unwrap_err();
+    assert_eq!(err.code(), Code::ResourceExhausted, "{err:?}");
 }
 
 #[tokio::test(flavor = "multi_thread")]

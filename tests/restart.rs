@@ -133,14 +133,15 @@ fn kill_9_then_restart(alg: &str, params: Value, spp: u64) {
         get(&format!("{}/v1/jobs/{quick}", p.url))["state"],
         "completed"
     );
-    for f in [
-        "final.exr",
-        "final.png",
-        "latest.exr",
-        "log.csv",
-        "job.json",
-    ] {
+    for f in ["final.exr", "final.png", "log.csv", "job.json"] {
         assert!(dir.path().join("jobs").join(&quick).join(f).exists(), "{f}");
+    }
+    // A completed job keeps one copy of its image and no checkpoint.
+    for f in ["latest.exr", "latest.png", "checkpoint.bin"] {
+        assert!(
+            !dir.path().join("jobs").join(&quick).join(f).exists(),
+            "{f}"
+        );
     }
     assert_eq!(
         get(&format!("{}/v1/jobs/{waiting}", p.url))["state"],

@@ -125,3 +125,31 @@ pub fn tiny_scene(size: u32) -> Value {
         "lights": [{"type": "point", "position": [1, 3, 2], "intensity": [8, 8, 8]}]
     })
 }
+
+/// Sends a raw HTTP/1.1 request (`head` without the final blank line) and as much of
+/// `body` as the server takes, then reads the answer: status and JSON body. For
+/// requests a well-behaved client library will not send (lying Content-Length,
+/// bodies the server refuses before reading them).
+pub fn raw_request(url: &str, head: &str, body: &[u8]) -> (u16, Value) {
+    use std::io::{Read, Write};
+    let addr = url.trim_start_matches("http://");
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let head = format!("{head}\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
+    s.write_all(head.as_bytes()).unwrap();
+    // The server may answer and close before the body is sent: that is allowed.
+    let _ = s.write_all(body);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).to_string();
+    let status = text
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("no HTTP answer: {text:?}"));
+    let json = text
+        .split_once("\r\n\r\n")
+        .and_then(|(_, b)| serde_json::from_str(b).ok())
+        .unwrap_or(Value::Null);
+    (status, json)
+}

@@ -2,7 +2,11 @@
 //! runs progressive iterations on the worker pool, and the transport-neutral service
 //! that the HTTP and gRPC front ends call.
 
+pub mod disk;
 pub mod events;
+pub mod failpoint;
+pub mod limits;
+pub mod run;
 pub mod scenes;
 pub mod scheduler;
 pub mod service;
@@ -16,6 +20,10 @@ pub use spec::{HaltSpec, JobSpec, JobState, JobStatus};
 use std::path::Path;
 
 /// Errors of the job layer; each transport maps them once (HTTP status, gRPC code).
+///
+/// What a client reads ([`JobError::client_message`]) never names a server path: the
+/// data directory's location is the operator's business. The full detail of storage
+/// and internal errors goes to the server log instead.
 #[derive(Debug, thiserror::Error)]
 pub enum JobError {
     /// The request is malformed or names something invalid.
@@ -31,13 +39,24 @@ pub enum JobError {
     Conflict(String),
     #[error("{0}")]
     TooLarge(String),
+    /// The data directory could not be read or written (full or read-only disk, ...).
+    /// `detail` names the file and is only logged.
+    #[error("{detail}")]
+    Storage {
+        kind: std::io::ErrorKind,
+        detail: String,
+    },
+    /// A bug or an unexpected state; the message is only logged.
     #[error("{0}")]
     Internal(String),
 }
 
 impl JobError {
     pub fn io(path: &Path, e: std::io::Error) -> Self {
-        JobError::Internal(format!("{}: {e}", path.display()))
+        JobError::Storage {
+            kind: e.kind(),
+            detail: format!("{}: {e}", path.display()),
+        }
     }
 
     /// A stable machine-readable code for clients.
@@ -48,14 +67,47 @@ impl JobError {
             JobError::NotFound(_) => "not_found",
             JobError::Conflict(_) => "conflict",
             JobError::TooLarge(_) => "too_large",
+            JobError::Storage {
+                kind: std::io::ErrorKind::StorageFull,
+                ..
+            } => "storage_full",
+            JobError::Storage { .. } => "storage",
             JobError::Internal(_) => "internal",
+        }
+    }
+
+    /// True for errors that are the server's fault, not the request's.
+    pub fn is_server_error(&self) -> bool {
+        matches!(self, JobError::Storage { .. } | JobError::Internal(_))
+    }
+
+    /// What the client is told: the message itself for request errors; for server
+    /// errors, what happened in words an operator can act on, without paths.
+    pub fn client_message(&self) -> String {
+        use std::io::ErrorKind as K;
+        match self {
+            JobError::Storage { kind, .. } => match kind {
+                K::StorageFull | K::QuotaExceeded => {
+                    "the server's disk is full: nothing was stored; try again once space is freed"
+                }
+                K::ReadOnlyFilesystem | K::PermissionDenied => {
+                    "the server may not write its data directory (read-only or no permission)"
+                }
+                _ => "the server could not read or write its data directory",
+            }
+            .to_string(),
+            JobError::Internal(_) => "internal server error (details are in the server log)".into(),
+            other => other.to_string(),
         }
     }
 }
 
 impl From<crate::film::FilmError> for JobError {
     fn from(e: crate::film::FilmError) -> Self {
-        JobError::Internal(e.to_string())
+        match e {
+            crate::film::FilmError::Io { path, source } => JobError::io(&path, source),
+            other => JobError::Internal(other.to_string()),
+        }
     }
 }
 

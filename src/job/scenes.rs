@@ -321,27 +321,40 @@ fn safe_entry(name: &Path) -> Result<PathBuf, JobError> {
     Ok(out)
 }
 
+/// Copies one bundle entry to `dest/rel`. A failure to read the entry (corrupt
+/// compressed data, a bad checksum, a truncated archive) is the upload's fault and a
+/// 400 naming the entry; a failure to write is the server's.
 fn write_entry(
     dest: &Path,
     rel: &Path,
     mut r: impl Read,
     budget: &mut u64,
 ) -> Result<(), JobError> {
+    use std::io::Write;
     let path = dest.join(rel);
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).map_err(|e| JobError::io(parent, e))?;
     }
     let mut f = std::fs::File::create(&path).map_err(|e| JobError::io(&path, e))?;
-    // Count what is really written: headers can lie about sizes (zip bombs).
-    let n = std::io::copy(&mut (&mut r).take(*budget + 1), &mut f)
-        .map_err(|e| JobError::io(&path, e))?;
-    if n > *budget {
-        return Err(JobError::TooLarge(
-            "bundle expands beyond the upload size limit".into(),
-        ));
+    let mut buf = vec![0u8; 64 << 10];
+    loop {
+        let n = match r.read(&mut buf) {
+            Ok(0) => return Ok(()),
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => {
+                return Err(bad(format!(
+                    "bundle entry \"{}\" cannot be read: {e}",
+                    rel.display()
+                )))
+            }
+        };
+        // Count what is really written: headers can lie about sizes (zip bombs).
+        *budget = budget.checked_sub(n as u64).ok_or_else(|| {
+            JobError::TooLarge("bundle expands beyond the upload size limit".into())
+        })?;
+        f.write_all(&buf[..n]).map_err(|e| JobError::io(&path, e))?;
     }
-    *budget -= n;
-    Ok(())
 }
 
 fn unpack_tar(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {

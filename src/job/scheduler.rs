@@ -6,14 +6,12 @@
 //! waits ([`AGING`] batches are worth one priority level), so higher priorities go
 //! first and nothing starves; equal priorities take turns.
 
+use super::disk::{self, Finished, Retention};
 use super::events::{Event, Sender};
+use super::run::{self, Runtime, StepResult};
 use super::scenes::SceneStore;
-use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
-use super::store::{append_log, truncate_log, Checkpoint, JobDir, LogRow};
-use super::JobError;
-use crate::film::{self, Film, Image};
-use crate::integrator::{Integrator, Settings};
-use crate::scene::Scene;
+use super::spec::{unix_now, JobState, JobStatus};
+use super::store::JobDir;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -22,8 +20,10 @@ use std::time::{Duration, Instant};
 
 /// Batches a job must wait to gain one priority level.
 pub const AGING: i64 = 16;
-/// Target wall time of one batch.
-const BATCH: Duration = Duration::from_millis(250);
+/// How often job.json writes that failed are tried again.
+const RETRY_SAVE: Duration = Duration::from_secs(2);
+/// How often the retention policy runs.
+const RETENTION_EVERY: Duration = Duration::from_secs(60);
 
 /// A request from a client, applied between batches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,18 +31,6 @@ pub enum Control {
     None,
     Pause,
     Cancel,
-}
-
-/// Live state of an active job: everything needed to run its next iterations.
-pub struct Runtime {
-    scene: Arc<Scene>,
-    integrator: Box<dyn Integrator>,
-    film: Film,
-    samples: u64,
-    reference: Option<Image>,
-    /// Seconds per iteration, smoothed.
-    per_iter: f64,
-    last_snapshot: (u64, f64),
 }
 
 pub struct Entry {
@@ -53,6 +41,21 @@ pub struct Entry {
     /// The scheduler holds the job right now (its runtime is out of the table).
     pub active: bool,
     pub runtime: Option<Box<Runtime>>,
+    /// job.json is behind `status` (a write failed); the scheduler retries it.
+    pub unsaved: bool,
+}
+
+impl Entry {
+    pub fn new(status: JobStatus, served: u64) -> Entry {
+        Entry {
+            status,
+            control: Control::None,
+            served,
+            active: false,
+            runtime: None,
+            unsaved: false,
+        }
+    }
 }
 
 #[derive(Default)]
@@ -79,6 +82,12 @@ pub struct Shared {
     pub data_dir: PathBuf,
     pub metrics: Metrics,
     pub shutdown: std::sync::atomic::AtomicBool,
+    /// Jobs whose render state may be held in memory at once; the others wait with
+    /// their checkpoints on disk.
+    pub max_active: usize,
+    pub retention: Retention,
+    /// Signalled after every step, for callers waiting on a transition.
+    pub stepped: Condvar,
 }
 
 impl Shared {
@@ -92,31 +101,69 @@ impl Shared {
     }
 }
 
-/// Picks the next job to run, if any.
-fn pick(t: &Table) -> Option<String> {
+/// Effective priority: the job's own, plus one level per [`AGING`] batches waited.
+fn urgency(t: &Table, e: &Entry) -> i64 {
+    e.status.spec.priority as i64 * AGING + t.tick.saturating_sub(e.served) as i64
+}
+
+fn runnable(e: &Entry) -> bool {
+    matches!(e.status.state, JobState::Queued | JobState::Running) && !e.unsaved
+}
+
+/// Picks the next job to run, if any. Jobs already held in memory run as long as they
+/// like; a job that is not may start only while fewer than `max_active` are held.
+fn pick(t: &Table, max_active: usize) -> Option<String> {
+    let held = t.jobs.values().filter(|e| e.runtime.is_some()).count();
     t.jobs
         .iter()
-        .filter(|(_, e)| matches!(e.status.state, JobState::Queued | JobState::Running))
-        .max_by_key(|(id, e)| {
-            let waited = t.tick.saturating_sub(e.served) as i64;
-            // Ties go to the older job (smaller id sorts first; ids are time-ordered).
-            (
-                e.status.spec.priority as i64 * AGING + waited,
-                std::cmp::Reverse((*id).clone()),
-            )
-        })
+        .filter(|(_, e)| runnable(e) && (e.runtime.is_some() || held < max_active))
+        // Ties go to the older job (smaller id sorts first; ids are time-ordered).
+        .max_by_key(|(id, e)| (urgency(t, e), std::cmp::Reverse((*id).clone())))
+        .map(|(id, _)| id.clone())
+}
+
+/// A held job to set aside (checkpoint, free its memory) for a waiting job of
+/// strictly higher priority, when memory is full: the lowest-priority held job.
+fn to_evict(t: &Table, max_active: usize) -> Option<String> {
+    let held = || t.jobs.iter().filter(|(_, e)| e.runtime.is_some());
+    if held().count() < max_active {
+        return None;
+    }
+    let waiting = t
+        .jobs
+        .values()
+        .filter(|e| runnable(e) && e.runtime.is_none())
+        .map(|e| e.status.spec.priority)
+        .max()?;
+    held()
+        .filter(|(_, e)| e.status.spec.priority < waiting)
+        .min_by_key(|(id, e)| (e.status.spec.priority, std::cmp::Reverse((*id).clone())))
         .map(|(id, _)| id.clone())
 }
 
 /// The scheduler thread's loop; returns when `shared.shutdown` is set.
 pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
+    let mut housekeeping = Housekeeping::default();
+    // After a failed eviction (no room for the checkpoint), wait before the next.
+    let mut evictions_from = Instant::now();
     loop {
         if shared.shutdown.load(Ordering::Relaxed) {
             return;
         }
+        housekeeping.run(&shared);
         let (id, runtime, status) = {
             let mut t = shared.table.lock().expect("job table");
-            let Some(id) = pick(&t) else {
+            let victim = (Instant::now() >= evictions_from)
+                .then(|| to_evict(&t, shared.max_active))
+                .flatten();
+            if let Some(victim) = victim {
+                drop(t);
+                if !evict(&shared, &victim) {
+                    evictions_from = Instant::now() + RETRY_SAVE;
+                }
+                continue;
+            }
+            let Some(id) = pick(&t, shared.max_active) else {
                 let _ = shared.wake.wait_timeout(t, Duration::from_millis(500));
                 continue;
             };
@@ -124,289 +171,136 @@ pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
             e.active = true;
             (id, e.runtime.take(), e.status.clone())
         };
-        let result = pool.install(|| step(&shared, runtime, status));
+        let result = pool.install(|| run::step(&shared, runtime, status));
         finish_step(&shared, &id, result);
     }
 }
 
-/// What one step did to a job.
-struct StepResult {
-    status: JobStatus,
-    runtime: Option<Box<Runtime>>,
-}
-
-fn fail(shared: &Shared, mut status: JobStatus, err: JobError) -> StepResult {
-    tracing::warn!(job = %status.id, error = %err, "job failed");
-    status.state = JobState::Failed;
-    status.error = Some(err.to_string());
-    status.finished_at = Some(unix_now());
-    let _ = shared.job_dir(&status.id).write_status(&status);
-    StepResult {
-        status,
-        runtime: None,
-    }
-}
-
-fn step(shared: &Shared, runtime: Option<Box<Runtime>>, mut status: JobStatus) -> StepResult {
-    let mut rt = match runtime {
-        Some(rt) => rt,
-        None => match start(shared, &mut status) {
-            Ok(rt) => rt,
-            Err(e) => return fail(shared, status, e),
-        },
+/// Writes a held job's checkpoint and drops its render state; it resumes from the
+/// checkpoint, bit-identically, when it next runs. If the checkpoint cannot be
+/// written the job stays in memory and this returns false.
+fn evict(shared: &Shared, id: &str) -> bool {
+    let Some((rt, status)) = take_runtime(shared, id) else {
+        return true;
     };
-    // The state event goes out from `finish_step`, which sees the change.
-    if status.state == JobState::Queued {
-        status.state = JobState::Running;
-    }
-    match run_batch(shared, &mut status, &mut rt) {
-        Ok(done) => StepResult {
-            status,
-            runtime: (!done).then_some(rt),
-        },
-        Err(e) => fail(shared, status, e),
-    }
-}
-
-/// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if any.
-fn start(shared: &Shared, status: &mut JobStatus) -> Result<Box<Runtime>, JobError> {
-    let scene = shared.scenes.compiled(&status.spec.scene)?;
-    let settings: Settings = serde_json::from_value(status.settings.clone())
-        .map_err(|e| JobError::Internal(format!("stored settings: {e}")))?;
-    let dir = shared.job_dir(&status.id);
-    let reference = load_reference(shared, &status.spec, &scene)?;
-    let integrator = settings.build();
-    let (film, samples, elapsed, iteration) = match Checkpoint::read(&dir) {
-        Some(c) if c.film.width() == scene.width() && c.film.height() == scene.height() => {
-            truncate_log(&dir, c.iteration)?;
-            if let Some(state) = &c.state {
-                // An unusable state is not fatal: the integrator then starts its
-                // statistics afresh and keeps the film consistent.
-                if let Err(e) = integrator.load_state(state) {
-                    tracing::warn!(job = %status.id, "checkpoint state not restored: {e}");
-                }
-            }
-            (c.film, c.samples, c.elapsed_s, c.iteration)
+    let written = rt.checkpoint(&status).write(&shared.job_dir(id));
+    let mut t = shared.table.lock().expect("job table");
+    let Some(e) = t.jobs.get_mut(id) else {
+        return true;
+    };
+    e.active = false;
+    match written {
+        Ok(()) => {
+            tracing::info!(job = id, "set aside for a job of higher priority");
+            true
         }
-        _ => (Film::new(scene.width(), scene.height()), 0, 0.0, 0),
+        Err(err) => {
+            tracing::warn!(job = id, error = %err, "could not set the job aside");
+            e.runtime = Some(rt);
+            false
+        }
+    }
+}
+
+/// Takes a held job's runtime out of the table, marking the job active so that
+/// nothing else touches it, for work (a checkpoint write) done without the lock.
+/// The caller puts the runtime back or drops it, and clears `active`.
+pub fn take_runtime(shared: &Shared, id: &str) -> Option<(Box<Runtime>, JobStatus)> {
+    let mut t = shared.table.lock().expect("job table");
+    let e = t.jobs.get_mut(id)?;
+    if e.active {
+        return None;
+    }
+    let rt = e.runtime.take()?;
+    e.active = true;
+    Some((rt, e.status.clone()))
+}
+
+/// Periodic work between batches: job.json writes to retry, retention.
+#[derive(Default)]
+struct Housekeeping {
+    last_retry: Option<Instant>,
+    last_retention: Option<Instant>,
+}
+
+impl Housekeeping {
+    fn run(&mut self, shared: &Shared) {
+        let due =
+            |last: Option<Instant>, every: Duration| last.is_none_or(|l| l.elapsed() >= every);
+        if due(self.last_retry, RETRY_SAVE) {
+            self.last_retry = Some(Instant::now());
+            retry_unsaved(shared);
+        }
+        if !shared.retention.is_off() && due(self.last_retention, RETENTION_EVERY) {
+            self.last_retention = Some(Instant::now());
+            apply_retention(shared);
+        }
+    }
+}
+
+/// Tries again to write the job.json of every job whose last write failed, so that
+/// what a restart reads agrees with what the API said.
+pub fn retry_unsaved(shared: &Shared) {
+    let pending: Vec<JobStatus> = {
+        let t = shared.table.lock().expect("job table");
+        t.jobs
+            .values()
+            .filter(|e| e.unsaved)
+            .map(|e| e.status.clone())
+            .collect()
     };
-    status.iteration = iteration;
-    status.elapsed_s = elapsed;
-    status.dropped = film.dropped();
-    Ok(Box::new(Runtime {
-        integrator,
-        scene,
-        film,
-        samples,
-        reference,
-        per_iter: 0.0,
-        last_snapshot: (iteration, elapsed),
-    }))
+    for status in pending {
+        if shared.job_dir(&status.id).write_status(&status).is_err() {
+            continue;
+        }
+        let mut t = shared.table.lock().expect("job table");
+        if let Some(e) = t.jobs.get_mut(&status.id) {
+            // Only if nothing changed meanwhile; otherwise the next round writes it.
+            if e.status == status {
+                e.unsaved = false;
+            }
+        }
+    }
 }
 
-pub fn load_reference(
-    shared: &Shared,
-    spec: &JobSpec,
-    scene: &Scene,
-) -> Result<Option<Image>, JobError> {
-    let path = match &spec.reference {
-        None => return Ok(None),
-        Some(ReferenceSpec::Upload(rid)) => reference_path(&shared.data_dir, rid)?,
-        Some(ReferenceSpec::Job(jid)) => shared.job_dir(jid).final_image("exr"),
+/// Deletes finished jobs the retention policy no longer keeps.
+fn apply_retention(shared: &Shared) {
+    let finished: Vec<(String, f64)> = {
+        let t = shared.table.lock().expect("job table");
+        t.jobs
+            .iter()
+            .filter(|(_, e)| e.status.state.is_terminal() && !e.active)
+            .map(|(id, e)| {
+                (
+                    id.clone(),
+                    e.status.finished_at.unwrap_or(e.status.created_at),
+                )
+            })
+            .collect()
     };
-    let img = film::read_exr(&path).map_err(|_| {
-        JobError::BadRequest(format!("reference {} is not available", path.display()))
-    })?;
-    if img.size() != (scene.width(), scene.height()) {
-        return Err(JobError::BadRequest(format!(
-            "reference is {}x{} but the scene renders {}x{}",
-            img.width(),
-            img.height(),
-            scene.width(),
-            scene.height()
-        )));
+    let finished: Vec<Finished> = finished
+        .into_iter()
+        .map(|(id, finished_at)| Finished {
+            bytes: disk::dir_size(&shared.job_dir(&id).root),
+            id,
+            finished_at,
+        })
+        .collect();
+    let total = disk::dir_size(&shared.data_dir.join("jobs"));
+    for id in shared.retention.expired(finished, total, unix_now()) {
+        let mut t = shared.table.lock().expect("job table");
+        let still_finished = t
+            .jobs
+            .get(&id)
+            .is_some_and(|e| e.status.state.is_terminal() && !e.active);
+        if !still_finished {
+            continue;
+        }
+        t.jobs.remove(&id);
+        drop(t);
+        tracing::info!(job = %id, "removed by the retention policy");
+        let _ = std::fs::remove_dir_all(shared.job_dir(&id).root);
     }
-    Ok(Some(img))
-}
-
-pub fn reference_path(data_dir: &std::path::Path, id: &str) -> Result<PathBuf, JobError> {
-    if id.len() != 16 || !id.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return Err(JobError::NotFound(format!("reference {id}")));
-    }
-    Ok(data_dir.join("references").join(format!("{id}.exr")))
-}
-
-/// Runs one batch, writes snapshots that fall due, and reports whether the job is done.
-fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
-    let spec = status.spec.clone();
-    let max_it = spec.halt.max_iterations();
-    let mut n = if rt.per_iter > 0.0 {
-        (BATCH.as_secs_f64() / rt.per_iter).floor().max(1.0) as u64
-    } else {
-        1
-    };
-    if let Some(m) = max_it {
-        n = n.min(m.saturating_sub(status.iteration)).max(1);
-    }
-    if let SnapshotEvery::Iterations(k) = spec.snapshot_every {
-        // End the batch on the next snapshot iteration so snapshots land exactly.
-        let next = (status.iteration / k.max(1) + 1) * k.max(1);
-        n = n.min(next - status.iteration);
-    }
-    let start = Instant::now();
-    let mut stats = crate::integrator::RenderStats::default();
-    for _ in 0..n {
-        stats += rt
-            .integrator
-            .iterate(&rt.scene, spec.seed, status.iteration, &mut rt.film);
-        status.iteration += 1;
-    }
-    let secs = start.elapsed().as_secs_f64();
-    rt.per_iter = if rt.per_iter > 0.0 {
-        0.7 * rt.per_iter + 0.3 * secs / n as f64
-    } else {
-        secs / n as f64
-    };
-    rt.samples += stats.samples;
-    status.elapsed_s += secs;
-    status.samples_per_s = stats.samples as f64 / secs.max(1e-9);
-    let new_drops = rt.film.dropped() - status.dropped;
-    status.dropped = rt.film.dropped();
-    let m = &shared.metrics;
-    m.iterations.fetch_add(n, Ordering::Relaxed);
-    m.samples.fetch_add(stats.samples, Ordering::Relaxed);
-    m.rays
-        .fetch_add(stats.rays + stats.shadow_rays, Ordering::Relaxed);
-    m.dropped.fetch_add(new_drops, Ordering::Relaxed);
-    m.render_ns
-        .fetch_add((secs * 1e9) as u64, Ordering::Relaxed);
-    status.eta_s = eta(status, rt.per_iter);
-    let figures = batch_figures(&stats, n, secs, rt.film.sums().len());
-    shared.emit(Event::Progress {
-        job: status.id.clone(),
-        iteration: status.iteration,
-        elapsed_s: status.elapsed_s,
-        samples_per_s: status.samples_per_s,
-        eta_s: status.eta_s,
-        dropped: status.dropped,
-    });
-    let by_count = max_it.is_some_and(|m| status.iteration >= m);
-    let by_time = spec.halt.time_s.is_some_and(|t| status.elapsed_s >= t);
-    let due = match spec.snapshot_every {
-        SnapshotEvery::Iterations(k) => status.iteration.is_multiple_of(k.max(1)),
-        SnapshotEvery::Seconds(s) => status.elapsed_s - rt.last_snapshot.1 >= s,
-    };
-    let mut done = by_count || by_time;
-    if due || done {
-        snapshot(shared, status, rt, &figures)?;
-        done |= spec
-            .halt
-            .target_rmse
-            .zip(status.last_rmse)
-            .is_some_and(|(target, r)| r <= target);
-    }
-    let dir = shared.job_dir(&status.id);
-    if done {
-        let img = rt.film.to_image(1.0 / status.iteration as f64);
-        let layers = rt.film.layer_images();
-        let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
-        film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
-        film::write_png(dir.final_image("png"), &img, 0.0)?;
-        status.state = JobState::Completed;
-        status.finished_at = Some(unix_now());
-        status.eta_s = Some(0.0);
-    }
-    dir.write_status(status)?;
-    Ok(done)
-}
-
-/// The per-batch figures of a log row: rays per second, and per-iteration means over
-/// the `n` iterations of the batch (the merge radius is the latest iteration's).
-fn batch_figures(
-    stats: &crate::integrator::RenderStats,
-    n: u64,
-    secs: f64,
-    pixels: usize,
-) -> LogRow {
-    let per_iteration = |v: u64| v as f64 / n.max(1) as f64;
-    let per_pixel = |v: u64| per_iteration(v) / pixels.max(1) as f64;
-    LogRow {
-        rays_per_s: (stats.rays + stats.shadow_rays) as f64 / secs.max(1e-9),
-        merge_radius: stats.merge_radius as f64,
-        light_vertices: per_iteration(stats.light_vertices),
-        connections_per_pixel: per_pixel(stats.connections),
-        merges_per_pixel: per_pixel(stats.merges),
-        ..Default::default()
-    }
-}
-
-fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
-    let by_count = status
-        .spec
-        .halt
-        .max_iterations()
-        .map(|m| m.saturating_sub(status.iteration) as f64 * per_iter);
-    let by_time = status
-        .spec
-        .halt
-        .time_s
-        .map(|t| (t - status.elapsed_s).max(0.0));
-    match (by_count, by_time) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    }
-}
-
-/// Snapshot EXR + PNG, latest.*, a log row with the error against the reference (and
-/// the batch's `figures`), and the checkpoint, in that order: once the checkpoint
-/// names iteration i, everything up to i is on disk.
-fn snapshot(
-    shared: &Shared,
-    status: &mut JobStatus,
-    rt: &mut Runtime,
-    figures: &LogRow,
-) -> Result<(), JobError> {
-    let dir = shared.job_dir(&status.id);
-    let it = status.iteration;
-    let img = rt.film.to_image(1.0 / it.max(1) as f64);
-    film::write_exr(dir.snapshot(it, "exr"), &img)?;
-    film::write_png(dir.snapshot(it, "png"), &img, 0.0)?;
-    film::write_exr(dir.latest("exr"), &img)?;
-    film::write_png(dir.latest("png"), &img, 0.0)?;
-    let metrics = rt
-        .reference
-        .as_ref()
-        .map(|r| film::compare(&img, r))
-        .transpose()?;
-    status.last_rmse = metrics.map(|m| m.rmse);
-    append_log(
-        &dir,
-        &LogRow {
-            iteration: it,
-            elapsed_s: status.elapsed_s,
-            samples: rt.samples,
-            rmse: metrics.map(|m| m.rmse),
-            rel_mse: metrics.map(|m| m.rel_mse),
-            dropped: status.dropped,
-            ..figures.clone()
-        },
-    )?;
-    Checkpoint {
-        iteration: it,
-        elapsed_s: status.elapsed_s,
-        samples: rt.samples,
-        film: rt.film.clone(),
-        state: rt.integrator.save_state(),
-    }
-    .write(&dir)?;
-    rt.last_snapshot = (it, status.elapsed_s);
-    shared.emit(Event::Snapshot {
-        job: status.id.clone(),
-        iteration: it,
-        rmse: metrics.map(|m| m.rmse),
-        rel_mse: metrics.map(|m| m.rel_mse),
-    });
-    Ok(())
 }
 
 /// Puts the job back in the table and applies requests that arrived meanwhile.
@@ -424,14 +318,9 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
         let dir = shared.job_dir(id);
         if let Some(rt) = &r.runtime {
             // Keep the exact state so a resume (even after a restart) loses nothing.
-            let _ = Checkpoint {
-                iteration: r.status.iteration,
-                elapsed_s: r.status.elapsed_s,
-                samples: rt.samples,
-                film: rt.film.clone(),
-                state: rt.integrator.save_state(),
+            if let Err(err) = rt.checkpoint(&r.status).write(&dir) {
+                tracing::warn!(job = id, error = %err, "checkpoint not written");
             }
-            .write(&dir);
         }
         r.status.state = if control == Control::Pause {
             JobState::Paused
@@ -440,14 +329,16 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
             JobState::Cancelled
         };
         r.runtime = None;
-        let _ = dir.write_status(&r.status);
+        r.saved = run::write_status(shared, &r.status).is_ok();
     }
     let state = r.status.state;
     let changed = state != e.status.state;
     e.status = r.status;
     e.runtime = r.runtime;
+    e.unsaved = !r.saved;
     let status = e.status.clone();
     drop(t);
+    shared.stepped.notify_all();
     if changed || state.is_terminal() {
         shared.emit(Event::State {
             job: id.to_string(),
@@ -462,28 +353,15 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::integrator::RenderStats;
-
-    #[test]
-    fn batch_figures_are_per_iteration_means() {
-        let stats = RenderStats {
-            rays: 600,
-            shadow_rays: 400,
-            light_vertices: 3000,
-            connections: 800,
-            merges: 200,
-            merge_radius: 0.5,
-            ..Default::default()
-        };
-        // 4 iterations on a 10-pixel film in 2 seconds.
-        let f = batch_figures(&stats, 4, 2.0, 10);
-        assert_eq!(f.rays_per_s, 500.0);
-        assert_eq!(f.light_vertices, 750.0);
-        assert_eq!(f.connections_per_pixel, 20.0);
-        assert_eq!(f.merges_per_pixel, 5.0);
-        assert_eq!(f.merge_radius, 0.5);
+/// Writes the checkpoint of every job held in memory, so that a stop loses no
+/// rendered iteration; called when the scheduler has stopped.
+pub fn checkpoint_all(shared: &Shared) {
+    let t = shared.table.lock().expect("job table");
+    for (id, e) in &t.jobs {
+        if let Some(rt) = &e.runtime {
+            if let Err(err) = rt.checkpoint(&e.status).write(&shared.job_dir(id)) {
+                tracing::warn!(job = %id, error = %err, "checkpoint at shutdown not written");
+            }
+        }
     }
 }

@@ -1,11 +1,14 @@
 //! The transport-neutral service: every operation the REST and gRPC front ends offer,
 //! as plain methods that validate, act and return domain values or [`JobError`]s.
 
+use super::disk::{self, Retention};
 use super::events::Event;
+use super::limits;
+use super::run;
 use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Metrics, Shared, Table};
-use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
-use super::store::{read_log, JobDir, LogRow};
+use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
+use super::store::{read_log, Checkpoint, JobDir, LogRow};
 use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
@@ -23,6 +26,15 @@ pub struct ServiceConfig {
     pub max_upload: u64,
     /// Largest image side a job may render.
     pub max_resolution: u32,
+    /// Jobs whose render state is held in memory at once (the others wait queued,
+    /// their checkpoints on disk).
+    pub max_active_jobs: usize,
+    /// How long finished jobs are kept.
+    pub retention: Retention,
+    /// Longest pause while a request body arrives, and longest wait for a request's
+    /// headers on an open connection (idle ones included) before it is closed.
+    pub body_timeout: std::time::Duration,
+    pub header_timeout: std::time::Duration,
 }
 
 impl ServiceConfig {
@@ -32,6 +44,10 @@ impl ServiceConfig {
             workers: 0,
             max_upload: 256 << 20,
             max_resolution: 8192,
+            max_active_jobs: 4,
+            retention: Retention::default(),
+            body_timeout: std::time::Duration::from_secs(30),
+            header_timeout: std::time::Duration::from_secs(30),
         }
     }
 
@@ -58,7 +74,12 @@ pub struct Service {
     config: ServiceConfig,
     scheduler: Mutex<Option<std::thread::JoinHandle<()>>>,
     ids: std::sync::atomic::AtomicU64,
+    /// Becomes true when the server begins to stop: event streams end on it.
+    closing: tokio::sync::watch::Sender<bool>,
 }
+
+/// How long a pause or cancel of a running job waits for its batch to end.
+const TRANSITION_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
 
 fn bad(m: impl Into<String>) -> JobError {
     JobError::BadRequest(m.into())
@@ -72,6 +93,13 @@ impl Service {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
         }
         let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
+        let leftovers = disk::clean_leftovers(dir);
+        if leftovers > 0 {
+            tracing::info!(
+                files = leftovers,
+                "removed half-written files of an earlier run"
+            );
+        }
         let (events, _) = tokio::sync::broadcast::channel(1024);
         let shared = Arc::new(Shared {
             table: Mutex::new(recover(dir)),
@@ -81,6 +109,9 @@ impl Service {
             data_dir: dir.clone(),
             metrics: Metrics::default(),
             shutdown: Default::default(),
+            max_active: config.max_active_jobs.max(1),
+            retention: config.retention,
+            stepped: Condvar::new(),
         });
         let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
         if config.workers > 0 {
@@ -99,15 +130,39 @@ impl Service {
             config,
             scheduler: Mutex::new(Some(handle)),
             ids: Default::default(),
+            closing: tokio::sync::watch::channel(false).0,
         }))
     }
 
-    /// Stops the scheduler after its current batch (jobs resume on the next start).
+    /// Tells event streams that the server is stopping, so that they end (with a last
+    /// event) and the front ends can close their connections.
+    pub fn begin_shutdown(&self) {
+        self.closing.send_replace(true);
+    }
+
+    /// Whether [`Service::begin_shutdown`] has been called.
+    pub fn is_closing(&self) -> bool {
+        *self.closing.borrow()
+    }
+
+    /// Resolves once [`Service::begin_shutdown`] has been called.
+    pub fn until_closing(&self) -> impl std::future::Future<Output = ()> + Send + 'static {
+        let mut rx = self.closing.subscribe();
+        async move {
+            let _ = rx.wait_for(|c| *c).await;
+        }
+    }
+
+    /// Stops the scheduler after its current batch, writes a checkpoint for every job
+    /// held in memory and any job.json still unwritten; jobs resume on the next start.
     pub fn shutdown(&self) {
+        self.begin_shutdown();
         self.shared.shutdown.store(true, Ordering::Relaxed);
         self.shared.wake.notify_all();
         if let Some(h) = self.scheduler.lock().expect("scheduler").take() {
             let _ = h.join();
+            scheduler::checkpoint_all(&self.shared);
+            scheduler::retry_unsaved(&self.shared);
         }
     }
 
@@ -154,13 +209,13 @@ impl Service {
                 "reference exceeds the upload size limit".into(),
             ));
         }
-        crate::film::decode_exr(bytes).map_err(|e| bad(format!("reference: {e}")))?;
+        crate::film::decode_exr(bytes).map_err(|e| bad(format!("reference: {}", e)))?;
         use sha2::Digest;
         let id: String = sha2::Sha256::digest(bytes)[..8]
             .iter()
             .map(|b| format!("{b:02x}"))
             .collect();
-        let path = scheduler::reference_path(&self.config.data_dir, &id)?;
+        let path = run::reference_path(&self.config.data_dir, &id)?;
         crate::film::write_bytes_atomic(&path, bytes)?;
         Ok(id)
     }
@@ -178,61 +233,58 @@ impl Service {
         )
     }
 
-    /// Validates a spec and queues the job.
+    /// Validates a client's spec and queues the job.
     pub fn submit(&self, spec: JobSpec) -> Result<JobStatus, JobError> {
+        if spec.sweep.is_some() {
+            return Err(bad(
+                "sweep is set by the server for the jobs of a sweep (POST /v1/sweeps)",
+            ));
+        }
         let status = self.prepare(spec)?;
-        let dir = JobDir::new(&self.config.data_dir, &status.id);
-        dir.create()?;
-        dir.write_status(&status)?;
-        let mut t = self.shared.table.lock().expect("job table");
-        let tick = t.tick;
-        t.jobs.insert(
-            status.id.clone(),
-            Entry {
-                status: status.clone(),
-                control: Control::None,
-                served: tick,
-                active: false,
-                runtime: None,
-            },
-        );
-        drop(t);
-        self.shared.wake.notify_all();
-        self.shared.emit(Event::State {
-            job: status.id.clone(),
-            state: JobState::Queued,
-        });
+        self.queue(status)
+    }
+
+    /// Stores a prepared job and queues it.
+    fn queue(&self, status: JobStatus) -> Result<JobStatus, JobError> {
+        self.store_new(&status)?;
+        self.enqueue(vec![status.clone()]);
         Ok(status)
     }
 
+    /// Writes a new job's directory. A job that cannot be stored leaves nothing on
+    /// disk.
+    fn store_new(&self, status: &JobStatus) -> Result<(), JobError> {
+        let dir = self.job_dir_of(&status.id);
+        let r = dir.create().and_then(|()| dir.write_status(status));
+        if r.is_err() {
+            let _ = std::fs::remove_dir_all(&dir.root);
+        }
+        r
+    }
+
+    /// Puts stored jobs in the table, all at once, and wakes the scheduler.
+    fn enqueue(&self, jobs: Vec<JobStatus>) {
+        let mut t = self.shared.table.lock().expect("job table");
+        let tick = t.tick;
+        let ids: Vec<String> = jobs.iter().map(|s| s.id.clone()).collect();
+        for status in jobs {
+            t.jobs.insert(status.id.clone(), Entry::new(status, tick));
+        }
+        drop(t);
+        self.shared.wake.notify_all();
+        for id in ids {
+            self.shared.emit(Event::State {
+                job: id,
+                state: JobState::Queued,
+            });
+        }
+    }
+
     fn prepare(&self, spec: JobSpec) -> Result<JobStatus, JobError> {
+        limits::check_spec(&spec)?;
         let scenes = &self.shared.scenes;
         if !scenes.exists(&spec.scene) {
             return Err(JobError::NotFound(format!("scene {}", spec.scene)));
-        }
-        let h = &spec.halt;
-        if h.max_iterations().is_none() && h.time_s.is_none() && h.target_rmse.is_none() {
-            return Err(bad(
-                "halt: give at least one of spp, iterations, time_s, target_rmse",
-            ));
-        }
-        if h.max_iterations() == Some(0) {
-            return Err(bad("halt: spp / iterations must be at least 1"));
-        }
-        if h.time_s.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
-            return Err(bad("halt.time_s must be a positive number"));
-        }
-        if h.target_rmse.is_some() && spec.reference.is_none() {
-            return Err(bad("halt.target_rmse needs a reference"));
-        }
-        match spec.snapshot_every {
-            SnapshotEvery::Iterations(0) => {
-                return Err(bad("snapshot_every.iterations must be at least 1"))
-            }
-            SnapshotEvery::Seconds(s) if !(s.is_finite() && s > 0.0) => {
-                return Err(bad("snapshot_every.seconds must be positive"))
-            }
-            _ => {}
         }
         let scene = scenes.compiled(&spec.scene)?;
         let max = self.config.max_resolution;
@@ -251,7 +303,7 @@ impl Service {
                 )));
             }
         }
-        scheduler::load_reference(&self.shared, &spec, &scene)?;
+        run::load_reference(&self.shared, &spec, &scene)?;
         let settings = Settings::resolve(
             spec.algorithm.as_deref(),
             scene.integrator.as_ref(),
@@ -301,50 +353,128 @@ impl Service {
             .collect()
     }
 
-    /// Applies pause or cancel: at once for idle jobs, after the batch for running ones.
+    /// Applies pause or cancel: at once for idle jobs; for the job rendering right now,
+    /// at the end of its batch, which this call waits for. Returns the job as it is
+    /// after the transition.
     fn control(&self, id: &str, c: Control) -> Result<JobStatus, JobError> {
+        loop {
+            let mut t = self.shared.table.lock().expect("job table");
+            let e = t
+                .jobs
+                .get_mut(id)
+                .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+            let state = e.status.state;
+            let allowed = match c {
+                Control::Pause => matches!(state, JobState::Queued | JobState::Running),
+                Control::Cancel => !state.is_terminal(),
+                Control::None => false,
+            };
+            if !allowed || e.control == Control::Cancel {
+                return Err(JobError::Conflict(format!(
+                    "job {id} is {}",
+                    state.as_str()
+                )));
+            }
+            if e.active {
+                e.control = c;
+                return self.wait_transition(t, id);
+            }
+            if e.runtime.is_some() {
+                drop(t);
+                // Then look again: the scheduler may have taken the job meanwhile.
+                self.set_aside(id)?;
+                continue;
+            }
+            let mut status = e.status.clone();
+            status.state = if c == Control::Pause {
+                JobState::Paused
+            } else {
+                status.finished_at = Some(unix_now());
+                JobState::Cancelled
+            };
+            return self.commit(t, status);
+        }
+    }
+
+    /// Writes the checkpoint of a job held in memory between batches and drops its
+    /// render state, so that a pause or cancel keeps every iteration rendered.
+    fn set_aside(&self, id: &str) -> Result<(), JobError> {
+        let Some((rt, status)) = scheduler::take_runtime(&self.shared, id) else {
+            return Ok(());
+        };
+        let written = rt.checkpoint(&status).write(&self.job_dir_of(id));
         let mut t = self.shared.table.lock().expect("job table");
-        let e = t
-            .jobs
-            .get_mut(id)
-            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
-        let state = e.status.state;
-        let allowed = match c {
-            Control::Pause => matches!(state, JobState::Queued | JobState::Running),
-            Control::Cancel => !state.is_terminal(),
-            Control::None => false,
-        };
-        if !allowed || e.control == Control::Cancel {
-            return Err(JobError::Conflict(format!(
-                "job {id} is {}",
-                state.as_str()
-            )));
+        if let Some(e) = t.jobs.get_mut(id) {
+            e.active = false;
+            if written.is_err() {
+                e.runtime = Some(rt);
+            }
         }
-        if e.active {
-            e.control = c;
-            return Ok(e.status.clone());
-        }
-        e.status.state = if c == Control::Pause {
-            JobState::Paused
-        } else {
-            e.status.finished_at = Some(unix_now());
-            JobState::Cancelled
-        };
-        e.runtime = None;
-        let status = e.status.clone();
         drop(t);
-        JobDir::new(&self.config.data_dir, id).write_status(&status)?;
+        self.shared.wake.notify_all();
+        written
+    }
+
+    /// Waits (releasing the table) until the scheduler has applied the control
+    /// request on `id`, then returns the job.
+    fn wait_transition(
+        &self,
+        mut t: std::sync::MutexGuard<'_, Table>,
+        id: &str,
+    ) -> Result<JobStatus, JobError> {
+        let deadline = std::time::Instant::now() + TRANSITION_WAIT;
+        loop {
+            let e = t
+                .jobs
+                .get(id)
+                .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+            let now = std::time::Instant::now();
+            if e.control == Control::None || now >= deadline {
+                return Ok(e.status.clone());
+            }
+            t = self
+                .shared
+                .stepped
+                .wait_timeout(t, deadline - now)
+                .expect("job table")
+                .0;
+        }
+    }
+
+    /// Stores `status` for an idle job, then makes it the job's state: a transition
+    /// that cannot be stored is refused (the error says why) and changes nothing.
+    fn commit(
+        &self,
+        mut t: std::sync::MutexGuard<'_, Table>,
+        status: JobStatus,
+    ) -> Result<JobStatus, JobError> {
+        let id = status.id.clone();
+        self.job_dir_of(&id).write_status(&status)?;
+        let e = t.jobs.get_mut(&id).expect("job in table");
+        e.status = status.clone();
+        e.unsaved = false;
+        if !matches!(status.state, JobState::Queued | JobState::Running) {
+            e.runtime = None;
+        }
+        drop(t);
+        if status.state == JobState::Queued {
+            self.shared.wake.notify_all();
+        }
         self.shared.emit(Event::State {
-            job: id.into(),
+            job: id.clone(),
             state: status.state,
         });
         if status.state.is_terminal() {
             self.shared.emit(Event::Done {
-                job: id.into(),
+                job: id,
                 status: Box::new(status.clone()),
             });
         }
         Ok(status)
+    }
+
+    fn job_dir_of(&self, id: &str) -> JobDir {
+        JobDir::new(&self.config.data_dir, id)
     }
 
     pub fn cancel(&self, id: &str) -> Result<JobStatus, JobError> {
@@ -356,10 +486,10 @@ impl Service {
     }
 
     pub fn resume(&self, id: &str) -> Result<JobStatus, JobError> {
-        let mut t = self.shared.table.lock().expect("job table");
+        let t = self.shared.table.lock().expect("job table");
         let e = t
             .jobs
-            .get_mut(id)
+            .get(id)
             .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
         if e.status.state != JobState::Paused || e.control != Control::None {
             return Err(JobError::Conflict(format!(
@@ -367,16 +497,33 @@ impl Service {
                 e.status.state.as_str()
             )));
         }
-        e.status.state = JobState::Queued;
-        let status = e.status.clone();
-        drop(t);
-        JobDir::new(&self.config.data_dir, id).write_status(&status)?;
-        self.shared.wake.notify_all();
-        self.shared.emit(Event::State {
-            job: id.into(),
-            state: JobState::Queued,
-        });
-        Ok(status)
+        let mut status = e.status.clone();
+        status.state = JobState::Queued;
+        self.commit(t, status)
+    }
+
+    /// Queues a failed or cancelled job again: it resumes from its checkpoint (or
+    /// starts over without one, to the same image).
+    pub fn retry(&self, id: &str) -> Result<JobStatus, JobError> {
+        let t = self.shared.table.lock().expect("job table");
+        let e = t
+            .jobs
+            .get(id)
+            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
+        if !matches!(e.status.state, JobState::Failed | JobState::Cancelled) {
+            return Err(JobError::Conflict(format!(
+                "job {id} is {}: only failed or cancelled jobs are retried",
+                e.status.state.as_str()
+            )));
+        }
+        let mut status = e.status.clone();
+        status.state = JobState::Queued;
+        status.error = None;
+        status.finished_at = None;
+        let dir = self.job_dir_of(id);
+        let at = Checkpoint::read_header(&dir).map_or(0, |h| h.iteration);
+        status.iteration = at;
+        self.commit(t, status)
     }
 
     /// Removes a job and its directory; a running job must be cancelled first.
@@ -393,7 +540,7 @@ impl Service {
         }
         t.jobs.remove(id);
         drop(t);
-        let dir = JobDir::new(&self.config.data_dir, id);
+        let dir = self.job_dir_of(id);
         std::fs::remove_dir_all(&dir.root).map_err(|e| JobError::io(&dir.root, e))
     }
 
@@ -402,22 +549,34 @@ impl Service {
         Ok(JobDir::new(&self.config.data_dir, id))
     }
 
+    /// The job's current image file: `latest.*` while it renders, `final.*` once it
+    /// has completed (which replaces `latest.*`).
+    fn current_image(&self, id: &str, ext: &str) -> Result<std::path::PathBuf, JobError> {
+        let dir = self.job_dir(id)?;
+        let latest = dir.latest(ext);
+        let fin = dir.final_image(ext);
+        Ok(if !latest.exists() && fin.exists() {
+            fin
+        } else {
+            latest
+        })
+    }
+
     /// Latest image as PNG, re-encoded when an exposure is asked for.
     pub fn preview_png(&self, id: &str, exposure: Option<f32>) -> Result<Vec<u8>, JobError> {
-        let dir = self.job_dir(id)?;
         match exposure {
-            None | Some(0.0) => read_file(&dir.latest("png")),
-            Some(e) if e.is_finite() => {
-                let img = crate::film::read_exr(dir.latest("exr"))
+            None | Some(0.0) => read_file(&self.current_image(id, "png")?),
+            Some(e) if e.is_finite() && e.abs() <= 64.0 => {
+                let img = crate::film::read_exr(self.current_image(id, "exr")?)
                     .map_err(|_| JobError::NotFound(format!("job {id} has no image yet")))?;
                 Ok(crate::film::encode_png(&img, e)?)
             }
-            Some(_) => Err(bad("exposure must be finite")),
+            Some(_) => Err(bad("exposure must be a number of stops in [-64, 64]")),
         }
     }
 
     pub fn image_exr(&self, id: &str) -> Result<Vec<u8>, JobError> {
-        read_file(&self.job_dir(id)?.latest("exr"))
+        read_file(&self.current_image(id, "exr")?)
     }
 
     pub fn snapshots(&self, id: &str) -> Result<Vec<u64>, JobError> {
@@ -443,21 +602,27 @@ impl Service {
 
     // ---- sweeps -------------------------------------------------------------
 
+    /// Expands a sweep into jobs and queues them all, or none: every job is
+    /// validated and stored before any is queued.
     pub fn create_sweep(&self, spec: SweepSpec) -> Result<Sweep, JobError> {
-        let id = format!("s{}", &uuid::Uuid::new_v4().simple().to_string()[..12]);
-        let jobs = spec.expand(&id)?;
-        // Validate every job before queueing any, so a bad grid queues nothing.
-        for (_, j) in &jobs {
-            self.prepare(j.clone())?;
+        if spec.base.sweep.is_some() {
+            return Err(bad("base.sweep is set by the server"));
         }
-        let mut ids = Vec::with_capacity(jobs.len());
-        for (point, j) in jobs {
-            ids.push((point, self.submit(j)?.id));
+        if let Some(n) = &spec.name {
+            limits::check_text("name", n, limits::MAX_NAME)?;
+        }
+        let id = format!("s{}", &uuid::Uuid::new_v4().simple().to_string()[..12]);
+        let mut prepared = Vec::new();
+        for (point, job) in spec.expand(&id)? {
+            prepared.push((point, self.prepare(job)?));
         }
         let sweep = Sweep {
             id,
             spec,
-            jobs: ids,
+            jobs: prepared
+                .iter()
+                .map(|(point, status)| (point.clone(), status.id.clone()))
+                .collect(),
         };
         let path = self
             .config
@@ -465,6 +630,18 @@ impl Service {
             .join("sweeps")
             .join(format!("{}.json", sweep.id));
         crate::film::write_bytes_atomic(&path, &serde_json::to_vec_pretty(&sweep).expect("sweep"))?;
+        let mut stored: Vec<JobStatus> = Vec::with_capacity(prepared.len());
+        for (_, status) in prepared {
+            if let Err(e) = self.store_new(&status) {
+                for s in &stored {
+                    let _ = std::fs::remove_dir_all(self.job_dir_of(&s.id).root);
+                }
+                let _ = std::fs::remove_file(&path);
+                return Err(e);
+            }
+            stored.push(status);
+        }
+        self.enqueue(stored);
         Ok(sweep)
     }
 
@@ -562,7 +739,9 @@ fn read_file(path: &Path) -> Result<Vec<u8>, JobError> {
 }
 
 /// Reads every job.json under `<data-dir>/jobs`. Jobs that were running go back to
-/// the queue and resume from their checkpoints.
+/// the queue and resume from their checkpoints; a job's iteration is its checkpoint's
+/// (what it resumes from), and a completed job's leftovers (a checkpoint it did not ask
+/// to keep, `latest.*`) are removed.
 fn recover(data_dir: &Path) -> Table {
     let mut t = Table::default();
     let entries = std::fs::read_dir(data_dir.join("jobs"))
@@ -584,16 +763,14 @@ fn recover(data_dir: &Path) -> Table {
         if status.state == JobState::Running {
             status.state = JobState::Queued;
         }
-        t.jobs.insert(
-            id,
-            Entry {
-                status,
-                control: Control::None,
-                served: 0,
-                active: false,
-                runtime: None,
-            },
-        );
+        if status.state == JobState::Completed {
+            disk::tidy_finished(&dir, &status.spec);
+        } else {
+            let header = Checkpoint::read_header(&dir);
+            status.iteration = header.as_ref().map_or(0, |h| h.iteration);
+            status.elapsed_s = header.as_ref().map_or(0.0, |h| h.elapsed_s);
+        }
+        t.jobs.insert(id, Entry::new(status, 0));
     }
     t
 }

@@ -71,6 +71,7 @@ pub struct JobSpec {
     pub params: serde_json::Map<String, serde_json::Value>,
     #[serde(default)]
     pub seed: u64,
+    #[serde(deserialize_with = "de_object")]
     pub halt: HaltSpec,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<ReferenceSpec>,
@@ -83,9 +84,75 @@ pub struct JobSpec {
     pub name: Option<String>,
     #[serde(default)]
     pub tags: Vec<String>,
-    /// Set by the server for jobs expanded from a sweep.
+    /// Snapshots kept on disk: a number (default 16, thinned to stay spread over the
+    /// run on a log scale of iterations, the first and latest always kept) or `"all"`.
+    /// The log keeps a row for every snapshot either way.
+    #[serde(default, skip_serializing_if = "KeepSnapshots::is_default")]
+    #[schema(value_type = Object)]
+    pub keep_snapshots: KeepSnapshots,
+    /// Keep the checkpoint (exact pixel sums) after the job completes, e.g. to extend
+    /// it later; by default a completed job drops it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub keep_checkpoint: bool,
+    /// Set by the server for jobs expanded from a sweep; a client may not set it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(read_only)]
     pub sweep: Option<String>,
+}
+
+/// How many snapshots a job keeps: `Count(n)` or `All`; JSON `16` or `"all"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeepSnapshots {
+    Count(u32),
+    All,
+}
+
+impl KeepSnapshots {
+    pub const DEFAULT: KeepSnapshots = KeepSnapshots::Count(16);
+
+    fn is_default(&self) -> bool {
+        *self == Self::DEFAULT
+    }
+}
+
+impl Default for KeepSnapshots {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(untagged)]
+enum KeepRepr {
+    Count(u32),
+    Word(AllWord),
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum AllWord {
+    All,
+}
+
+impl Serialize for KeepSnapshots {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match *self {
+            KeepSnapshots::Count(n) => KeepRepr::Count(n),
+            KeepSnapshots::All => KeepRepr::Word(AllWord::All),
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for KeepSnapshots {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match KeepRepr::deserialize(d)
+            .map_err(|_| serde::de::Error::custom("keep_snapshots: expected a count or \"all\""))?
+        {
+            KeepRepr::Count(n) => Ok(KeepSnapshots::Count(n)),
+            KeepRepr::Word(AllWord::All) => Ok(KeepSnapshots::All),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, ToSchema)]
@@ -157,6 +224,27 @@ pub struct JobStatus {
     pub finished_at: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// Deserializes `T` only from a JSON object (a map): serde's derived structs also
+/// accept a sequence of their fields in order, which would read `"halt": [1]` as
+/// `{"spp": 1}`.
+pub fn de_object<'de, D, T>(d: D) -> Result<T, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct Only<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> serde::de::Visitor<'de> for Only<T> {
+        type Value = T;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an object")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+            T::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+        }
+    }
+    d.deserialize_map(Only(std::marker::PhantomData))
 }
 
 pub fn unix_now() -> f64 {

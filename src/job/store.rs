@@ -89,6 +89,17 @@ pub struct Checkpoint {
 }
 
 const MAGIC: &[u8; 8] = b"CAUSTCK1";
+/// Bytes before the pixel sums: magic, width, height, iteration, elapsed, samples,
+/// dropped.
+const HEAD: usize = 8 + 4 + 4 + 8 + 8 + 8 + 8;
+
+/// What [`Checkpoint::read_header`] reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckpointHeader {
+    pub iteration: u64,
+    pub elapsed_s: f64,
+    pub samples: u64,
+}
 /// Tags the optional integrator-state section after the film (absent in checkpoints
 /// written before it existed, which still load, with no state).
 const STATE_TAG: &[u8; 8] = b"INTSTATE";
@@ -118,7 +129,7 @@ impl Checkpoint {
     }
 
     pub fn decode(bytes: &[u8]) -> Option<Checkpoint> {
-        let head = 8 + 4 + 4 + 8 + 8 + 8 + 8;
+        let head = HEAD;
         if bytes.len() < head || &bytes[..8] != MAGIC {
             return None;
         }
@@ -154,6 +165,31 @@ impl Checkpoint {
             samples: u64_at(32),
             film: Film::from_parts(w, h, sums, u64_at(40)),
             state,
+        })
+    }
+
+    /// The iteration, time and samples of the checkpoint in `dir`, read without its
+    /// pixel sums; None when there is none or its length does not match its header
+    /// (then [`Checkpoint::read`] would refuse it too).
+    pub fn read_header(dir: &JobDir) -> Option<CheckpointHeader> {
+        use std::io::Read;
+        let mut f = std::fs::File::open(dir.checkpoint()).ok()?;
+        let len = f.metadata().ok()?.len();
+        let mut head = [0u8; HEAD];
+        f.read_exact(&mut head).ok()?;
+        if &head[..8] != MAGIC {
+            return None;
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(head[o..o + 4].try_into().unwrap());
+        let u64_at = |o: usize| u64::from_le_bytes(head[o..o + 8].try_into().unwrap());
+        let film = u64::from(u32_at(8)) * u64::from(u32_at(12)) * 24;
+        if len < HEAD as u64 + film {
+            return None;
+        }
+        Some(CheckpointHeader {
+            iteration: u64_at(16),
+            elapsed_s: f64::from_bits(u64_at(24)),
+            samples: u64_at(32),
         })
     }
 
@@ -285,8 +321,12 @@ pub fn read_log(dir: &JobDir) -> Vec<LogRow> {
 }
 
 /// Keeps only rows up to `iteration` (after a crash, rows may be ahead of the
-/// checkpoint).
+/// checkpoint, or the last one half-written). The file is rewritten whole, so the next
+/// append starts on a fresh line; a job with no log yet gets none.
 pub fn truncate_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> {
+    if !dir.log_csv().exists() {
+        return Ok(());
+    }
     let rows: Vec<LogRow> = read_log(dir)
         .into_iter()
         .filter(|r| r.iteration <= iteration)

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SweepSpec {
+    #[serde(deserialize_with = "crate::job::spec::de_object")]
     pub base: JobSpec,
     #[schema(value_type = Object)]
     pub grid: BTreeMap<String, Vec<serde_json::Value>>,
@@ -44,7 +45,12 @@ fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobEr
             spec.algorithm = Some(v.as_str().ok_or_else(|| bad("expected a name"))?.into())
         }
         "seed" => spec.seed = int()?,
-        "priority" => spec.priority = v.as_i64().ok_or_else(|| bad("expected an integer"))? as i32,
+        "priority" => {
+            spec.priority = v
+                .as_i64()
+                .and_then(|p| i32::try_from(p).ok())
+                .ok_or_else(|| bad("expected an integer that fits in 32 bits"))?
+        }
         "halt.spp" => spec.halt.spp = Some(int()?),
         "halt.iterations" => spec.halt.iterations = Some(int()?),
         "halt.time_s" => spec.halt.time_s = Some(num()?),

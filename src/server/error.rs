@@ -35,12 +35,16 @@ impl From<JobError> for ApiError {
             JobError::NotFound(_) => StatusCode::NOT_FOUND,
             JobError::Conflict(_) => StatusCode::CONFLICT,
             JobError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
-            JobError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+            JobError::Storage {
+                kind: std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded,
+                ..
+            } => StatusCode::INSUFFICIENT_STORAGE,
+            JobError::Storage { .. } | JobError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
-        if status.is_server_error() {
-            tracing::error!(error = %e, "internal error");
+        if e.is_server_error() {
+            tracing::error!(error = %e, "request failed on the server's side");
         }
-        ApiError::new(status, e.code(), e.to_string())
+        ApiError::new(status, e.code(), e.client_message())
     }
 }
 

@@ -5,7 +5,7 @@
 use crate::job::events::Event;
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
-use crate::job::spec::{ReferenceSpec, SnapshotEvery};
+use crate::job::spec::{KeepSnapshots, ReferenceSpec, SnapshotEvery};
 use crate::job::sweep::{Sweep, SweepSpec};
 use crate::job::{HaltSpec, JobError, JobSpec, JobState, JobStatus, Service};
 use std::pin::Pin;
@@ -25,24 +25,28 @@ pub mod pb {
 use pb::caustic_server::{Caustic, CausticServer};
 
 /// The gRPC service with bearer-token auth, ready for `Server::builder().add_service`.
-pub type GrpcServer = InterceptedService<CausticServer<Grpc>, BearerAuth>;
+pub type GrpcServer = OversizeExhausted<InterceptedService<CausticServer<Grpc>, BearerAuth>>;
 
 /// Room for protobuf framing around an upload of exactly `max_upload` bytes.
 const FRAMING: usize = 64 << 10;
 
 /// The one mapping from domain errors to gRPC status codes.
 fn to_status(e: JobError) -> Status {
+    if e.is_server_error() {
+        tracing::error!(error = %e, "call failed on the server's side");
+    }
+    let message = e.client_message();
     match e {
-        JobError::BadRequest(_) | JobError::InvalidScene(_) => {
-            Status::invalid_argument(e.to_string())
-        }
-        JobError::NotFound(_) => Status::not_found(e.to_string()),
-        JobError::Conflict(_) => Status::failed_precondition(e.to_string()),
-        JobError::TooLarge(_) => Status::resource_exhausted(e.to_string()),
-        JobError::Internal(_) => {
-            tracing::error!(error = %e, "internal error");
-            Status::internal(e.to_string())
-        }
+        JobError::BadRequest(_) | JobError::InvalidScene(_) => Status::invalid_argument(message),
+        JobError::NotFound(_) => Status::not_found(message),
+        JobError::Conflict(_) => Status::failed_precondition(message),
+        JobError::TooLarge(_) => Status::resource_exhausted(message),
+        JobError::Storage {
+            kind: std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded,
+            ..
+        } => Status::resource_exhausted(message),
+        JobError::Storage { .. } => Status::unavailable(message),
+        JobError::Internal(_) => Status::internal(message),
     }
 }
 
@@ -64,7 +68,58 @@ pub fn service(svc: Arc<Service>) -> CausticServer<Grpc> {
 
 /// The service behind bearer-token auth (none when `token` is `None`).
 pub fn grpc_server(svc: Arc<Service>, token: Option<String>) -> GrpcServer {
-    InterceptedService::new(service(svc), BearerAuth::new(token))
+    OversizeExhausted(InterceptedService::new(
+        service(svc),
+        BearerAuth::new(token),
+    ))
+}
+
+/// Answers a message above the size limit with RESOURCE_EXHAUSTED, the code the proto
+/// documents (and the one an upload just above the limit gets from the service):
+/// tonic's decoder refuses such messages before any handler runs, with OUT_OF_RANGE,
+/// which no method of ours returns.
+#[derive(Clone)]
+pub struct OversizeExhausted<S>(S);
+
+impl<S: tonic::server::NamedService> tonic::server::NamedService for OversizeExhausted<S> {
+    const NAME: &'static str = S::NAME;
+}
+
+impl<S, B, R> tower::Service<axum::http::Request<B>> for OversizeExhausted<S>
+where
+    S: tower::Service<axum::http::Request<B>, Response = axum::http::Response<R>>,
+    S::Future: Send + 'static,
+{
+    type Response = axum::http::Response<R>;
+    type Error = S::Error;
+    type Future =
+        Pin<Box<dyn std::future::Future<Output = Result<Self::Response, S::Error>> + Send>>;
+
+    fn poll_ready(
+        &mut self,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Result<(), Self::Error>> {
+        self.0.poll_ready(cx)
+    }
+
+    fn call(&mut self, req: axum::http::Request<B>) -> Self::Future {
+        let fut = self.0.call(req);
+        Box::pin(async move {
+            let mut resp = fut.await?;
+            let out_of_range = (tonic::Code::OutOfRange as i32).to_string();
+            let h = resp.headers_mut();
+            if h.get("grpc-status")
+                .is_some_and(|v| v.as_bytes() == out_of_range.as_bytes())
+            {
+                let code = (tonic::Code::ResourceExhausted as i32).to_string();
+                h.insert(
+                    "grpc-status",
+                    code.parse().expect("a number is a header value"),
+                );
+            }
+            Ok(resp)
+        })
+    }
 }
 
 /// Serves [`grpc_server`] on `listener` until the future `shutdown` resolves.
@@ -251,6 +306,12 @@ fn spec_to_pb(s: &JobSpec) -> pb::JobSpec {
         name: s.name.clone(),
         tags: s.tags.clone(),
         sweep: s.sweep.clone(),
+        keep_snapshots: match s.keep_snapshots {
+            KeepSnapshots::Count(n) => Some(n),
+            KeepSnapshots::All => None,
+        },
+        keep_all_snapshots: s.keep_snapshots == KeepSnapshots::All,
+        keep_checkpoint: s.keep_checkpoint,
     }
 }
 
@@ -276,6 +337,12 @@ fn spec_from_pb(s: pb::JobSpec) -> Result<JobSpec, JobError> {
         name: s.name,
         tags: s.tags,
         sweep: s.sweep,
+        keep_snapshots: match (s.keep_all_snapshots, s.keep_snapshots) {
+            (true, _) => KeepSnapshots::All,
+            (false, Some(n)) => KeepSnapshots::Count(n),
+            (false, None) => KeepSnapshots::DEFAULT,
+        },
+        keep_checkpoint: s.keep_checkpoint,
     })
 }
 
@@ -395,10 +462,18 @@ async fn watch(
     mut sent: JobState,
     tx: EventSender,
 ) {
+    let closing = svc.until_closing();
+    tokio::pin!(closing);
     loop {
         let next = tokio::select! {
             e = events.recv() => e,
             _ = tx.closed() => return,
+            _ = &mut closing => {
+                let e = Status::unavailable(
+                    "the server is stopping; the job resumes from its checkpoint when it starts again",
+                );
+                return send_last(&tx, Err(e)).await;
+            }
         };
         let msg = match next {
             Ok(e) if e.job() != id => continue,
@@ -565,6 +640,12 @@ impl Caustic for Grpc {
     async fn resume_job(&self, req: Request<pb::ResumeJobRequest>) -> Reply<pb::Job> {
         let id = req.into_inner().id;
         let job = self.call(move |s| s.resume(&id)).await?;
+        Ok(Response::new(job_to_pb(job)))
+    }
+
+    async fn retry_job(&self, req: Request<pb::RetryJobRequest>) -> Reply<pb::Job> {
+        let id = req.into_inner().id;
+        let job = self.call(move |s| s.retry(&id)).await?;
         Ok(Response::new(job_to_pb(job)))
     }
 

@@ -27,23 +27,42 @@ use utoipa::{OpenApi, ToSchema};
 type Svc = Arc<Service>;
 type ApiResult<T> = Result<T, ApiError>;
 
-/// JSON bodies whose rejections (malformed JSON, wrong types, unknown fields) become
-/// our JSON errors instead of axum's plain-text ones.
+/// JSON bodies whose rejections (malformed JSON, wrong types, unknown fields, a body
+/// that is not an object) become our JSON errors instead of axum's plain-text ones.
 pub struct JsonBody<T>(pub T);
 
 impl<S, T> FromRequest<S> for JsonBody<T>
 where
-    Json<T>: FromRequest<S, Rejection = JsonRejection>,
+    T: serde::de::DeserializeOwned,
     S: Send + Sync,
 {
     type Rejection = ApiError;
 
     async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
-        match Json::<T>::from_request(req, state).await {
-            Ok(Json(v)) => Ok(JsonBody(v)),
-            Err(r) => Err(ApiError::new(r.status(), "bad_request", r.body_text())),
+        match Json::<Object<T>>::from_request(req, state).await {
+            Ok(Json(Object(v))) => Ok(JsonBody(v)),
+            Err(r) => Err(json_rejection(r)),
         }
     }
+}
+
+/// A value that must arrive as a JSON object: serde would otherwise fill a struct
+/// from an array, field by field in order (`[1]` as a job).
+struct Object<T>(T);
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Object<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        crate::job::spec::de_object(d).map(Object)
+    }
+}
+
+fn json_rejection(r: JsonRejection) -> ApiError {
+    let code = match r.status() {
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => "unsupported_media_type",
+        StatusCode::PAYLOAD_TOO_LARGE => "too_large",
+        _ => "bad_request",
+    };
+    ApiError::new(r.status(), code, r.body_text())
 }
 
 /// Runs a blocking service call off the async runtime.
@@ -92,16 +111,23 @@ fn view(job: JobStatus) -> JobView {
 }
 
 pub fn app(svc: Svc, token: Option<String>) -> Router {
-    let limit = svc.config().max_upload as usize;
-    let v1 = Router::new()
+    let limits = BodyLimits {
+        upload: usize::try_from(svc.config().max_upload).unwrap_or(usize::MAX),
+        json: crate::job::limits::MAX_JSON_BODY,
+    };
+    let body_timeout = svc.config().body_timeout;
+    let uploads = Router::new()
         .route("/scenes", post(upload_scene).get(list_scenes))
-        .route("/scenes/{id}", get(get_scene).delete(delete_scene))
         .route("/references", post(upload_reference))
+        .layer(DefaultBodyLimit::max(limits.upload));
+    let v1 = Router::new()
+        .route("/scenes/{id}", get(get_scene).delete(delete_scene))
         .route("/jobs", post(submit).get(list_jobs))
         .route("/jobs/{id}", get(get_job).delete(delete_job))
         .route("/jobs/{id}/cancel", post(cancel))
         .route("/jobs/{id}/pause", post(pause))
         .route("/jobs/{id}/resume", post(resume))
+        .route("/jobs/{id}/retry", post(retry))
         .route("/jobs/{id}/preview.png", get(preview))
         .route("/jobs/{id}/image.exr", get(image))
         .route("/jobs/{id}/snapshots", get(snapshots))
@@ -110,22 +136,118 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         .route("/jobs/{id}/events", get(events))
         .route("/sweeps", post(create_sweep))
         .route("/sweeps/{id}", get(get_sweep))
-        .route("/openapi.json", get(openapi));
+        .route("/openapi.json", get(openapi))
+        .layer(DefaultBodyLimit::max(limits.json))
+        .merge(uploads);
     let protected = Router::new()
         .nest("/v1", v1)
         .route("/metrics", get(metrics))
         .layer(middleware::from_fn_with_state(token, auth));
     Router::new()
         .merge(protected)
-        .route(
-            "/healthz",
-            get(|| async { Json(serde_json::json!({"status": "ok"})) }),
-        )
+        .route("/healthz", get(healthz))
         .fallback(|| async {
             ApiError::new(StatusCode::NOT_FOUND, "not_found", "no such endpoint")
         })
-        .layer(DefaultBodyLimit::max(limit))
+        .layer(tower_http::timeout::RequestBodyTimeoutLayer::new(
+            body_timeout,
+        ))
+        .layer(middleware::from_fn_with_state(limits, refuse_long_bodies))
+        .layer(middleware::from_fn(json_errors))
         .with_state(svc)
+}
+
+#[utoipa::path(get, path = "/healthz", description = "Health check; needs no token.", security(()), responses((status = 200, body = Object)))]
+async fn healthz() -> Json<serde_json::Value> {
+    Json(serde_json::json!({"status": "ok"}))
+}
+
+/// Body size limits: uploads (scenes, references) and every other (JSON) body.
+#[derive(Clone, Copy)]
+struct BodyLimits {
+    upload: usize,
+    json: usize,
+}
+
+impl BodyLimits {
+    fn for_path(&self, path: &str) -> usize {
+        if matches!(path, "/v1/scenes" | "/v1/references") {
+            self.upload
+        } else {
+            self.json
+        }
+    }
+}
+
+/// Answers 413 at once when the declared Content-Length is above the limit, rather
+/// than waiting for a body the server would refuse anyway (and that may never come).
+async fn refuse_long_bodies(
+    State(limits): State<BodyLimits>,
+    req: Request,
+    next: Next,
+) -> Response {
+    let limit = limits.for_path(req.uri().path());
+    let declared = req
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    if declared.is_some_and(|n| n > limit as u64) {
+        return ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            format!(
+                "the body declares {} bytes; this endpoint takes at most {limit}",
+                declared.unwrap_or(0)
+            ),
+        )
+        .into_response();
+    }
+    next.run(req).await
+}
+
+/// Makes every error response JSON, as the API promises: axum's own answers (405,
+/// some 400 and 413 rejections, body timeouts) are empty or plain text.
+async fn json_errors(req: Request, next: Next) -> Response {
+    let resp = next.run(req).await;
+    let status = resp.status();
+    let is_json = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_json {
+        return resp;
+    }
+    let allow = resp.headers().get(header::ALLOW).cloned();
+    let text = axum::body::to_bytes(resp.into_body(), 4096)
+        .await
+        .map(|b| String::from_utf8_lossy(&b).trim().to_string())
+        .unwrap_or_default();
+    let message = match (status, &allow) {
+        (StatusCode::METHOD_NOT_ALLOWED, Some(a)) => format!(
+            "method not allowed here; this endpoint accepts {}",
+            a.to_str().unwrap_or("other methods")
+        ),
+        _ if !text.is_empty() => text,
+        _ => status
+            .canonical_reason()
+            .unwrap_or("request refused")
+            .to_string(),
+    };
+    let code = match status {
+        StatusCode::METHOD_NOT_ALLOWED => "method_not_allowed",
+        StatusCode::PAYLOAD_TOO_LARGE => "too_large",
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => "unsupported_media_type",
+        StatusCode::REQUEST_TIMEOUT => "timeout",
+        s if s.is_server_error() => "internal",
+        _ => "bad_request",
+    };
+    let mut out = ApiError::new(status, code, message).into_response();
+    if let Some(a) = allow {
+        out.headers_mut().insert(header::ALLOW, a);
+    }
+    out
 }
 
 /// Bearer-token check; a no-op when the server runs without a token.
@@ -216,6 +338,11 @@ async fn list_jobs(
 #[utoipa::path(get, path = "/v1/jobs/{id}", description = "One job: state, iteration, elapsed, samples/s, last RMSE, ETA, dropped samples.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody)))]
 async fn get_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
     Ok(Json(view(blocking(&svc, move |s| s.get_job(&id)).await?)))
+}
+
+#[utoipa::path(post, path = "/v1/jobs/{id}/retry", description = "Queue a failed or cancelled job again; it resumes from its checkpoint (or starts over, to the same image). Returns the queued job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+async fn retry(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(view(blocking(&svc, move |s| s.retry(&id)).await?)))
 }
 
 #[utoipa::path(delete, path = "/v1/jobs/{id}", description = "Delete a job that is not running, with its directory.", params(("id" = String, Path)), responses((status = 204), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
@@ -336,6 +463,7 @@ async fn events(
     // Subscribe before reading the state, so no event falls between the two.
     let rx = svc.subscribe();
     let jid = id.clone();
+    let jid_for_shutdown = id.clone();
     let status = blocking(&svc, move |s| s.get_job(&jid)).await?;
     let first = if status.state.is_terminal() {
         Event::Done {
@@ -355,16 +483,41 @@ async fn events(
             async move { r.ok().filter(|e| e.job() == id) }
         })
         .boxed();
-    let live = until_done(live, done_already);
-    let stream = futures::stream::once(async move { first })
-        .chain(live)
-        .map(|e| {
+    let sent_done = Arc::new(std::sync::atomic::AtomicBool::new(done_already));
+    let mark = sent_done.clone();
+    let events = futures::stream::once(async move { first })
+        .chain(until_done(live, done_already))
+        .map(move |e| {
+            if matches!(e, Event::Done { .. }) {
+                mark.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
             Ok(sse::Event::default()
                 .event(e.name())
                 .json_data(&e)
                 .expect("event serialises"))
         });
+    // When the server stops, the stream ends with a `shutdown` event (unless `done`
+    // was already the last), so that the connection closes and the server can exit.
+    let stream = events.take_until(svc.until_closing()).chain(
+        futures::stream::once(async move {
+            let stopping =
+                svc.is_closing() && !sent_done.load(std::sync::atomic::Ordering::Relaxed);
+            stopping.then(|| Ok(shutdown_event(&jid_for_shutdown)))
+        })
+        .filter_map(|e| async move { e }),
+    );
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+fn shutdown_event(job: &str) -> sse::Event {
+    sse::Event::default().event("shutdown").data(
+        serde_json::json!({
+            "event": "shutdown",
+            "job": job,
+            "message": "the server is stopping; the job resumes from its checkpoint when it starts again",
+        })
+        .to_string(),
+    )
 }
 
 /// Passes events through up to and including the first `done`, then ends (at once,

@@ -1,0 +1,420 @@
+//! Running one job: its runtime (compiled scene, integrator, film, resumed from the
+//! checkpoint), a batch of iterations, its snapshots, and its end.
+//!
+//! Crash consistency rests on one order of writes. A snapshot writes its EXR and PNG,
+//! `latest.*`, a log row, then the checkpoint; completion then writes `final.*` and
+//! job.json. Once the checkpoint names iteration i, everything up to i is on disk; a
+//! job resumed from a checkpoint that already meets its halt condition completes
+//! without rendering, and the log is cut back to the checkpoint, so a kill at any
+//! write leaves a job that finishes as if it never happened.
+
+use super::disk;
+use super::failpoint;
+use super::scheduler::Shared;
+use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
+use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
+use super::JobError;
+use crate::film::{self, Film, Image};
+use crate::integrator::{Integrator, RenderStats, Settings};
+use crate::scene::Scene;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Target wall time of one batch.
+const BATCH: Duration = Duration::from_millis(250);
+
+/// Live state of an active job: everything needed to run its next iterations.
+pub struct Runtime {
+    scene: Arc<Scene>,
+    integrator: Box<dyn Integrator>,
+    film: Film,
+    samples: u64,
+    reference: Option<Image>,
+    /// Seconds per iteration, smoothed.
+    per_iter: f64,
+    last_snapshot: (u64, f64),
+}
+
+impl Runtime {
+    /// The exact state to resume from after `status.iteration` iterations.
+    pub fn checkpoint(&self, status: &JobStatus) -> Checkpoint {
+        Checkpoint {
+            iteration: status.iteration,
+            elapsed_s: status.elapsed_s,
+            samples: self.samples,
+            film: self.film.clone(),
+            state: self.integrator.save_state(),
+        }
+    }
+}
+
+/// What one step did to a job. `saved` is false when job.json could not be written
+/// (the scheduler retries until it can).
+pub struct StepResult {
+    pub status: JobStatus,
+    pub runtime: Option<Box<Runtime>>,
+    pub saved: bool,
+}
+
+/// Runs the next batch of `status`'s job, building its runtime first if needed.
+pub fn step(shared: &Shared, runtime: Option<Box<Runtime>>, mut status: JobStatus) -> StepResult {
+    let mut rt = match runtime {
+        Some(rt) => rt,
+        None => match start(shared, &mut status) {
+            Ok(rt) => rt,
+            Err(e) => return fail(shared, status, e),
+        },
+    };
+    // The state event goes out from `finish_step`, which sees the change.
+    if status.state == JobState::Queued {
+        status.state = JobState::Running;
+    }
+    let result = if status.iteration > 0 && halt_reached(&status) {
+        // Resumed from a checkpoint written by the job's last snapshot: what is left
+        // is to finish, not to render one more iteration.
+        complete(shared, &mut status, &rt).map(|()| true)
+    } else {
+        run_batch(shared, &mut status, &mut rt)
+    };
+    match result {
+        Ok(done) => StepResult {
+            status,
+            runtime: (!done).then_some(rt),
+            saved: true,
+        },
+        Err(e) => fail(shared, status, e),
+    }
+}
+
+/// Marks the job failed and tries to store that; the error the client sees is the
+/// one it can act on (no server paths).
+pub fn fail(shared: &Shared, mut status: JobStatus, err: JobError) -> StepResult {
+    tracing::warn!(job = %status.id, error = %err, "job failed");
+    status.state = JobState::Failed;
+    status.error = Some(err.client_message());
+    status.finished_at = Some(unix_now());
+    status.eta_s = None;
+    let saved = write_status(shared, &status).is_ok();
+    StepResult {
+        status,
+        runtime: None,
+        saved,
+    }
+}
+
+/// Writes job.json, logging a failure (the caller decides what it means).
+pub fn write_status(shared: &Shared, status: &JobStatus) -> Result<(), JobError> {
+    failpoint::hit("status", status.iteration);
+    let r = shared.job_dir(&status.id).write_status(status);
+    if let Err(e) = &r {
+        tracing::warn!(job = %status.id, error = %e, "job.json not written");
+    }
+    r
+}
+
+/// Whether a job at its current iteration, time and error has met its halt rule.
+fn halt_reached(status: &JobStatus) -> bool {
+    let h = &status.spec.halt;
+    let by_count = h.max_iterations().is_some_and(|m| status.iteration >= m);
+    let by_time = h.time_s.is_some_and(|t| status.elapsed_s >= t);
+    let by_error = h
+        .target_rmse
+        .zip(status.last_rmse)
+        .is_some_and(|(target, r)| r <= target);
+    by_count || by_time || by_error
+}
+
+/// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if any.
+fn start(shared: &Shared, status: &mut JobStatus) -> Result<Box<Runtime>, JobError> {
+    let scene = shared.scenes.compiled(&status.spec.scene)?;
+    let settings: Settings = serde_json::from_value(status.settings.clone())
+        .map_err(|e| JobError::Internal(format!("stored settings: {e}")))?;
+    let dir = shared.job_dir(&status.id);
+    let reference = load_reference(shared, &status.spec, &scene)?;
+    let integrator = settings.build();
+    let checkpoint = Checkpoint::read(&dir)
+        .filter(|c| c.film.width() == scene.width() && c.film.height() == scene.height());
+    let at = checkpoint.as_ref().map_or(0, |c| c.iteration);
+    // Rows and snapshots past the checkpoint came from iterations that run again.
+    truncate_log(&dir, at)?;
+    disk::drop_snapshots_after(&dir, at);
+    let (film, samples, elapsed) = match checkpoint {
+        Some(c) => {
+            if let Some(state) = &c.state {
+                // An unusable state is not fatal: the integrator then starts its
+                // statistics afresh and keeps the film consistent.
+                if let Err(e) = integrator.load_state(state) {
+                    tracing::warn!(job = %status.id, "checkpoint state not restored: {e}");
+                }
+            }
+            (c.film, c.samples, c.elapsed_s)
+        }
+        None => (Film::new(scene.width(), scene.height()), 0, 0.0),
+    };
+    status.iteration = at;
+    status.elapsed_s = elapsed;
+    status.dropped = film.dropped();
+    status.last_rmse = read_log(&dir)
+        .last()
+        .filter(|r| r.iteration == at)
+        .and_then(|r| r.rmse);
+    Ok(Box::new(Runtime {
+        integrator,
+        scene,
+        film,
+        samples,
+        reference,
+        per_iter: 0.0,
+        last_snapshot: (at, elapsed),
+    }))
+}
+
+pub fn load_reference(
+    shared: &Shared,
+    spec: &JobSpec,
+    scene: &Scene,
+) -> Result<Option<Image>, JobError> {
+    let (path, what) = match &spec.reference {
+        None => return Ok(None),
+        Some(ReferenceSpec::Upload(rid)) => (
+            reference_path(&shared.data_dir, rid)?,
+            format!("reference upload {rid}"),
+        ),
+        Some(ReferenceSpec::Job(jid)) => (
+            shared.job_dir(jid).final_image("exr"),
+            format!("the final image of reference job {jid}"),
+        ),
+    };
+    let img = film::read_exr(&path).map_err(|e| {
+        tracing::warn!(error = %e, "reference not readable");
+        JobError::BadRequest(format!("{what} is not available"))
+    })?;
+    if img.size() != (scene.width(), scene.height()) {
+        return Err(JobError::BadRequest(format!(
+            "reference is {}x{} but the scene renders {}x{}",
+            img.width(),
+            img.height(),
+            scene.width(),
+            scene.height()
+        )));
+    }
+    Ok(Some(img))
+}
+
+pub fn reference_path(data_dir: &std::path::Path, id: &str) -> Result<PathBuf, JobError> {
+    if id.len() != 16 || !id.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(JobError::NotFound(format!("reference {id}")));
+    }
+    Ok(data_dir.join("references").join(format!("{id}.exr")))
+}
+
+/// How many iterations the next batch runs: about [`BATCH`] of work, never past the
+/// iteration limit, and ending on the next snapshot iteration so snapshots land
+/// exactly.
+fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64) -> u64 {
+    let mut n = if per_iter > 0.0 {
+        (BATCH.as_secs_f64() / per_iter).floor().max(1.0) as u64
+    } else {
+        1
+    };
+    if let Some(m) = spec.halt.max_iterations() {
+        n = n.min(m.saturating_sub(iteration)).max(1);
+    }
+    if let SnapshotEvery::Iterations(k) = spec.snapshot_every {
+        let next = (iteration / k.max(1) + 1) * k.max(1);
+        n = n.min(next - iteration);
+    }
+    n
+}
+
+/// Runs one batch, writes snapshots that fall due, and reports whether the job is done.
+fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
+    let spec = status.spec.clone();
+    let n = batch_len(&spec, status.iteration, rt.per_iter);
+    let start = Instant::now();
+    let mut stats = RenderStats::default();
+    for _ in 0..n {
+        stats += rt
+            .integrator
+            .iterate(&rt.scene, spec.seed, status.iteration, &mut rt.film);
+        status.iteration += 1;
+    }
+    let secs = start.elapsed().as_secs_f64();
+    rt.per_iter = if rt.per_iter > 0.0 {
+        0.7 * rt.per_iter + 0.3 * secs / n as f64
+    } else {
+        secs / n as f64
+    };
+    rt.samples += stats.samples;
+    status.elapsed_s += secs;
+    status.samples_per_s = stats.samples as f64 / secs.max(1e-9);
+    let new_drops = rt.film.dropped() - status.dropped;
+    status.dropped = rt.film.dropped();
+    count(shared, &stats, n, secs, new_drops);
+    status.eta_s = eta(status, rt.per_iter);
+    let figures = batch_figures(&stats, n, secs, rt.film.sums().len());
+    shared.emit(super::events::Event::Progress {
+        job: status.id.clone(),
+        iteration: status.iteration,
+        elapsed_s: status.elapsed_s,
+        samples_per_s: status.samples_per_s,
+        eta_s: status.eta_s,
+        dropped: status.dropped,
+    });
+    let due = match spec.snapshot_every {
+        SnapshotEvery::Iterations(k) => status.iteration.is_multiple_of(k.max(1)),
+        SnapshotEvery::Seconds(s) => status.elapsed_s - rt.last_snapshot.1 >= s,
+    };
+    let mut done = halt_reached(status);
+    if due || done {
+        snapshot(shared, status, rt, &figures)?;
+        done = halt_reached(status);
+    }
+    if done {
+        complete(shared, status, rt)?;
+    } else {
+        write_status(shared, status)?;
+    }
+    Ok(done)
+}
+
+/// Adds a batch to the server's counters.
+fn count(shared: &Shared, stats: &RenderStats, n: u64, secs: f64, new_drops: u64) {
+    let m = &shared.metrics;
+    m.iterations.fetch_add(n, Ordering::Relaxed);
+    m.samples.fetch_add(stats.samples, Ordering::Relaxed);
+    m.rays
+        .fetch_add(stats.rays + stats.shadow_rays, Ordering::Relaxed);
+    m.dropped.fetch_add(new_drops, Ordering::Relaxed);
+    m.render_ns
+        .fetch_add((secs * 1e9) as u64, Ordering::Relaxed);
+}
+
+/// Writes the final images and the completed status, then drops what a finished job
+/// no longer needs (the checkpoint unless kept, `latest.*`, which `final.*` replaces).
+fn complete(shared: &Shared, status: &mut JobStatus, rt: &Runtime) -> Result<(), JobError> {
+    let dir = shared.job_dir(&status.id);
+    let img = rt.film.to_image(1.0 / status.iteration.max(1) as f64);
+    let layers = rt.film.layer_images();
+    let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
+    failpoint::hit("final-exr", status.iteration);
+    film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
+    failpoint::hit("final-png", status.iteration);
+    film::write_png(dir.final_image("png"), &img, 0.0)?;
+    status.state = JobState::Completed;
+    status.finished_at = Some(unix_now());
+    status.eta_s = Some(0.0);
+    write_status(shared, status)?;
+    disk::tidy_finished(&dir, &status.spec);
+    Ok(())
+}
+
+/// The per-batch figures of a log row: rays per second, and per-iteration means over
+/// the `n` iterations of the batch (the merge radius is the latest iteration's).
+fn batch_figures(stats: &RenderStats, n: u64, secs: f64, pixels: usize) -> LogRow {
+    let per_iteration = |v: u64| v as f64 / n.max(1) as f64;
+    let per_pixel = |v: u64| per_iteration(v) / pixels.max(1) as f64;
+    LogRow {
+        rays_per_s: (stats.rays + stats.shadow_rays) as f64 / secs.max(1e-9),
+        merge_radius: stats.merge_radius as f64,
+        light_vertices: per_iteration(stats.light_vertices),
+        connections_per_pixel: per_pixel(stats.connections),
+        merges_per_pixel: per_pixel(stats.merges),
+        ..Default::default()
+    }
+}
+
+fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
+    let by_count = status
+        .spec
+        .halt
+        .max_iterations()
+        .map(|m| m.saturating_sub(status.iteration) as f64 * per_iter);
+    let by_time = status
+        .spec
+        .halt
+        .time_s
+        .map(|t| (t - status.elapsed_s).max(0.0));
+    match (by_count, by_time) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Snapshot EXR + PNG, latest.*, a log row with the error against the reference (and
+/// the batch's `figures`), and the checkpoint, in that order (see the module notes).
+fn snapshot(
+    shared: &Shared,
+    status: &mut JobStatus,
+    rt: &mut Runtime,
+    figures: &LogRow,
+) -> Result<(), JobError> {
+    let dir = shared.job_dir(&status.id);
+    let it = status.iteration;
+    let img = rt.film.to_image(1.0 / it.max(1) as f64);
+    failpoint::hit("snapshot-exr", it);
+    film::write_exr(dir.snapshot(it, "exr"), &img)?;
+    failpoint::hit("snapshot-png", it);
+    film::write_png(dir.snapshot(it, "png"), &img, 0.0)?;
+    failpoint::hit("latest-exr", it);
+    film::write_exr(dir.latest("exr"), &img)?;
+    failpoint::hit("latest-png", it);
+    film::write_png(dir.latest("png"), &img, 0.0)?;
+    let metrics = rt
+        .reference
+        .as_ref()
+        .map(|r| film::compare(&img, r))
+        .transpose()?;
+    status.last_rmse = metrics.map(|m| m.rmse);
+    failpoint::hit("log", it);
+    append_log(
+        &dir,
+        &LogRow {
+            iteration: it,
+            elapsed_s: status.elapsed_s,
+            samples: rt.samples,
+            rmse: metrics.map(|m| m.rmse),
+            rel_mse: metrics.map(|m| m.rel_mse),
+            dropped: status.dropped,
+            ..figures.clone()
+        },
+    )?;
+    failpoint::hit("checkpoint", it);
+    rt.checkpoint(status).write(&dir)?;
+    rt.last_snapshot = (it, status.elapsed_s);
+    disk::thin_snapshots(&dir, &status.spec);
+    shared.emit(super::events::Event::Snapshot {
+        job: status.id.clone(),
+        iteration: it,
+        rmse: metrics.map(|m| m.rmse),
+        rel_mse: metrics.map(|m| m.rel_mse),
+    });
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batch_figures_are_per_iteration_means() {
+        let stats = RenderStats {
+            rays: 600,
+            shadow_rays: 400,
+            light_vertices: 3000,
+            connections: 800,
+            merges: 200,
+            merge_radius: 0.5,
+            ..Default::default()
+        };
+        // 4 iterations on a 10-pixel film in 2 seconds.
+        let f = batch_figures(&stats, 4, 2.0, 10);
+        assert_eq!(f.rays_per_s, 500.0);
+        assert_eq!(f.light_vertices, 750.0);
+        assert_eq!(f.connections_per_pixel, 20.0);
+        assert_eq!(f.merges_per_pixel, 5.0);
+        assert_eq!(f.merge_radius, 0.5);
+    }
+}
