@@ -136,9 +136,11 @@ fn pause_resume_cancel_and_delete() {
     let s = TestServer::start(None);
     let id = submit(&s, json!({"scene": "cornell-box", "halt": {"spp": 100000}}));
     s.wait_state(&id, "running");
-    let (code, _) = s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({}));
+    // The answer shows the job after the transition (the call waits for the batch).
+    let (code, paused) = s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({}));
     assert_eq!(code, 200);
-    s.wait_state(&id, "paused");
+    assert_eq!(paused["state"], "paused", "{paused}");
+    assert_eq!(s.get_json(&format!("/v1/jobs/{id}")).1["state"], "paused");
     assert_eq!(
         s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({})).0,
         409
@@ -155,8 +157,9 @@ fn pause_resume_cancel_and_delete() {
         409
     );
     s.wait_state(&id, "running");
-    let (code, _) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    let (code, cancelled) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
     assert_eq!(code, 200);
+    assert_eq!(cancelled["state"], "cancelled", "{cancelled}");
     let job = s.wait_job(&id);
     assert_eq!(job["state"], "cancelled");
     assert!(job["iteration"].as_u64().unwrap() >= it);
