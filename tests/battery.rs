@@ -30,7 +30,7 @@ use server_common::tiny_scene;
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -695,11 +695,10 @@ fn method_path_cases(l: &str, s: &str) -> Vec<Case> {
 
 /// Malformed HTTP, which hyper answers (or closes) before the router runs.
 fn protocol_cases() -> Vec<Case> {
-    let host = |r: Req| r;
     vec![
         case("protocol: a raw NUL byte in the request target", Req::get(&b"/v1/jobs/a\x00b"[..]), &[400]).protocol(),
         case("protocol: a raw space in the request target", Req::get("/v1/jobs/a b"), &[400]).protocol(),
-        case("protocol: a header name with a space", host(Req::get("/v1/jobs").header("Bad Header", "x")), &[400]).protocol(),
+        case("protocol: a header name with a space", Req::get("/v1/jobs").header("Bad Header", "x"), &[400]).protocol(),
         case("protocol: a header value with a raw control byte", Req::get("/v1/jobs").header("x-a", &b"a\x01b"[..]), &[400]).protocol(),
         case(
             "protocol: Content-Length not a number",
@@ -1204,7 +1203,7 @@ fn mtllib_probe(b: &mut Battery, name: &str, fifo: &Path, mtllib: &str) -> bool 
     let body = tar(&[file("scene.json", scene.as_bytes()), file("m/quad.obj", &obj)]);
     let (tx, rx) = std::sync::mpsc::channel();
     let url = b.url.clone();
-    let mut c = case(name, upload(&body), &[201, 400, 422]).echo(mtllib).echo(fifo.display().to_string());
+    let c = case(name, upload(&body), &[201, 400, 422]).echo(mtllib).echo(fifo.display().to_string());
     let req = c.req.clone();
     std::thread::spawn(move || {
         let _ = tx.send(send(&url, &req, Duration::from_secs(20)));
@@ -1224,7 +1223,6 @@ fn mtllib_probe(b: &mut Battery, name: &str, fifo: &Path, mtllib: &str) -> bool 
             drop(f);
         }
     };
-    c.name = name.to_string();
     let mut problems = b.check(&c, &out);
     if opened {
         problems.push(format!(

@@ -172,7 +172,7 @@ pub fn zip_set_method(mut z: Vec<u8>, method: u16) -> Vec<u8> {
 
 /// Makes the end-of-central-directory record claim `n` entries.
 pub fn zip_claim_entries(mut z: Vec<u8>, n: u16) -> Vec<u8> {
-    let at = (0..z.len() - 22)
+    let at = (0..=z.len() - 22)
         .rev()
         .find(|&i| &z[i..i + 4] == b"PK\x05\x06")
         .expect("EOCD");
