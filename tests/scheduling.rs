@@ -87,3 +87,119 @@ fn a_sweep_compiles_its_scene_once() {
         "{text}"
     );
 }
+
+fn metric(s: &TestServer, name: &str) -> u64 {
+    let (_, body) = s.get("/metrics");
+    let text = String::from_utf8(body).unwrap();
+    text.lines()
+        .find_map(|l| l.strip_prefix(name)?.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no {name} in /metrics"))
+}
+
+fn iteration(s: &TestServer, id: &str) -> u64 {
+    s.get_json(&format!("/v1/jobs/{id}")).1["iteration"]
+        .as_u64()
+        .unwrap()
+}
+
+/// Render state is memory (an 8K job holds gigabytes): only `max_active_jobs` jobs
+/// hold it; the next job of equal priority waits queued until one ends.
+#[test]
+fn at_most_max_active_jobs_are_held_in_memory() {
+    let s = TestServer::start_with(None, |c| c.max_active_jobs = 2);
+    let long = json!({"scene": "cornell-box", "halt": {"spp": 100000}});
+    let ids: Vec<String> = (0..3)
+        .map(|_| {
+            s.post_json("/v1/jobs", &long).1["id"]
+                .as_str()
+                .unwrap()
+                .into()
+        })
+        .collect();
+    let start = Instant::now();
+    while iteration(&s, &ids[0]) == 0 || iteration(&s, &ids[1]) == 0 {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "two jobs never ran"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let third = s.get_json(&format!("/v1/jobs/{}", ids[2])).1;
+    assert_eq!(third["state"], "queued", "{third}");
+    assert_eq!(third["iteration"], 0, "{third}");
+    assert_eq!(metric(&s, "caustic_jobs_held"), 2);
+    // When one ends, the waiting job takes its place.
+    s.post_json(&format!("/v1/jobs/{}/cancel", ids[0]), &json!({}));
+    while iteration(&s, &ids[2]) == 0 {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the third never ran"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for id in &ids[1..] {
+        s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    }
+    assert!(metric(&s, "caustic_jobs_held") == 0);
+}
+
+/// With memory full, a job of higher priority sets the lowest one aside: that job is
+/// checkpointed, waits, resumes, and still ends with the uninterrupted image.
+#[test]
+fn a_higher_priority_job_sets_one_aside_which_resumes_bit_identically() {
+    let s = TestServer::start_with(None, |c| c.max_active_jobs = 1);
+    let spp = 48;
+    let (_, low) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "halt": {"spp": spp}, "seed": 21}),
+    );
+    let low = low["id"].as_str().unwrap().to_string();
+    let start = Instant::now();
+    while iteration(&s, &low) == 0 {
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let (_, high) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "halt": {"spp": 2}, "priority": 10}),
+    );
+    let high = s.wait_job(high["id"].as_str().unwrap());
+    assert_eq!(high["state"], "completed");
+    let low_job = s.wait_job(&low);
+    assert_eq!(low_job["state"], "completed");
+    assert!(
+        iteration(&s, &low) == spp && metric(&s, "caustic_jobs_set_aside_total") == 1,
+        "the low job was not set aside: it finished before the high one started?"
+    );
+    let (_, exr) = s.get(&format!("/v1/jobs/{low}/image.exr"));
+    let served = caustic::film::decode_exr(&exr).unwrap();
+    let text = caustic::job::scenes::BUILTIN
+        .iter()
+        .find(|(n, _)| *n == "cornell-box")
+        .unwrap()
+        .1;
+    let scene =
+        caustic::scene::Scene::compile(&caustic::scene::load::parse_scene(text).unwrap(), None)
+            .unwrap();
+    let settings = caustic::integrator::Settings::resolve(
+        None,
+        scene.integrator.as_ref(),
+        &Default::default(),
+    )
+    .unwrap();
+    let direct = caustic::integrator::driver::render(
+        &scene,
+        settings.build().as_ref(),
+        21,
+        caustic::integrator::driver::Halt {
+            iterations: Some(spp),
+            time: None,
+        },
+        |_, _| {},
+    );
+    assert!(
+        direct.image().pixels() == served.pixels(),
+        "resumed image differs"
+    );
+}

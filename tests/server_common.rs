@@ -16,15 +16,34 @@ pub struct TestServer {
 
 impl TestServer {
     pub fn start(token: Option<&str>) -> TestServer {
+        Self::start_with(token, |_| {})
+    }
+
+    /// A test server with its configuration changed by `configure`.
+    pub fn start_with(
+        token: Option<&str>,
+        configure: impl FnOnce(&mut ServiceConfig),
+    ) -> TestServer {
         let dir = tempfile::tempdir().unwrap();
-        let svc = Service::start(ServiceConfig::for_tests(dir.path())).unwrap();
+        let mut config = ServiceConfig::for_tests(dir.path());
+        configure(&mut config);
+        let svc = Service::start(config).unwrap();
         let rt = tokio::runtime::Runtime::new().unwrap();
         let listener = rt
             .block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))
             .unwrap();
         let url = format!("http://{}", listener.local_addr().unwrap());
         let app = caustic::server::http::app(svc.clone(), token.map(String::from));
-        rt.spawn(async move { axum::serve(listener, app).await.unwrap() });
+        let limits = caustic::server::listen::ConnLimits {
+            header_timeout: svc.config().header_timeout,
+            drain: Duration::from_secs(1),
+        };
+        rt.spawn(caustic::server::listen::serve(
+            listener,
+            app,
+            limits,
+            std::future::pending(),
+        ));
         TestServer {
             url,
             svc,
@@ -39,6 +58,16 @@ impl TestServer {
 
     pub fn get_json(&self, path: &str) -> (u16, Value) {
         let (code, body) = self.get(path);
+        (code, serde_json::from_slice(&body).unwrap_or(Value::Null))
+    }
+
+    /// GET with `Accept: application/json`.
+    pub fn get_json_accept(&self, path: &str) -> (u16, Value) {
+        let (code, body) = respond(
+            ureq::get(&format!("{}{path}", self.url))
+                .set("accept", "application/json")
+                .call(),
+        );
         (code, serde_json::from_slice(&body).unwrap_or(Value::Null))
     }
 

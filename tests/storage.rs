@@ -81,7 +81,10 @@ fn spec(scene: &str, spp: u64) -> JobSpec {
 fn wait(what: &str, mut f: impl FnMut() -> bool) {
     let start = Instant::now();
     while !f() {
-        assert!(start.elapsed() < Duration::from_secs(60), "timed out: {what}");
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "timed out: {what}"
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
 }
@@ -168,14 +171,20 @@ fn a_read_only_disk_fails_the_job_consistently_and_retry_finishes_it() {
     assert_eq!(svc.get_job(&id).unwrap().state, JobState::Failed);
     let retried = svc.retry(&id).unwrap();
     assert_eq!(retried.state, JobState::Queued);
-    assert!(retried.iteration >= 10, "resumes from its checkpoint: {retried:?}");
+    assert!(
+        retried.iteration >= 10,
+        "resumes from its checkpoint: {retried:?}"
+    );
     wait("the retried job", || {
         svc.get_job(&id).unwrap().state == JobState::Completed
     });
     assert_eq!(svc.get_job(&id).unwrap().iteration, spp);
     let image = svc.image_exr(&id).unwrap();
     let served = caustic::film::decode_exr(&image).unwrap();
-    assert!(served.pixels() == direct_render(spp), "retried image differs");
+    assert!(
+        served.pixels() == direct_render(spp),
+        "retried image differs"
+    );
     // Retrying what completed makes no sense.
     assert!(matches!(svc.retry(&id), Err(JobError::Conflict(_))));
     svc.shutdown();

@@ -56,6 +56,12 @@ impl Entry {
             unsaved: false,
         }
     }
+
+    /// Whether the job's render state is in memory (in the table, or out of it while
+    /// a batch runs or its checkpoint is written).
+    pub fn holds_memory(&self) -> bool {
+        self.runtime.is_some() || self.active
+    }
 }
 
 #[derive(Default)]
@@ -72,6 +78,8 @@ pub struct Metrics {
     pub rays: AtomicU64,
     pub dropped: AtomicU64,
     pub render_ns: AtomicU64,
+    /// Jobs set aside (checkpointed, memory freed) for a job of higher priority.
+    pub set_aside: AtomicU64,
 }
 
 pub struct Shared {
@@ -113,7 +121,7 @@ fn runnable(e: &Entry) -> bool {
 /// Picks the next job to run, if any. Jobs already held in memory run as long as they
 /// like; a job that is not may start only while fewer than `max_active` are held.
 fn pick(t: &Table, max_active: usize) -> Option<String> {
-    let held = t.jobs.values().filter(|e| e.runtime.is_some()).count();
+    let held = t.jobs.values().filter(|e| e.holds_memory()).count();
     t.jobs
         .iter()
         .filter(|(_, e)| runnable(e) && (e.runtime.is_some() || held < max_active))
@@ -125,10 +133,10 @@ fn pick(t: &Table, max_active: usize) -> Option<String> {
 /// A held job to set aside (checkpoint, free its memory) for a waiting job of
 /// strictly higher priority, when memory is full: the lowest-priority held job.
 fn to_evict(t: &Table, max_active: usize) -> Option<String> {
-    let held = || t.jobs.iter().filter(|(_, e)| e.runtime.is_some());
-    if held().count() < max_active {
+    if t.jobs.values().filter(|e| e.holds_memory()).count() < max_active {
         return None;
     }
+    let held = || t.jobs.iter().filter(|(_, e)| e.runtime.is_some());
     let waiting = t
         .jobs
         .values()
@@ -192,6 +200,7 @@ fn evict(shared: &Shared, id: &str) -> bool {
     match written {
         Ok(()) => {
             tracing::info!(job = id, "set aside for a job of higher priority");
+            shared.metrics.set_aside.fetch_add(1, Ordering::Relaxed);
             true
         }
         Err(err) => {

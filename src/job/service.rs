@@ -667,6 +667,8 @@ impl Service {
         for e in t.jobs.values() {
             *by_state.entry(e.status.state.as_str()).or_insert(0u64) += 1;
         }
+        let held = t.jobs.values().filter(|e| e.holds_memory()).count() as u64;
+        let unsaved = t.jobs.values().filter(|e| e.unsaved).count() as u64;
         drop(t);
         let m = &self.shared.metrics;
         let mut out = String::new();
@@ -712,6 +714,24 @@ impl Service {
                 "counter",
                 "Scenes compiled (BVH builds).",
                 self.shared.scenes.compilations(),
+            ),
+            (
+                "caustic_jobs_held",
+                "gauge",
+                "Jobs whose render state is in memory.",
+                held,
+            ),
+            (
+                "caustic_jobs_set_aside_total",
+                "counter",
+                "Jobs checkpointed and set aside for a job of higher priority.",
+                m.set_aside.load(Ordering::Relaxed),
+            ),
+            (
+                "caustic_jobs_unsaved",
+                "gauge",
+                "Jobs whose job.json could not be written yet (retried).",
+                unsaved,
             ),
         ];
         for (name, kind, help, v) in counters {

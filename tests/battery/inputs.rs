@@ -209,6 +209,26 @@ pub fn exr_claiming(w: i32, h: i32) -> Vec<u8> {
         patched += 1;
     }
     assert_eq!(patched, 2);
+    // The chunkCount attribute (written by the exr crate) must agree with the claimed
+    // size, or a pedantic header check refuses the file before any allocation.
+    let lines_per_block = {
+        let attr = b"compression\0compression\0";
+        let at = b
+            .windows(attr.len())
+            .position(|x| x == attr)
+            .expect("compression");
+        match b[at + attr.len() + 4] {
+            0..=2 => 1,
+            3 | 5 => 16,
+            _ => 32,
+        }
+    };
+    let attr = b"chunkCount\0int\0";
+    if let Some(at) = b.windows(attr.len()).position(|x| x == attr) {
+        let v = at + attr.len() + 4;
+        let chunks = (h + lines_per_block - 1) / lines_per_block;
+        b[v..v + 4].copy_from_slice(&chunks.to_le_bytes());
+    }
     b
 }
 

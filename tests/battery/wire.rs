@@ -20,7 +20,10 @@ pub enum Body {
     /// The bytes as `Transfer-Encoding: chunked`, in chunks of 64 KiB.
     Chunked(Vec<u8>),
     /// Content-Length says `declared` (any text); only `sent` is sent, then silence.
-    Declared { declared: String, sent: Vec<u8> },
+    Declared {
+        declared: String,
+        sent: Vec<u8>,
+    },
     /// Written as given after the head: the caller frames it (bad chunking...).
     Raw(Vec<u8>),
 }
@@ -52,14 +55,14 @@ impl Req {
     }
 
     pub fn header(mut self, name: &str, value: impl AsRef<[u8]>) -> Req {
-        self.headers.push((name.to_string(), value.as_ref().to_vec()));
+        self.headers
+            .push((name.to_string(), value.as_ref().to_vec()));
         self
     }
 
     /// A body with `content-type: application/json`.
     pub fn json(self, body: impl AsRef<[u8]>) -> Req {
-        self.header("content-type", "application/json")
-            .bytes(body)
+        self.header("content-type", "application/json").bytes(body)
     }
 
     pub fn bytes(mut self, body: impl AsRef<[u8]>) -> Req {
@@ -140,11 +143,15 @@ impl Req {
 
     /// A short description of the request for failure messages.
     pub fn describe(&self) -> String {
-        let t = String::from_utf8_lossy(&self.target);
-        let t = if t.len() > 80 {
-            format!("{}...({} bytes)", &t[..t.floor_char_boundary(60)], self.target.len())
+        let t: String = String::from_utf8_lossy(&self.target)
+            .chars()
+            .take(60)
+            .flat_map(char::escape_debug)
+            .collect();
+        let t = if self.target.len() > 60 {
+            format!("{t}...({} bytes)", self.target.len())
         } else {
-            t.into_owned()
+            t
         };
         let body = match &self.body {
             Body::None => String::new(),
@@ -189,9 +196,15 @@ impl Resp {
 pub enum Outcome {
     Answered(Resp),
     /// The server closed (or reset) the connection without a complete answer.
-    Closed { elapsed: Duration, partial: Vec<u8> },
+    Closed {
+        elapsed: Duration,
+        partial: Vec<u8>,
+    },
     /// No complete answer within the client's timeout; the connection was open.
-    TimedOut { elapsed: Duration, partial: Vec<u8> },
+    TimedOut {
+        elapsed: Duration,
+        partial: Vec<u8>,
+    },
     /// Could not connect.
     Failed(String),
 }
