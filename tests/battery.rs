@@ -2877,7 +2877,7 @@ fn bad_request_battery() {
     let cases_run = b.run + a.run;
 
     // The long job: completed, every iteration, bit-identical to a direct render.
-    let mut long_note = String::new();
+    let long_note: String;
     if b.dead.is_none() {
         let at = job_state(&p.url, &long);
         long_note = format!(
@@ -2917,6 +2917,7 @@ fn bad_request_battery() {
         }
     } else {
         b.fail("the long job could not be checked: the server died".into());
+        long_note = "the long job: not checked, the server died".into();
     }
 
     // The slow checks.
