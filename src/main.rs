@@ -235,6 +235,10 @@ struct ServeArgs {
     /// GiB.
     #[arg(long, value_name = "GIB")]
     retention_gib: Option<f64>,
+    /// Seconds a connection may wait for a request's headers (idle keep-alive
+    /// connections too) and a body may pause before the server gives up on it.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    request_timeout: f64,
 }
 
 #[derive(Args)]
@@ -832,6 +836,14 @@ fn serve(a: ServeArgs) -> Result<()> {
     config.max_upload = a.max_upload_mib << 20;
     config.max_active_jobs = a.max_active_jobs as usize;
     config.retention = retention(&a)?;
+    if !(a.request_timeout.is_finite() && a.request_timeout > 0.0) {
+        bail!(
+            "--request-timeout {}: expected a positive number of seconds",
+            a.request_timeout
+        );
+    }
+    config.header_timeout = Duration::from_secs_f64(a.request_timeout);
+    config.body_timeout = config.header_timeout;
     let svc = caustic::job::Service::start(config)?;
     let rt = tokio::runtime::Runtime::new()?;
     let result = rt.block_on(async {

@@ -409,13 +409,31 @@ fn metrics_and_openapi_are_served() {
         ("post", "/v1/sweeps"),
         ("get", "/v1/sweeps/{id}"),
         ("get", "/metrics"),
+        ("post", "/v1/jobs/{id}/retry"),
+        ("get", "/v1/openapi.json"),
+        ("get", "/healthz"),
     ];
     for (method, path) in routes {
-        assert!(
-            doc["paths"][path][method].is_object(),
-            "{method} {path} undocumented"
+        let op = &doc["paths"][path][method];
+        assert!(op.is_object(), "{method} {path} undocumented");
+        // Behind a token everything but /healthz answers 401; everything may fail.
+        let needs_token = path != "/healthz";
+        assert_eq!(
+            op["responses"]["401"].is_object(),
+            needs_token,
+            "{method} {path}"
         );
+        assert!(op["responses"]["500"].is_object(), "{method} {path}");
+        if method == "post" {
+            for code in ["413", "415", "507"] {
+                assert!(op["responses"][code].is_object(), "{method} {path} {code}");
+            }
+        }
     }
+    assert_eq!(
+        doc["components"]["securitySchemes"]["bearer"]["scheme"],
+        "bearer"
+    );
     assert!(doc["components"]["schemas"]["JobSpec"]["properties"]["halt"].is_object());
 }
 

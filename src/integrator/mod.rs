@@ -211,8 +211,20 @@ impl Settings {
         with_shared.extend(obj.clone());
         // Shared defaults apply only where the algorithm has such a parameter.
         let settings = parse(with_shared)
-            .or_else(|_| parse(obj))
-            .map_err(|e| SettingsError::Invalid(e.to_string()))?;
+            .or_else(|_| parse(obj.clone()))
+            .map_err(|e| {
+                // serde cannot tell where inside a tagged enum it failed: find the
+                // parameter without which the settings parse, and name it.
+                let culprit = overrides.keys().find(|k| {
+                    let mut without = obj.clone();
+                    without.remove(*k);
+                    parse(without).is_ok()
+                });
+                SettingsError::Invalid(match culprit {
+                    Some(k) => format!("params.{k}: {e}"),
+                    None => e.to_string(),
+                })
+            })?;
         settings.validate()?;
         Ok(settings)
     }

@@ -178,10 +178,13 @@ pub fn load_reference(
 ) -> Result<Option<Image>, JobError> {
     let (path, what) = match &spec.reference {
         None => return Ok(None),
-        Some(ReferenceSpec::Upload(rid)) => (
-            reference_path(&shared.data_dir, rid)?,
-            format!("reference upload {rid}"),
-        ),
+        Some(ReferenceSpec::Upload(rid)) => {
+            let path = reference_path(&shared.data_dir, rid)?;
+            if !path.exists() {
+                return Err(JobError::NotFound(format!("reference upload {rid}")));
+            }
+            (path, format!("reference upload {rid}"))
+        }
         Some(ReferenceSpec::Job(jid)) => (
             shared.job_dir(jid).final_image("exr"),
             format!("the final image of reference job {jid}"),

@@ -151,7 +151,8 @@ impl SceneStore {
             std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
         }
         let path = tmp.join("scene.json");
-        Scene::load(&path).map_err(|e| JobError::InvalidScene(e.to_string()))?;
+        Scene::load(&path)
+            .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), tmp)))?;
         Ok(())
     }
 
@@ -251,6 +252,19 @@ impl SceneStore {
     }
 }
 
+/// `message` with the upload's folder taken out of any file name in it: the readers
+/// name files by their full path, and a client must learn the name inside its bundle,
+/// not where the server keeps it.
+fn without_folder(message: &str, folder: &Path) -> String {
+    let mut out = message.to_string();
+    let canonical = folder.canonicalize().ok();
+    for f in std::iter::once(folder).chain(canonical.as_deref()) {
+        out = out.replace(&format!("{}/", f.display()), "");
+        out = out.replace(&f.display().to_string(), "<bundle>");
+    }
+    out
+}
+
 fn hex16(digest: &[u8]) -> String {
     digest[..8].iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -291,11 +305,25 @@ fn find_scene_json(dir: &Path) -> Result<PathBuf, JobError> {
     }
 }
 
-/// A bundle entry's path, refused when absolute or climbing out with `..`.
+/// A bundle entry's path, refused when absolute, climbing out with `..`, too deep,
+/// with too long a name, or holding a NUL byte.
 fn safe_entry(name: &Path) -> Result<PathBuf, JobError> {
     let mut out = PathBuf::new();
+    let refuse = |why: &str| {
+        let shown: String = name.to_string_lossy().chars().take(120).collect();
+        Err(bad(format!("bundle entry \"{shown}\": {why}")))
+    };
     for c in name.components() {
         match c {
+            Component::Normal(p) if p.len() > MAX_ENTRY_NAME => {
+                return refuse(&format!("a name is longer than {MAX_ENTRY_NAME} bytes"))
+            }
+            Component::Normal(p) if p.as_encoded_bytes().contains(&0) => {
+                return refuse("a name holds a NUL byte")
+            }
+            Component::Normal(_) if out.components().count() >= MAX_ENTRY_DEPTH => {
+                return refuse(&format!("folders deeper than {MAX_ENTRY_DEPTH}"))
+            }
             Component::Normal(p) => out.push(p),
             Component::CurDir => {}
             _ => {
@@ -333,9 +361,9 @@ fn write_entry(
     use std::io::Write;
     let path = dest.join(rel);
     if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| JobError::io(parent, e))?;
+        std::fs::create_dir_all(parent).map_err(|e| entry_error(rel, parent, e))?;
     }
-    let mut f = std::fs::File::create(&path).map_err(|e| JobError::io(&path, e))?;
+    let mut f = std::fs::File::create(&path).map_err(|e| entry_error(rel, &path, e))?;
     let mut buf = vec![0u8; 64 << 10];
     loop {
         let n = match r.read(&mut buf) {
@@ -357,6 +385,27 @@ fn write_entry(
     }
 }
 
+/// A failure to create a bundle entry's file or folder: the server's fault when its
+/// disk is full or read-only, otherwise the entry's (a name clash such as a file `m`
+/// and a file `m/a.obj`, a name the file system refuses).
+fn entry_error(rel: &Path, path: &Path, e: std::io::Error) -> JobError {
+    use std::io::ErrorKind as K;
+    match e.kind() {
+        K::StorageFull | K::QuotaExceeded | K::ReadOnlyFilesystem | K::PermissionDenied => {
+            JobError::io(path, e)
+        }
+        _ => bad(format!(
+            "bundle entry \"{}\" cannot be stored: {e}",
+            rel.display()
+        )),
+    }
+}
+
+/// Bundle entry names: folders at most this deep, names at most this long (most file
+/// systems stop at 255 bytes).
+const MAX_ENTRY_DEPTH: usize = 32;
+const MAX_ENTRY_NAME: usize = 255;
+
 fn unpack_tar(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
     let mut ar = tar::Archive::new(bytes);
     let mut budget = limit;
@@ -370,7 +419,7 @@ fn unpack_tar(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
         match entry.header().entry_type() {
             tar::EntryType::Regular => write_entry(dest, &rel, entry, &mut budget)?,
             tar::EntryType::Directory => {
-                std::fs::create_dir_all(dest.join(&rel)).map_err(|e| JobError::io(dest, e))?
+                std::fs::create_dir_all(dest.join(&rel)).map_err(|e| entry_error(&rel, dest, e))?
             }
             t => {
                 return Err(bad(format!(
@@ -398,7 +447,7 @@ fn unpack_zip(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
             )));
         }
         if file.is_dir() {
-            std::fs::create_dir_all(dest.join(&rel)).map_err(|e| JobError::io(dest, e))?;
+            std::fs::create_dir_all(dest.join(&rel)).map_err(|e| entry_error(&rel, dest, e))?;
         } else {
             write_entry(dest, &rel, file, &mut budget)?;
         }

@@ -73,9 +73,13 @@ pub struct JobSpec {
     pub seed: u64,
     #[serde(deserialize_with = "de_object")]
     pub halt: HaltSpec,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "de_enum_object_or_null"
+    )]
     pub reference: Option<ReferenceSpec>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "de_enum_object")]
     pub snapshot_every: SnapshotEvery,
     /// Higher runs first; equal priorities share the workers fairly.
     #[serde(default)]
@@ -245,6 +249,42 @@ where
         }
     }
     d.deserialize_map(Only(std::marker::PhantomData))
+}
+
+/// An enum written as a one-key object (`{"iterations": 8}`), through a JSON value: a
+/// second key is then "expected one key", a type error, rather than the syntax error
+/// serde's streaming enum reader reports for valid JSON.
+pub fn de_enum_object<'de, D, T>(d: D) -> Result<T, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: serde::de::DeserializeOwned,
+{
+    use serde::de::Error;
+    match serde_json::Value::deserialize(d)? {
+        serde_json::Value::Object(m) if m.len() == 1 => {
+            T::deserialize(serde_json::Value::Object(m)).map_err(D::Error::custom)
+        }
+        serde_json::Value::Object(m) => Err(D::Error::custom(format!(
+            "expected an object with one key, found {} keys",
+            m.len()
+        ))),
+        _ => Err(D::Error::custom("expected an object with one key")),
+    }
+}
+
+/// [`de_enum_object`] for an optional field: null is none.
+pub fn de_enum_object_or_null<'de, D, T>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: serde::de::DeserializeOwned,
+{
+    use serde::de::{Error, IntoDeserializer};
+    match serde_json::Value::deserialize(d)? {
+        serde_json::Value::Null => Ok(None),
+        v => de_enum_object(v.into_deserializer())
+            .map(Some)
+            .map_err(|e: serde_json::Error| D::Error::custom(e)),
+    }
 }
 
 pub fn unix_now() -> f64 {

@@ -671,14 +671,19 @@ pub struct ErrorDetail {
     pub message: String,
 }
 
-/// The OpenAPI document, generated from the handlers' annotations and the types.
+/// The OpenAPI document, generated from the handlers' annotations and the types, and
+/// completed by [`CommonAnswers`].
 #[derive(OpenApi)]
 #[openapi(
     info(
         title = "caustic",
-        description = "Progressive physically based rendering server"
+        description = "Progressive physically based rendering server. Every error is JSON, `{\"error\": {\"code\", \"message\"}}`, and names no server path. Any path answers a method it does not take with 405 (JSON, with an `Allow` header); unknown paths are 404."
     ),
+    modifiers(&CommonAnswers),
     paths(
+        healthz,
+        openapi,
+        retry,
         upload_scene,
         list_scenes,
         get_scene,
@@ -718,6 +723,69 @@ pub struct ErrorDetail {
 )]
 pub struct ApiDoc;
 
+/// What every operation can answer besides its own responses: 401 behind a token,
+/// 500 on a server fault, and for requests with a body 413, 415 and 507.
+struct CommonAnswers;
+
+impl utoipa::Modify for CommonAnswers {
+    fn modify(&self, doc: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+        use utoipa::openapi::{ContentBuilder, Ref, ResponseBuilder};
+        let components = doc.components.get_or_insert_with(Default::default);
+        components.add_security_scheme(
+            "bearer",
+            SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
+        );
+        let error = |what: &str| {
+            ResponseBuilder::new()
+                .description(what)
+                .content(
+                    "application/json",
+                    ContentBuilder::new()
+                        .schema(Some(Ref::from_schema_name("ErrorBody")))
+                        .build(),
+                )
+                .build()
+        };
+        let bearer =
+            utoipa::openapi::security::SecurityRequirement::new("bearer", Vec::<String>::new());
+        for (path, item) in doc.paths.paths.iter_mut() {
+            let open = path == "/healthz";
+            let ops = [
+                (&mut item.get, false),
+                (&mut item.delete, false),
+                (&mut item.post, true),
+            ];
+            for (op, has_body) in ops {
+                let Some(op) = op.as_mut() else { continue };
+                let r = &mut op.responses.responses;
+                if !open {
+                    op.security = Some(vec![bearer.clone()]);
+                    r.entry("401".into()).or_insert_with(|| {
+                        error("missing or wrong bearer token (servers started with --token)").into()
+                    });
+                }
+                r.entry("500".into()).or_insert_with(|| {
+                    error("a server fault; the message says what an operator can do").into()
+                });
+                if has_body {
+                    r.entry("413".into()).or_insert_with(|| {
+                        error("the body is above the limit (declared length refused at once)")
+                            .into()
+                    });
+                    r.entry("415".into()).or_insert_with(|| {
+                        error("a JSON endpoint was sent another content type").into()
+                    });
+                    r.entry("507".into()).or_insert_with(|| {
+                        error("the server's disk is full; nothing was stored").into()
+                    });
+                }
+            }
+        }
+    }
+}
+
+#[utoipa::path(get, path = "/v1/openapi.json", description = "This document.", responses((status = 200, content_type = "application/json", body = Object)))]
 async fn openapi() -> Response {
     let doc = ApiDoc::openapi()
         .to_pretty_json()
