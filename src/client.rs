@@ -492,13 +492,17 @@ pub fn scene_upload(path: &Path) -> Result<(Vec<u8>, &'static str, usize)> {
     Ok((tar, "application/x-tar", n))
 }
 
-/// Every `"filename"` string in a scene document (OBJ and PLY shapes, environment maps).
+/// Keys whose string values name files next to the scene: meshes and environment
+/// maps (`filename`), media grids (`file`, `albedo_file`).
+const FILE_KEYS: [&str; 3] = ["filename", "file", "albedo_file"];
+
+/// Every file a scene document names (see [`FILE_KEYS`]).
 pub fn referenced_files(doc: &Value, out: &mut Vec<String>) {
     match doc {
         Value::Object(m) => {
             for (k, v) in m {
                 match v {
-                    Value::String(s) if k == "filename" => out.push(s.clone()),
+                    Value::String(s) if FILE_KEYS.contains(&k.as_str()) => out.push(s.clone()),
                     _ => referenced_files(v, out),
                 }
             }
@@ -531,8 +535,9 @@ fn relative(name: &str) -> Result<PathBuf> {
     Ok(out)
 }
 
-/// The referenced files (relative to the scene folder), plus the material libraries an
-/// OBJ names when they exist next to it.
+/// The referenced files (relative to the scene folder), plus the data file a raw
+/// grid's `.json` header names (relative to the header). OBJ material libraries are
+/// left out: caustic reads no OBJ materials.
 fn bundle_files(dir: &Path, names: &[String]) -> Result<BTreeSet<PathBuf>> {
     let mut files = BTreeSet::new();
     for name in names {
@@ -541,23 +546,22 @@ fn bundle_files(dir: &Path, names: &[String]) -> Result<BTreeSet<PathBuf>> {
         if !full.is_file() {
             return Err(file_error(&full, "referenced by the scene but not found"));
         }
-        let is_obj = rel
+        let is_json = rel
             .extension()
-            .is_some_and(|x| x.eq_ignore_ascii_case("obj"));
-        if is_obj {
+            .is_some_and(|x| x.eq_ignore_ascii_case("json"));
+        if is_json {
             let text = std::fs::read(&full).map_err(|e| file_error(&full, e))?;
-            let folder = rel.parent().map(Path::to_path_buf).unwrap_or_default();
-            for line in String::from_utf8_lossy(&text).lines() {
-                let Some(libs) = line.trim().strip_prefix("mtllib ") else {
-                    continue;
-                };
-                for lib in libs.split_whitespace() {
-                    if let Ok(r) = relative(&folder.join(lib).to_string_lossy()) {
-                        if dir.join(&r).is_file() {
-                            files.insert(r);
-                        }
-                    }
+            let header: Value = serde_json::from_slice(&text).map_err(|e| file_error(&full, e))?;
+            if let Some(data) = header.get("data").and_then(Value::as_str) {
+                let folder = rel.parent().map(Path::to_path_buf).unwrap_or_default();
+                let data = relative(&folder.join(data).to_string_lossy())?;
+                if !dir.join(&data).is_file() {
+                    return Err(file_error(
+                        &dir.join(&data),
+                        "named by a grid header but not found",
+                    ));
                 }
+                files.insert(data);
             }
         }
         files.insert(rel);
@@ -1200,16 +1204,42 @@ mod tests {
         std::fs::write(dir.join("s.json"), scene.to_string()).unwrap();
         let (a, ct, n) = scene_upload(&dir.join("s.json")).unwrap();
         let (b, _, _) = scene_upload(&dir.join("s.json")).unwrap();
-        assert_eq!((ct, n), ("application/x-tar", 3));
+        assert_eq!((ct, n), ("application/x-tar", 2));
         assert_eq!(a, b);
         assert_eq!(&a[257..262], b"ustar");
-        let mut ar = tar::Archive::new(a.as_slice());
-        let names: Vec<String> = ar
-            .entries()
-            .unwrap()
-            .map(|e| e.unwrap().path().unwrap().display().to_string())
-            .collect();
-        assert_eq!(names, ["scene.json", "meshes/a.mtl", "meshes/a.obj"]);
+        let names = |bytes: &[u8]| -> Vec<String> {
+            tar::Archive::new(bytes)
+                .entries()
+                .unwrap()
+                .map(|e| e.unwrap().path().unwrap().display().to_string())
+                .collect()
+        };
+        // OBJ material libraries stay home: the server reads no OBJ materials.
+        assert_eq!(names(&a), ["scene.json", "meshes/a.obj"]);
+
+        // Media grids: a .vol, and a raw grid's header with the data file it names.
+        std::fs::create_dir_all(dir.join("grids/raw")).unwrap();
+        std::fs::write(dir.join("grids/smoke.vol"), b"VOL").unwrap();
+        std::fs::write(dir.join("grids/raw/d.bin"), [0u8; 4]).unwrap();
+        std::fs::write(
+            dir.join("grids/albedo.json"),
+            r#"{"dims": [1, 1, 1], "data": "raw/d.bin"}"#,
+        )
+        .unwrap();
+        let media = serde_json::json!({"media": {"smoke": {"type": "grid", "file": "grids/smoke.vol",
+                                        "albedo_file": "grids/albedo.json"}}});
+        std::fs::write(dir.join("m.json"), media.to_string()).unwrap();
+        let (tar, _, n) = scene_upload(&dir.join("m.json")).unwrap();
+        assert_eq!(n, 4);
+        assert_eq!(
+            names(&tar),
+            [
+                "scene.json",
+                "grids/albedo.json",
+                "grids/raw/d.bin",
+                "grids/smoke.vol"
+            ]
+        );
 
         let bad = serde_json::json!({"lights": [{"type": "envmap", "filename": "../x.exr"}]});
         std::fs::write(dir.join("bad.json"), bad.to_string()).unwrap();

@@ -653,14 +653,22 @@ fn bench(a: &BenchArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
     let all = bench_settings(a, &scene)?;
     println!(
-        "{:<10} {:>12} {:>15} {:>14} {:>12} {:>10}",
-        "algorithm", "ms/iteration", "CPU s/iteration", "M samples/s", "M rays/s", "dropped"
+        "{:<10} {:>12} {:>15} {:>14} {:>12} {:>10} {:>9}",
+        "algorithm",
+        "ms/iteration",
+        "CPU s/iteration",
+        "M samples/s",
+        "M rays/s",
+        "dropped",
+        "peak MiB"
     );
     let iterations = |n| Halt {
         iterations: Some(n),
         time: None,
     };
     for settings in all {
+        // Each algorithm's own peak: the scene, plus what its iterations allocate.
+        caustic::bench::reset_peak_rss();
         driver::render(
             &scene,
             settings.build().as_ref(),
@@ -694,13 +702,14 @@ fn bench(a: &BenchArgs) -> Result<()> {
             dropped += out.film.dropped();
         }
         println!(
-            "{:<10} {:>12.2} {:>15.4} {:>14.3} {:>12.2} {:>10}",
+            "{:<10} {:>12.2} {:>15.4} {:>14.3} {:>12.2} {:>10} {:>9}",
             settings.name(),
             median(ms),
             median(cpu),
             median(sps),
             median(rps),
-            dropped
+            dropped,
+            caustic::bench::peak_rss_mib()
         );
     }
     Ok(())
@@ -765,8 +774,10 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
         time: Some(plan.budget),
     };
     let mut runs = Vec::new();
+    let mut peaks = Vec::new();
     for settings in &all {
         let label = unique_label(settings.name(), &runs);
+        caustic::bench::reset_peak_rss();
         let integrator = settings.build();
         let bar = progress_bar(halt, &label);
         let run = caustic::bench::converge(
@@ -778,6 +789,7 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
             |i, el| show_progress(&bar, false, i, el),
         )?;
         bar.finish_and_clear();
+        peaks.push(caustic::bench::peak_rss_mib());
         let path = a.output.join(format!("{label}.exr"));
         film::write_exr(&path, &run.image())?;
         runs.push(run);
@@ -797,13 +809,21 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
         a.output.display()
     );
     println!(
-        "{:<10} {:>10} {:>9} {:>9} {:>12} {:>12} {:>10} {:>8}",
-        "algorithm", "iterations", "time s", "CPU s", "RMSE", "rel MSE", "M rays/s", "dropped"
+        "{:<10} {:>10} {:>9} {:>9} {:>12} {:>12} {:>10} {:>8} {:>9}",
+        "algorithm",
+        "iterations",
+        "time s",
+        "CPU s",
+        "RMSE",
+        "rel MSE",
+        "M rays/s",
+        "dropped",
+        "peak MiB"
     );
-    for run in &runs {
+    for (run, peak) in runs.iter().zip(&peaks) {
         let p = run.last();
         println!(
-            "{:<10} {:>10} {:>9.2} {:>9.2} {:>12.4e} {:>12.4e} {:>10.2} {:>8}",
+            "{:<10} {:>10} {:>9.2} {:>9.2} {:>12.4e} {:>12.4e} {:>10.2} {:>8} {:>9}",
             run.label,
             p.iteration,
             p.elapsed_s,
@@ -811,7 +831,8 @@ fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
             p.rmse,
             p.rel_mse,
             p.rays_per_s() / 1e6,
-            p.dropped
+            p.dropped,
+            peak
         );
     }
     Ok(())

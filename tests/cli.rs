@@ -100,6 +100,15 @@ fn bench_prints_a_table() {
     let row = text.lines().find(|l| l.starts_with("pt ")).expect("pt row");
     let ms: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
     assert!(ms > 0.0);
+    // Memory is measured like time: the peak resident set, which holds at least the
+    // film (and, on Linux, is there).
+    let header = text.lines().find(|l| l.starts_with("algorithm")).unwrap();
+    assert!(header.ends_with("peak MiB"), "{header}");
+    let peak = row.split_whitespace().last().unwrap();
+    if cfg!(target_os = "linux") {
+        let mib: f64 = peak.parse().unwrap();
+        assert!(mib > 1.0 && mib < 4096.0, "{row}");
+    }
 }
 
 #[test]

@@ -172,6 +172,40 @@ fn submit_bundles_the_files_a_scene_names() {
     assert!(r.stderr.contains("quad.obj"), "{}", r.stderr);
 }
 
+/// The shipped smoke scene names its density grid with `file`: it is bundled too.
+#[test]
+fn submit_bundles_media_grids() {
+    let s = TestServer::start(None);
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/media/smoke-room.json");
+    let r = ok(caustic(
+        &s,
+        &[
+            "submit",
+            scene.to_str().unwrap(),
+            "--spp",
+            "1",
+            "--watch",
+            "--json",
+        ],
+    ));
+    let lines = json_lines(&r.stdout);
+    assert_eq!(
+        lines.last().unwrap()["status"]["state"],
+        "completed",
+        "{}",
+        r.stdout
+    );
+    assert!(r.stderr.contains("(2 files"), "{}", r.stderr);
+    let scene_id = lines[0]["spec"]["scene"].as_str().unwrap();
+    assert!(s
+        .dir
+        .path()
+        .join("scenes")
+        .join(scene_id)
+        .join("smoke.vol")
+        .is_file());
+}
+
 #[test]
 fn sweep_over_algorithms_prints_csv() {
     let s = TestServer::start(None);

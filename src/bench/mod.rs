@@ -5,10 +5,12 @@
 
 pub mod converge;
 pub mod cpu;
+pub mod mem;
 pub mod plot;
 
 pub use converge::{converge, geometric_times, write_csv, ConvergenceRun, Plan, Point, CSV_HEADER};
 pub use cpu::{process_cpu_time, Stopwatch};
+pub use mem::{peak_rss_bytes, peak_rss_mib, reset_peak_rss};
 pub use plot::plot_rmse_vs_time;
 
 /// Errors of the benchmark layer.
