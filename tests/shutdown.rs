@@ -15,7 +15,13 @@ use std::time::{Duration, Instant};
 fn ctrl_c_ends_streams_checkpoints_and_exits_promptly() {
     let dir = tempfile::tempdir().unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_caustic"))
-        .args(["serve", "--addr", "127.0.0.1:0", "--grpc-addr", "127.0.0.1:0"])
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--grpc-addr",
+            "127.0.0.1:0",
+        ])
         .args(["--workers", "2", "--data-dir"])
         .arg(dir.path())
         .stderr(Stdio::piped())
@@ -77,7 +83,9 @@ fn ctrl_c_ends_streams_checkpoints_and_exits_promptly() {
     let watch = std::thread::spawn(move || {
         let rt = tokio::runtime::Runtime::new().unwrap();
         rt.block_on(async move {
-            let mut c = CausticClient::connect(format!("http://{grpc}")).await.unwrap();
+            let mut c = CausticClient::connect(format!("http://{grpc}"))
+                .await
+                .unwrap();
             let mut stream = c
                 .watch_job(pb::WatchJobRequest {
                     id: grpc_id,
