@@ -329,6 +329,9 @@ pub enum WatchEvent {
     Done {
         status: Box<JobStatus>,
     },
+    /// The server is stopping; the stream ends after this (the job resumes when the
+    /// server starts again, and the watcher reconnects).
+    Shutdown,
     /// An event this client does not know yet.
     #[serde(other)]
     Other,
@@ -825,6 +828,7 @@ fn watch_job(client: &Client, job: JobStatus, json: bool, out: &mut impl Write) 
                     w.refresh();
                 }
                 Ok(WatchEvent::Done { status }) => break 'outer *status,
+                Ok(WatchEvent::Shutdown) => w.bar.set_message("the server is stopping; reconnecting"),
                 Ok(WatchEvent::Other) | Err(_) => {}
             }
         }
