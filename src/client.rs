@@ -828,7 +828,9 @@ fn watch_job(client: &Client, job: JobStatus, json: bool, out: &mut impl Write) 
                     w.refresh();
                 }
                 Ok(WatchEvent::Done { status }) => break 'outer *status,
-                Ok(WatchEvent::Shutdown) => w.bar.set_message("the server is stopping; reconnecting"),
+                Ok(WatchEvent::Shutdown) => {
+                    w.bar.set_message("the server is stopping; reconnecting")
+                }
                 Ok(WatchEvent::Other) | Err(_) => {}
             }
         }

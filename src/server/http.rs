@@ -116,10 +116,16 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         json: crate::job::limits::MAX_JSON_BODY,
     };
     let body_timeout = svc.config().body_timeout;
+    // Upload bodies are held in memory whole: a few at a time bound that memory to
+    // a few times the upload limit, however many clients send at once.
     let uploads = Router::new()
-        .route("/scenes", post(upload_scene).get(list_scenes))
+        .route("/scenes", post(upload_scene))
         .route("/references", post(upload_reference))
-        .layer(DefaultBodyLimit::max(limits.upload));
+        .layer(DefaultBodyLimit::max(limits.upload))
+        .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
+            UPLOADS_AT_ONCE,
+        ))
+        .route("/scenes", get(list_scenes));
     let v1 = Router::new()
         .route("/scenes/{id}", get(get_scene).delete(delete_scene))
         .route("/jobs", post(submit).get(list_jobs))
@@ -156,6 +162,9 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         .layer(middleware::from_fn(json_errors))
         .with_state(svc)
 }
+
+/// Uploads whose bodies are read at the same time; more wait their turn.
+const UPLOADS_AT_ONCE: usize = 2;
 
 #[utoipa::path(get, path = "/healthz", description = "Health check; needs no token.", security(()), responses((status = 200, body = Object)))]
 async fn healthz() -> Json<serde_json::Value> {
