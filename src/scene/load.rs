@@ -16,19 +16,16 @@ pub fn parse_scene(text: &str) -> Result<SceneFile> {
     })
 }
 
+/// Reads and parses a scene file. Errors name it by its file name alone: the server
+/// keeps uploads under its data folder, whose path is none of a client's business.
 pub fn read_scene_file(path: &Path) -> Result<SceneFile> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path.display().to_string(), e.to_string()))?;
-    parse_scene(&text).map_err(|e| {
-        SceneError::new(
-            if e.path.is_empty() {
-                path.display().to_string()
-            } else {
-                e.path
-            },
-            e.message,
-        )
-    })
+    let shown = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    );
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::new(&shown, e.to_string()))?;
+    parse_scene(&text)
+        .map_err(|e| SceneError::new(if e.path.is_empty() { shown } else { e.path }, e.message))
 }
 
 /// Refuses absolute paths and any `..`: a reference must stay inside the bundle.
@@ -55,6 +52,12 @@ pub fn check_relative(field: &str, name: &str) -> Result<PathBuf> {
 /// outside it.
 pub fn resolve(base: &Path, field: &str, name: &str) -> Result<PathBuf> {
     let rel = check_relative(field, name)?;
+    // `Path::new("scene.json").parent()` is `""`: the scene sits in the current folder.
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
     let full = base.join(rel);
     let canon_base = base
         .canonicalize()
@@ -100,52 +103,89 @@ pub struct MeshData {
     pub indices: Vec<[u32; 3]>,
 }
 
-pub fn load_obj(path: &Path, field: &str) -> Result<MeshData> {
+impl MeshData {
+    /// Every index names a vertex and normals (if any) match the vertices, so that
+    /// compiling the mesh cannot index out of bounds whatever the file said.
+    fn checked(self, err: impl Fn(String) -> SceneError) -> Result<MeshData> {
+        let n = self.positions.len();
+        if let Some(bad) = self.indices.iter().flatten().find(|&&i| i as usize >= n) {
+            return Err(err(format!("face index {bad} out of range ({n} vertices)")));
+        }
+        if self.normals.as_ref().is_some_and(|ns| ns.len() != n) {
+            return Err(err("normals do not match the vertices".into()));
+        }
+        Ok(self)
+    }
+}
+
+/// A mesh file's error: the scene field, then the file as the scene names it.
+fn mesh_error<'a>(field: &'a str, name: &'a str) -> impl Fn(String) -> SceneError + 'a {
+    move |m| SceneError::new(field, format!("\"{name}\": {m}"))
+}
+
+/// Reads the OBJ file at `path`, which the scene names `name` in `field`.
+pub fn load_obj(path: &Path, field: &str, name: &str) -> Result<MeshData> {
+    let file = std::fs::File::open(path).map_err(|e| mesh_error(field, name)(e.to_string()))?;
+    parse_obj(std::io::BufReader::new(file), field, name)
+}
+
+/// Parses OBJ text. `mtllib` lines are ignored: caustic takes materials from the
+/// scene, and the loader would otherwise open whatever path a line names
+/// (`mtllib /etc/passwd`, or `/dev/zero`, which never ends).
+pub fn parse_obj(mut reader: impl std::io::BufRead, field: &str, name: &str) -> Result<MeshData> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, _) = tobj::load_obj(path, &opts)
-        .map_err(|e| SceneError::new(field, format!("{}: {e}", path.display())))?;
+    let no_materials = |_: &Path| Ok((Vec::new(), Default::default()));
+    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, no_materials)
+        .map_err(|e| mesh_error(field, name)(e.to_string()))?;
     let mut out = MeshData {
         positions: Vec::new(),
         normals: Some(Vec::new()),
         indices: Vec::new(),
     };
     for m in models {
-        let mesh = m.mesh;
-        let base = out.positions.len() as u32;
-        let pos: Vec<Vec3> = mesh
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let has_normals = mesh.normals.len() == mesh.positions.len();
-        match (&mut out.normals, has_normals) {
-            (Some(n), true) => n.extend(
-                mesh.normals
-                    .chunks_exact(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2])),
-            ),
-            _ => out.normals = None,
-        }
-        out.positions.extend(pos);
-        out.indices.extend(
-            mesh.indices
-                .chunks_exact(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-        );
+        append_model(&mut out, m.mesh);
     }
-    Ok(out)
+    out.checked(mesh_error(field, name))
 }
 
-pub fn load_ply(path: &Path, field: &str) -> Result<MeshData> {
+fn append_model(out: &mut MeshData, mesh: tobj::Mesh) {
+    let base = out.positions.len() as u32;
+    let has_normals = mesh.normals.len() == mesh.positions.len();
+    match (&mut out.normals, has_normals) {
+        (Some(n), true) => n.extend(
+            mesh.normals
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        ),
+        _ => out.normals = None,
+    }
+    out.positions.extend(
+        mesh.positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2])),
+    );
+    out.indices.extend(
+        mesh.indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]].map(|i| i.saturating_add(base))),
+    );
+}
+
+/// Reads the PLY file at `path`, which the scene names `name` in `field`.
+pub fn load_ply(path: &Path, field: &str, name: &str) -> Result<MeshData> {
+    let file = std::fs::File::open(path).map_err(|e| mesh_error(field, name)(e.to_string()))?;
+    parse_ply(std::io::BufReader::new(file), field, name)
+}
+
+/// Parses a PLY file (ASCII or binary).
+pub fn parse_ply(mut reader: impl std::io::BufRead, field: &str, name: &str) -> Result<MeshData> {
     use ply_rs::parser::Parser;
     use ply_rs::ply::{DefaultElement, Property};
-    let err = |m: String| SceneError::new(field, format!("{}: {m}", path.display()));
-    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-    let mut reader = std::io::BufReader::new(file);
+    let err = mesh_error(field, name);
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut reader)
         .map_err(|e| err(e.to_string()))?;
@@ -201,9 +241,10 @@ pub fn load_ply(path: &Path, field: &str) -> Result<MeshData> {
             indices.push([list[0], list[k], list[k + 1]]);
         }
     }
-    Ok(MeshData {
+    MeshData {
         positions,
         normals,
         indices,
-    })
+    }
+    .checked(err)
 }
