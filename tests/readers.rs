@@ -316,3 +316,29 @@ fn render_of_a_bare_scene_file_name_in_its_own_folder_works() {
     let img: Image = caustic::film::read_exr(dir.path().join("out.exr")).unwrap();
     assert_eq!(img.size(), (8, 8));
 }
+
+// ------------------------------------------------------------------ mesh memory
+
+/// A measurement, not a check: loads the mesh named by `CAUSTIC_MESH` (a .ply or
+/// .obj file) so that its peak memory can be read, e.g.
+/// `CAUSTIC_MESH=grid.ply /usr/bin/time -v target/release/deps/readers-* --ignored
+/// --exact load_a_mesh_for_measuring`.
+#[test]
+#[ignore = "a measurement: set CAUSTIC_MESH and run under /usr/bin/time -v"]
+fn load_a_mesh_for_measuring() {
+    let path = std::path::PathBuf::from(std::env::var("CAUSTIC_MESH").expect("CAUSTIC_MESH"));
+    let name = path.display().to_string();
+    let mesh = if name.ends_with(".obj") {
+        caustic::scene::load::load_obj(&path, "mesh", &name)
+    } else {
+        caustic::scene::load::load_ply(&path, "mesh", &name)
+    }
+    .unwrap();
+    eprintln!(
+        "{}: {} vertices, {} triangles",
+        name,
+        mesh.positions.len(),
+        mesh.indices.len()
+    );
+    assert!(!mesh.indices.is_empty());
+}

@@ -4,6 +4,8 @@
 use super::error::{Result, SceneError};
 use super::format::{Scale, SceneFile, TransformDesc};
 use crate::math::{Mat4, Quat, Vec3};
+use ply_rs::ply::{Property, PropertyAccess};
+use std::io::BufRead;
 use std::path::{Component, Path, PathBuf};
 
 /// Parses scene JSON; serde errors carry the JSON path of the field.
@@ -181,70 +183,345 @@ pub fn load_ply(path: &Path, field: &str, name: &str) -> Result<MeshData> {
     parse_ply(std::io::BufReader::new(file), field, name)
 }
 
-/// Parses a PLY file (ASCII or binary).
-pub fn parse_ply(mut reader: impl std::io::BufRead, field: &str, name: &str) -> Result<MeshData> {
-    use ply_rs::parser::Parser;
-    use ply_rs::ply::{DefaultElement, Property};
+/// Parses a PLY file (ASCII, or binary of either byte order): `vertex` elements with
+/// numeric `x y z` (and `nx ny nz`, used when every vertex has them), `face` elements
+/// with a `vertex_indices` (or `vertex_index`) list; polygons become triangle fans.
+/// Elements are read one at a time straight into the mesh: ply-rs's own
+/// `DefaultElement` is a map from names to values per vertex, some 50 times the
+/// file's size in memory.
+pub fn parse_ply(mut reader: impl BufRead, field: &str, name: &str) -> Result<MeshData> {
     let err = mesh_error(field, name);
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut reader)
+    let header = ply_rs::parser::Parser::<PlySkip>::new()
+        .read_header(&mut reader)
         .map_err(|e| err(e.to_string()))?;
-    let num = |p: Option<&Property>| -> Option<f32> {
-        match p? {
-            Property::Float(v) => Some(*v),
-            Property::Double(v) => Some(*v as f32),
-            Property::Int(v) => Some(*v as f32),
-            Property::UInt(v) => Some(*v as f32),
-            Property::Short(v) => Some(*v as f32),
-            Property::UShort(v) => Some(*v as f32),
-            Property::Char(v) => Some(*v as f32),
-            Property::UChar(v) => Some(*v as f32),
-            _ => None,
-        }
+    check_ply_header(&header).map_err(&err)?;
+    let mut mesh = PlyMesh::new();
+    for def in header.elements.values() {
+        let read = match def.name.as_str() {
+            "vertex" => read_elements(&mut reader, &header, def, |v: PlyVertex| mesh.vertex(v)),
+            "face" => read_elements(&mut reader, &header, def, |f: PlyFace| mesh.face(f)),
+            _ => read_elements(&mut reader, &header, def, |_: PlySkip| Ok(())),
+        };
+        read.map_err(&err)?;
+    }
+    mesh.finish().checked(err)
+}
+
+/// Vertices need x, y, z and faces a vertex list, checked once here rather than per
+/// element (which also makes skipping elements without properties safe).
+fn check_ply_header(header: &ply_rs::ply::Header) -> std::result::Result<(), String> {
+    let has = |def: &ply_rs::ply::ElementDef, names: &[&str]| {
+        def.count == 0 || names.iter().all(|n| def.properties.contains_key(*n))
     };
-    let verts = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| err("no vertex element".into()))?;
-    let mut positions = Vec::with_capacity(verts.len());
-    let mut normals = Some(Vec::with_capacity(verts.len()));
-    for v in verts {
-        let p = (num(v.get("x")), num(v.get("y")), num(v.get("z")));
-        let (Some(x), Some(y), Some(z)) = p else {
-            return Err(err("vertex without numeric x, y, z".into()));
-        };
-        positions.push(Vec3::new(x, y, z));
-        match (num(v.get("nx")), num(v.get("ny")), num(v.get("nz"))) {
-            (Some(a), Some(b), Some(c)) => {
-                if let Some(n) = normals.as_mut() {
-                    n.push(Vec3::new(a, b, c))
+    let vertex = header.elements.get("vertex").ok_or("no vertex element")?;
+    if !has(vertex, &["x", "y", "z"]) {
+        return Err("vertex without numeric x, y, z".into());
+    }
+    if let Some(face) = header.elements.get("face") {
+        if !has(face, &["vertex_indices"]) && !has(face, &["vertex_index"]) {
+            return Err("face without a vertex_indices list".into());
+        }
+    }
+    Ok(())
+}
+
+/// Reads `def.count` elements of type `E`, handing each to `take`.
+fn read_elements<E: PropertyAccess>(
+    reader: &mut impl BufRead,
+    header: &ply_rs::ply::Header,
+    def: &ply_rs::ply::ElementDef,
+    mut take: impl FnMut(E) -> std::result::Result<(), String>,
+) -> std::result::Result<(), String> {
+    use ply_rs::ply::Encoding;
+    if def.properties.is_empty() {
+        // Nothing to read, however many a header claims (a loop of 2^64 no-ops).
+        return Ok(());
+    }
+    let parser = ply_rs::parser::Parser::<E>::new();
+    let mut line = String::new();
+    for i in 0..def.count {
+        let element = match header.encoding {
+            Encoding::Ascii => {
+                line.clear();
+                if reader.read_line(&mut line).map_err(|e| e.to_string())? == 0 {
+                    return Err(format!(
+                        "the file ends at {} {i} of {}",
+                        def.name, def.count
+                    ));
                 }
+                parser.read_ascii_element(&line, def)
             }
-            _ => normals = None,
-        }
-    }
-    let mut indices = Vec::new();
-    for f in ply.payload.get("face").map(|f| f.as_slice()).unwrap_or(&[]) {
-        let list: Vec<u32> = match f.get("vertex_indices").or_else(|| f.get("vertex_index")) {
-            Some(Property::ListInt(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListUInt(l)) => l.clone(),
-            Some(Property::ListUChar(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListShort(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListUShort(l)) => l.iter().map(|&i| i as u32).collect(),
-            _ => return Err(err("face without a vertex_indices list".into())),
+            Encoding::BinaryLittleEndian => parser.read_little_endian_element(reader, def),
+            Encoding::BinaryBigEndian => parser.read_big_endian_element(reader, def),
         };
-        if list.iter().any(|&i| i as usize >= positions.len()) {
-            return Err(err("face index out of range".into()));
+        take(element.map_err(|e| format!("{} {i}: {e}", def.name))?)?;
+    }
+    Ok(())
+}
+
+/// A PLY element caustic does not use: read (to get past it) and dropped.
+struct PlySkip;
+
+impl PropertyAccess for PlySkip {
+    fn new() -> Self {
+        PlySkip
+    }
+}
+
+/// The numeric properties of a vertex that caustic uses.
+#[derive(Default)]
+struct PlyVertex {
+    p: [Option<f32>; 3],
+    n: [Option<f32>; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: String, value: Property) {
+        let slot = match name.as_str() {
+            "x" => &mut self.p[0],
+            "y" => &mut self.p[1],
+            "z" => &mut self.p[2],
+            "nx" => &mut self.n[0],
+            "ny" => &mut self.n[1],
+            "nz" => &mut self.n[2],
+            _ => return,
+        };
+        *slot = ply_number(&value);
+    }
+}
+
+fn ply_number(p: &Property) -> Option<f32> {
+    Some(match *p {
+        Property::Float(v) => v,
+        Property::Double(v) => v as f32,
+        Property::Int(v) => v as f32,
+        Property::UInt(v) => v as f32,
+        Property::Short(v) => v as f32,
+        Property::UShort(v) => v as f32,
+        Property::Char(v) => v as f32,
+        Property::UChar(v) => v as f32,
+        _ => return None,
+    })
+}
+
+/// A face's vertex list, as u32 (a negative index becomes one out of range).
+#[derive(Default)]
+struct PlyFace(Option<Vec<u32>>);
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: String, value: Property) {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return;
         }
-        // Polygons become triangle fans.
+        self.0 = match value {
+            Property::ListUInt(l) => Some(l),
+            Property::ListInt(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListUChar(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListChar(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListShort(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListUShort(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            _ => None,
+        };
+    }
+}
+
+/// The mesh as its elements arrive.
+struct PlyMesh {
+    positions: Vec<Vec3>,
+    /// `None` from the first vertex without a full normal on.
+    normals: Option<Vec<Vec3>>,
+    indices: Vec<[u32; 3]>,
+}
+
+impl PlyMesh {
+    fn new() -> Self {
+        PlyMesh {
+            positions: Vec::new(),
+            normals: Some(Vec::new()),
+            indices: Vec::new(),
+        }
+    }
+
+    fn vertex(&mut self, v: PlyVertex) -> std::result::Result<(), String> {
+        let [Some(x), Some(y), Some(z)] = v.p else {
+            return Err("vertex without numeric x, y, z".into());
+        };
+        self.positions.push(Vec3::new(x, y, z));
+        match (v.n, &mut self.normals) {
+            ([Some(a), Some(b), Some(c)], Some(n)) => n.push(Vec3::new(a, b, c)),
+            _ => self.normals = None,
+        }
+        Ok(())
+    }
+
+    /// Polygons become triangle fans.
+    fn face(&mut self, f: PlyFace) -> std::result::Result<(), String> {
+        let list = f.0.ok_or("face without a vertex_indices list")?;
         for k in 1..list.len().saturating_sub(1) {
-            indices.push([list[0], list[k], list[k + 1]]);
+            self.indices.push([list[0], list[k], list[k + 1]]);
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> MeshData {
+        MeshData {
+            positions: self.positions,
+            normals: self.normals,
+            indices: self.indices,
         }
     }
-    MeshData {
-        positions,
-        normals,
-        indices,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "comment a vertex with extra properties, an element caustic skips\n\
+        element vertex 4\nproperty float x\nproperty float y\nproperty double z\n\
+        property uchar red\nproperty float nx\nproperty float ny\nproperty float nz\n\
+        element material 1\nproperty int id\nproperty list uchar float weights\n";
+
+    const POSITIONS: [[f32; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.5], [0., 1., -2.]];
+    const FACES: [&[u32]; 2] = [&[0, 1, 2, 3], &[3, 2, 1]];
+
+    /// The same mesh in `format` ("ascii", "binary_little_endian" or
+    /// "binary_big_endian"), its faces as `list COUNT int NAME`.
+    fn ply(format: &str, count: &str, name: &str) -> Vec<u8> {
+        let mut out = format!(
+            "ply\nformat {format} 1.0\n{HEADER}element face 2\n\
+             property list {count} int {name}\nproperty int flags\nend_header\n"
+        )
+        .into_bytes();
+        let big = format == "binary_big_endian";
+        let mut put = |b: &[u8]| {
+            let mut b = b.to_vec();
+            if big {
+                b.reverse();
+            }
+            out.extend_from_slice(&b);
+        };
+        if format == "ascii" {
+            let mut text = String::new();
+            for p in POSITIONS {
+                text += &format!("{} {} {} 7 0 0 1\n", p[0], p[1], p[2]);
+            }
+            text += "5 2 0.5 0.25\n";
+            for f in FACES {
+                let idx: Vec<String> = f.iter().map(|i| i.to_string()).collect();
+                text += &format!("{} {} 9\n", f.len(), idx.join(" "));
+            }
+            out.extend_from_slice(text.as_bytes());
+            return out;
+        }
+        for p in POSITIONS {
+            put(&p[0].to_le_bytes());
+            put(&p[1].to_le_bytes());
+            put(&(p[2] as f64).to_le_bytes());
+            put(&[7]);
+            for n in [0f32, 0., 1.] {
+                put(&n.to_le_bytes());
+            }
+        }
+        put(&5i32.to_le_bytes());
+        put(&[2]);
+        put(&0.5f32.to_le_bytes());
+        put(&0.25f32.to_le_bytes());
+        for f in FACES {
+            match count {
+                "uchar" => put(&[f.len() as u8]),
+                _ => put(&(f.len() as i32).to_le_bytes()),
+            }
+            for &i in f {
+                put(&(i as i32).to_le_bytes());
+            }
+            put(&9i32.to_le_bytes());
+        }
+        out
     }
-    .checked(err)
+
+    fn parse(bytes: &[u8]) -> Result<MeshData> {
+        parse_ply(bytes, "shapes[0].filename", "m.ply")
+    }
+
+    #[test]
+    fn ply_encodings_count_types_and_index_names_give_the_same_mesh() {
+        let want_pos: Vec<Vec3> = POSITIONS.iter().map(|&p| Vec3::from(p)).collect();
+        let want_idx = vec![[0, 1, 2], [0, 2, 3], [3, 2, 1]];
+        for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            for (count, name) in [("uchar", "vertex_indices"), ("int", "vertex_index")] {
+                let mesh = parse(&ply(format, count, name)).unwrap();
+                let what = format!("{format} {count} {name}");
+                assert_eq!(mesh.positions, want_pos, "{what}");
+                assert_eq!(mesh.indices, want_idx, "{what}");
+                assert_eq!(mesh.normals, Some(vec![Vec3::Z; 4]), "{what}");
+            }
+        }
+    }
+
+    #[test]
+    fn ply_without_full_normals_or_faces() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 2\nproperty int x\nproperty int y\n\
+                    property short z\nproperty float nx\nend_header\n1 2 3 0\n4 5 6 0\n";
+        let mesh = parse(text.as_bytes()).unwrap();
+        assert_eq!(
+            mesh.positions,
+            [Vec3::new(1., 2., 3.), Vec3::new(4., 5., 6.)]
+        );
+        assert!(mesh.normals.is_none());
+        assert!(mesh.indices.is_empty());
+    }
+
+    #[test]
+    fn ply_errors_name_the_file_and_what_is_wrong() {
+        let cases = [
+            (
+                "ply\nformat ascii 1.0\nelement face 0\nend_header\n",
+                "no vertex element",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+                "numeric x, y, z",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 100000000\nproperty float x\n\
+                 property float y\nproperty float z\nend_header\n0 0 0\n",
+                "ends at vertex 1",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                 end_header\n0 0 0\n3 0 0 1\n",
+                "face index 1 out of range",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty int n\nend_header\n0 0 0\n3\n",
+                "face without a vertex_indices list",
+            ),
+            ("not a ply file\n", "m.ply"),
+        ];
+        for (text, words) in cases {
+            let err = parse(text.as_bytes()).err().expect(text).to_string();
+            assert!(err.starts_with("shapes[0].filename: \"m.ply\": "), "{err}");
+            assert!(err.contains(words), "{words}: {err}");
+        }
+    }
+
+    #[test]
+    fn ply_elements_without_properties_cost_nothing_however_many() {
+        // ply-rs alone pushes an empty element per claimed one: 2^64 of them.
+        let text = "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n\
+                    element vertex 1\nproperty float x\nproperty float y\nproperty float z\n\
+                    end_header\n";
+        let mut bytes = text.as_bytes().to_vec();
+        bytes.extend([0u8; 12]);
+        let mesh = parse(&bytes).unwrap();
+        assert_eq!(mesh.positions, [Vec3::ZERO]);
+    }
 }
