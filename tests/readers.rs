@@ -224,6 +224,79 @@ fn huge_exr_as_environment_map_is_refused_and_named_as_the_scene_names_it() {
     assert!(!err.contains(&dir.path().display().to_string()), "{err}");
 }
 
+/// The inputs a fuzzer found, in tests/data/fuzz/TARGET/.
+fn findings(target: &str) -> Vec<(String, Vec<u8>)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz")
+        .join(target);
+    let mut out: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    out.sort();
+    assert!(!out.is_empty(), "no inputs in {}", dir.display());
+    out
+}
+
+#[test]
+fn exr_files_that_panicked_the_decoder_do_not() {
+    // Found by the exr fuzz target: B44 blocks whose arithmetic overflows, and a
+    // chunk that trips a debug assertion in the crate. Both panic only where
+    // overflow and debug assertions are checked (the fuzzer's build, debug builds),
+    // and the B44 ones on the crate's decompression threads, where a panic aborts
+    // the process; release builds wrap and decode garbage.
+    for (name, bytes) in findings("exr") {
+        if let Err(e) = decode_exr(&bytes) {
+            assert!(e.to_string().contains("<memory>"), "{name}: {e}");
+        }
+    }
+}
+
+#[test]
+fn exr_blocks_larger_than_the_image_count_against_the_caps() {
+    // Found by the exr fuzz target: 470 bytes, a DWAA part of 16777244 x 3 pixels of
+    // three f16 channels (300 MB, within the caps), whose 32-line blocks come to
+    // 3.2 GB: the crate reserved a chunk's claimed size up to that, 1.8 GB here.
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/exr/dwa_block_claims_3gb.exr"),
+    )
+    .unwrap();
+    let err = decode_exr(&bytes).unwrap_err().to_string();
+    assert!(err.contains("bytes of samples, more than the"), "{err}");
+}
+
+#[test]
+fn ply_headers_that_panicked_the_parser_are_errors() {
+    // Found by the ply fuzz target: a number too large for its type in the header
+    // (here the format version), which ply-rs's grammar unwraps.
+    for (name, bytes) in findings("ply") {
+        let err = caustic::scene::load::parse_ply(&bytes[..], "shapes[0].filename", &name)
+            .err()
+            .unwrap_or_else(|| panic!("{name} loaded"))
+            .to_string();
+        assert!(err.contains(&name), "{err}");
+    }
+}
+
+#[test]
+fn obj_indices_that_overflowed_the_loader_are_not_panics() {
+    // Found by the obj fuzz target: a texture (and a normal) index so large that
+    // tobj's index arithmetic overflows, a panic where overflow is checked (the
+    // fuzzer's and debug builds); release builds wrap.
+    for (name, bytes) in findings("obj") {
+        let loaded = caustic::scene::load::parse_obj(&bytes[..], "shapes[0].filename", &name);
+        if let Err(e) = loaded {
+            assert!(e.to_string().contains(&name), "{e}");
+        }
+    }
+}
+
 // ------------------------------------------------------------------ paths in errors
 
 #[test]

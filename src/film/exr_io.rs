@@ -7,6 +7,7 @@
 
 use std::fs::File;
 use std::io::{BufRead, BufWriter, Cursor, Read, Seek};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
 use exr::meta::header::Header;
@@ -213,17 +214,25 @@ fn max_ratio(c: x::Compression) -> u64 {
     }
 }
 
-/// Bytes the crate allocates for a part's largest level: every channel at full
-/// resolution (it sizes blocks that way, subsampled or not).
+/// Bytes the crate allocates for a part: every channel at full resolution (it sizes
+/// blocks that way, subsampled or not), or one block if that is more. A block's
+/// size comes from the tile size or from the width times the lines per block, so a
+/// tile or a DWA block (256 lines) far larger than the image is a way to claim
+/// more: the crate reserves that much for a chunk whose size field says so.
 fn claimed_bytes(h: &Header) -> u64 {
-    let pixels = h.layer_size.0 as u64 * h.layer_size.1 as u64;
-    let bytes: u64 = h
-        .channels
-        .list
-        .iter()
+    let bytes: u64 = (h.channels.list.iter())
         .map(|c| c.sample_type.bytes_per_sample() as u64)
         .sum();
-    pixels.saturating_mul(bytes)
+    let block_pixels = match h.blocks {
+        exr::meta::BlockDescription::Tiles(t) => {
+            (t.tile_size.0 as u64).saturating_mul(t.tile_size.1 as u64)
+        }
+        exr::meta::BlockDescription::ScanLines => {
+            (h.compression.scan_lines_per_block() as u64).saturating_mul(h.layer_size.0 as u64)
+        }
+    };
+    let pixels = h.layer_size.0 as u64 * h.layer_size.1 as u64;
+    pixels.max(block_pixels).saturating_mul(bytes)
 }
 
 /// Checks every part's data window and the parts' claims together against the
@@ -263,8 +272,25 @@ fn read_flat(reader: impl Read + Seek, path: &Path) -> Result<FlatLayers, FilmEr
         .all_channels()
         .all_layers()
         .all_attributes()
+        .non_parallel()
         .from_buffered(reader)
         .map_err(|e| exr_error(e, path))
+}
+
+/// Hostile files make the crate panic: arithmetic that overflows where overflow is
+/// checked (B44 blocks), assertions on chunk indices. On its decompression threads a
+/// panic aborts the process, hence `non_parallel` above; on this thread it is caught
+/// here and becomes an error naming the file.
+fn catching<T>(path: &Path, read: impl FnOnce() -> Result<T, FilmError>) -> Result<T, FilmError> {
+    catch_unwind(AssertUnwindSafe(read)).unwrap_or_else(|panic| {
+        let text = (panic.downcast_ref::<&str>().map(|s| s.to_string()))
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown error".into());
+        Err(FilmError::Exr(format!(
+            "{}: the EXR reader failed: {text}",
+            path.display()
+        )))
+    })
 }
 
 fn decode(
@@ -273,13 +299,16 @@ fn decode(
     path: &Path,
     prefix: &str,
 ) -> Result<Image, FilmError> {
-    let meta = MetaData::read_from_buffered(&mut reader, false).map_err(|e| exr_error(e, path))?;
-    check_claims(&meta.headers, len, &path.display().to_string())?;
-    reader.rewind().map_err(|source| FilmError::Io {
-        path: path.to_path_buf(),
-        source,
+    let exr = catching(path, || {
+        let meta =
+            MetaData::read_from_buffered(&mut reader, false).map_err(|e| exr_error(e, path))?;
+        check_claims(&meta.headers, len, &path.display().to_string())?;
+        reader.rewind().map_err(|source| FilmError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        read_flat(reader, path)
     })?;
-    let exr = read_flat(reader, path)?;
     let prefix = if prefix.is_empty() {
         String::new()
     } else {

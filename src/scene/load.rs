@@ -6,6 +6,7 @@ use super::format::{Scale, SceneFile, TransformDesc};
 use crate::math::{Mat4, Quat, Vec3};
 use ply_rs::ply::{Property, PropertyAccess};
 use std::io::BufRead;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Component, Path, PathBuf};
 
 /// Parses scene JSON; serde errors carry the JSON path of the field.
@@ -120,6 +121,14 @@ impl MeshData {
     }
 }
 
+/// The message of a panic caught in a third-party reader of `format`.
+fn reader_panic(format: &str, panic: Box<dyn std::any::Any + Send>) -> String {
+    let text = (panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown error".into());
+    format!("the {format} reader failed: {text}")
+}
+
 /// A mesh file's error: the scene field, then the file as the scene names it.
 fn mesh_error<'a>(field: &'a str, name: &'a str) -> impl Fn(String) -> SceneError + 'a {
     move |m| SceneError::new(field, format!("\"{name}\": {m}"))
@@ -141,8 +150,14 @@ pub fn parse_obj(mut reader: impl std::io::BufRead, field: &str, name: &str) -> 
         ..Default::default()
     };
     let no_materials = |_: &Path| Ok((Vec::new(), Default::default()));
-    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, no_materials)
-        .map_err(|e| mesh_error(field, name)(e.to_string()))?;
+    // tobj's index arithmetic overflows on huge indices (a panic where overflow is
+    // checked): an error, like any other malformed file.
+    let loaded = catch_unwind(AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut reader, &opts, no_materials).map_err(|e| e.to_string())
+    }));
+    let (models, _) = loaded
+        .unwrap_or_else(|panic| Err(reader_panic("OBJ", panic)))
+        .map_err(mesh_error(field, name))?;
     let mut out = MeshData {
         positions: Vec::new(),
         normals: Some(Vec::new()),
@@ -191,20 +206,28 @@ pub fn load_ply(path: &Path, field: &str, name: &str) -> Result<MeshData> {
 /// file's size in memory.
 pub fn parse_ply(mut reader: impl BufRead, field: &str, name: &str) -> Result<MeshData> {
     let err = mesh_error(field, name);
+    // ply-rs panics on some malformed headers (it unwraps numbers too large for
+    // their type): an uploaded file must be an error, not a dead worker.
+    catch_unwind(AssertUnwindSafe(|| read_ply_mesh(&mut reader)))
+        .unwrap_or_else(|panic| Err(reader_panic("PLY", panic)))
+        .map_err(&err)?
+        .checked(err)
+}
+
+fn read_ply_mesh(reader: &mut impl BufRead) -> std::result::Result<MeshData, String> {
     let header = ply_rs::parser::Parser::<PlySkip>::new()
-        .read_header(&mut reader)
-        .map_err(|e| err(e.to_string()))?;
-    check_ply_header(&header).map_err(&err)?;
+        .read_header(reader)
+        .map_err(|e| e.to_string())?;
+    check_ply_header(&header)?;
     let mut mesh = PlyMesh::new();
     for def in header.elements.values() {
-        let read = match def.name.as_str() {
-            "vertex" => read_elements(&mut reader, &header, def, |v: PlyVertex| mesh.vertex(v)),
-            "face" => read_elements(&mut reader, &header, def, |f: PlyFace| mesh.face(f)),
-            _ => read_elements(&mut reader, &header, def, |_: PlySkip| Ok(())),
-        };
-        read.map_err(&err)?;
+        match def.name.as_str() {
+            "vertex" => read_elements(reader, &header, def, |v: PlyVertex| mesh.vertex(v)),
+            "face" => read_elements(reader, &header, def, |f: PlyFace| mesh.face(f)),
+            _ => read_elements(reader, &header, def, |_: PlySkip| Ok(())),
+        }?;
     }
-    mesh.finish().checked(err)
+    Ok(mesh.finish())
 }
 
 /// Vertices need x, y, z and faces a vertex list, checked once here rather than per
