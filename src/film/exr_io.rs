@@ -6,9 +6,12 @@
 //! oiiotool) read; multi-part files are less widely supported.
 
 use std::fs::File;
-use std::io::{BufWriter, Cursor, Read, Seek};
+use std::io::{BufRead, BufWriter, Cursor, Read, Seek};
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
+use exr::meta::header::Header;
+use exr::meta::MetaData;
 use exr::prelude::{
     self as x, AnyChannel, AnyChannels, FlatSamples, Layer, LayerAttributes, ReadChannels,
     ReadLayers, SmallVec, Text, WritableImage,
@@ -16,7 +19,8 @@ use exr::prelude::{
 use glam::Vec3 as Rgb;
 
 use super::atomic::write_atomic;
-use super::{FilmError, Image};
+use super::error::check_pixels;
+use super::{FilmError, Image, MAX_PIXELS};
 
 /// Lossless, scan lines, widely readable; ZIP keeps noisy float snapshots smaller
 /// than RLE does.
@@ -69,11 +73,23 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
 /// Reads layer `name` (channels `name.R`, `name.G`, `name.B`); `""` is the base.
 pub fn read_exr_layer(path: impl AsRef<Path>, name: &str) -> Result<Image, FilmError> {
     let path = path.as_ref();
-    let file = File::open(path).map_err(|source| FilmError::Io {
-        path: path.to_path_buf(),
+    read_file(path, path, name)
+}
+
+/// [`read_exr`] of a file that errors call `shown` (e.g. the name a scene gives it,
+/// rather than the server's path to it).
+pub fn read_exr_named(path: impl AsRef<Path>, shown: &str) -> Result<Image, FilmError> {
+    read_file(path.as_ref(), Path::new(shown), "")
+}
+
+fn read_file(path: &Path, shown: &Path, layer: &str) -> Result<Image, FilmError> {
+    let io = |source| FilmError::Io {
+        path: shown.to_path_buf(),
         source,
-    })?;
-    decode(std::io::BufReader::new(file), path, name)
+    };
+    let file = File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    decode(std::io::BufReader::new(file), len, shown, layer)
 }
 
 /// [`read_exr`] from bytes in memory (e.g. an uploaded reference image).
@@ -83,7 +99,12 @@ pub fn decode_exr(bytes: &[u8]) -> Result<Image, FilmError> {
 
 /// [`read_exr_layer`] from bytes in memory.
 pub fn decode_exr_layer(bytes: &[u8], name: &str) -> Result<Image, FilmError> {
-    decode(Cursor::new(bytes), Path::new(MEMORY), name)
+    decode(
+        Cursor::new(bytes),
+        bytes.len() as u64,
+        Path::new(MEMORY),
+        name,
+    )
 }
 
 type FlatImage = x::Image<Layer<AnyChannels<FlatSamples>>>;
@@ -160,6 +181,88 @@ fn write_to(
     Ok(())
 }
 
+/// Most bytes of samples a file may claim, all parts and channels together: RGBA
+/// float32 at [`MAX_PIXELS`] (1 GiB). Every channel of every part is decoded before
+/// the R, G, B are picked, so the pixel cap alone would let a header with many
+/// channels ask for many times that.
+const MAX_SAMPLE_BYTES: u64 = 16 * MAX_PIXELS;
+
+/// Headroom on the compression bound for chunk tables and tiny files.
+const CLAIM_SLACK_BYTES: u64 = 1 << 16;
+
+/// Most bytes of samples one byte of compressed data can stand for, rounded up. The
+/// header sizes all buffers before any data is read, so a small file claiming more
+/// than its bytes could hold is refused without decoding it:
+/// - none: 1; RLE: 64 (a two-byte run yields at most 128 bytes);
+/// - ZIP1, ZIP16: 1032, deflate's limit (a 258-byte match in two bits);
+/// - PXR24: 1376, deflate's limit times 4/3 (float32 is stored as 24 bits);
+/// - PIZ: 1032 covers its Huffman runs (at most 255 repeats of a 16-bit value after
+///   a code of 9 bits or more, about 450);
+/// - B44, B44A: 11 (a flat 4x4 block of 32 bytes packs into 3);
+/// - DWAA, DWAB (and HTJ2K, which the crate does not decode): 2^18, since a flat
+///   DCT block keeps only its DC value, 2 bytes per 8x8 pixels, deflated; for those
+///   only [`MAX_SAMPLE_BYTES`] really bounds a small file's claim.
+fn max_ratio(c: x::Compression) -> u64 {
+    use x::Compression::*;
+    match c {
+        Uncompressed => 1,
+        RLE => 64,
+        ZIP1 | ZIP16 | PIZ => 1032,
+        PXR24 => 1376,
+        B44 | B44A => 11,
+        DWAA(_) | DWAB(_) | HTJ2K32 | HTJ2K256 => 1 << 18,
+    }
+}
+
+/// Bytes the crate allocates for a part: every channel at full resolution (it sizes
+/// blocks that way, subsampled or not), or one block if that is more. A block's
+/// size comes from the tile size or from the width times the lines per block, so a
+/// tile or a DWA block (256 lines) far larger than the image is a way to claim
+/// more: the crate reserves that much for a chunk whose size field says so.
+fn claimed_bytes(h: &Header) -> u64 {
+    let bytes: u64 = (h.channels.list.iter())
+        .map(|c| c.sample_type.bytes_per_sample() as u64)
+        .sum();
+    let block_pixels = match h.blocks {
+        exr::meta::BlockDescription::Tiles(t) => {
+            (t.tile_size.0 as u64).saturating_mul(t.tile_size.1 as u64)
+        }
+        exr::meta::BlockDescription::ScanLines => {
+            (h.compression.scan_lines_per_block() as u64).saturating_mul(h.layer_size.0 as u64)
+        }
+    };
+    let pixels = h.layer_size.0 as u64 * h.layer_size.1 as u64;
+    pixels.max(block_pixels).saturating_mul(bytes)
+}
+
+/// Checks every part's data window and the parts' claims together against the
+/// caps and against what `len` bytes of file could hold, before any decoding.
+fn check_claims(headers: &[Header], len: u64, what: &str) -> Result<(), FilmError> {
+    let mut total = 0u64;
+    let mut compressed_floor = 0u64;
+    for h in headers {
+        check_pixels(what, h.layer_size.0 as u64, h.layer_size.1 as u64)?;
+        let claimed = claimed_bytes(h);
+        total = total.saturating_add(claimed);
+        compressed_floor = compressed_floor.saturating_add(claimed / max_ratio(h.compression));
+    }
+    let too_large = |detail: String| FilmError::TooLarge {
+        what: what.to_string(),
+        detail,
+    };
+    if total > MAX_SAMPLE_BYTES {
+        return Err(too_large(format!(
+            "the parts claim {total} bytes of samples, more than the {MAX_SAMPLE_BYTES} caustic reads"
+        )));
+    }
+    if compressed_floor > len + CLAIM_SLACK_BYTES {
+        return Err(too_large(format!(
+            "the parts claim {total} bytes of samples, more than a {len}-byte file can hold"
+        )));
+    }
+    Ok(())
+}
+
 type FlatLayers = x::Image<x::Layers<AnyChannels<FlatSamples>>>;
 
 fn read_flat(reader: impl Read + Seek, path: &Path) -> Result<FlatLayers, FilmError> {
@@ -169,12 +272,43 @@ fn read_flat(reader: impl Read + Seek, path: &Path) -> Result<FlatLayers, FilmEr
         .all_channels()
         .all_layers()
         .all_attributes()
+        .non_parallel()
         .from_buffered(reader)
         .map_err(|e| exr_error(e, path))
 }
 
-fn decode(reader: impl Read + Seek, path: &Path, prefix: &str) -> Result<Image, FilmError> {
-    let exr = read_flat(reader, path)?;
+/// Hostile files make the crate panic: arithmetic that overflows where overflow is
+/// checked (B44 blocks), assertions on chunk indices. On its decompression threads a
+/// panic aborts the process, hence `non_parallel` above; on this thread it is caught
+/// here and becomes an error naming the file.
+fn catching<T>(path: &Path, read: impl FnOnce() -> Result<T, FilmError>) -> Result<T, FilmError> {
+    catch_unwind(AssertUnwindSafe(read)).unwrap_or_else(|panic| {
+        let text = (panic.downcast_ref::<&str>().map(|s| s.to_string()))
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown error".into());
+        Err(FilmError::Exr(format!(
+            "{}: the EXR reader failed: {text}",
+            path.display()
+        )))
+    })
+}
+
+fn decode(
+    mut reader: impl BufRead + Seek,
+    len: u64,
+    path: &Path,
+    prefix: &str,
+) -> Result<Image, FilmError> {
+    let exr = catching(path, || {
+        let meta =
+            MetaData::read_from_buffered(&mut reader, false).map_err(|e| exr_error(e, path))?;
+        check_claims(&meta.headers, len, &path.display().to_string())?;
+        reader.rewind().map_err(|source| FilmError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        read_flat(reader, path)
+    })?;
     let prefix = if prefix.is_empty() {
         String::new()
     } else {

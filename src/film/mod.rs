@@ -15,10 +15,10 @@ mod png_io;
 
 pub use accum::{is_valid_sample, tiles, Film, Tile, TileBuffer};
 pub use atomic::write_bytes_atomic;
-pub use error::FilmError;
+pub use error::{FilmError, MAX_PIXELS};
 pub use exr_io::{
     decode_exr, decode_exr_layer, encode_exr, encode_exr_layers, read_exr, read_exr_layer,
-    write_exr, write_exr_layers,
+    read_exr_named, write_exr, write_exr_layers,
 };
 pub use hdr_io::{decode_hdr, read_hdr, read_image};
 pub use image::Image;

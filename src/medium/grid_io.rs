@@ -62,9 +62,11 @@ use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Component, Path, PathBuf};
 
-/// A grid of this many values (8 GiB of float32) or more is taken as a broken or
-/// hostile file.
-const MAX_VALUES: u64 = 1 << 31;
+/// A grid of this many values (1 GiB of float32, e.g. 1024 x 512 x 512) or more is
+/// refused before anything is allocated for it. `.vol` and raw grids are also held to
+/// their file's real length before allocating, so only a VDB file's active box (local
+/// scenes only) can reach this cap from a few bytes.
+const MAX_VALUES: u64 = 1 << 28;
 /// Bytes before the data in a Mitsuba .vol file.
 const VOL_HEADER_BYTES: u64 = 48;
 /// Reading in chunks keeps peak memory at the grid plus this, not twice the grid.
@@ -75,6 +77,8 @@ const VDB_FLOAT_TREE: &str = "Tree_float_5_4_3";
 /// OpenVDB appends this to the type name of grids saved as half floats.
 const VDB_HALF_SUFFIX: &str = "_HalfFloat";
 const DEFAULT_VDB_GRID: &str = "density";
+/// What errors about in-memory input name.
+const MEMORY: &str = "<memory>";
 
 /// A dense scalar voxel grid. Values sit at voxel centres; x varies fastest:
 /// index = x + dims[0] * (y + dims[1] * z).
@@ -234,6 +238,40 @@ pub enum GridError {
 
 type Result<T> = std::result::Result<T, GridError>;
 
+impl GridError {
+    /// The file the error names.
+    fn path_mut(&mut self) -> &mut PathBuf {
+        use GridError::*;
+        match self {
+            Io { path, .. }
+            | UnknownFormat { path, .. }
+            | GridNameNotApplicable { path, .. }
+            | VolHeaderTruncated { path, .. }
+            | VolMagic { path, .. }
+            | VolVersion { path, .. }
+            | VolEncoding { path, .. }
+            | VolChannels { path, .. }
+            | BadDims { path, .. }
+            | TooLarge { path, .. }
+            | DataLength { path, .. }
+            | BadBounds { path, .. }
+            | NonFiniteValue { path, .. }
+            | NegativeValue { path, .. }
+            | Header { path, .. }
+            | DataOutsideFolder { path, .. }
+            | MissingData { path, .. }
+            | VdbMagic { path, .. }
+            | Vdb { path, .. }
+            | VdbNoGrid { path, .. }
+            | VdbGridType { path, .. }
+            | VdbLevelSet { path, .. }
+            | VdbInstanced { path, .. }
+            | VdbHalfCompressed { path, .. }
+            | VdbEmpty { path, .. } => path,
+        }
+    }
+}
+
 fn describe_bytes(bytes: u64) -> String {
     if bytes.is_multiple_of(4) {
         format!("{}", bytes / 4)
@@ -291,9 +329,53 @@ pub fn load_grid(path: &Path, grid: Option<&str>) -> Result<DenseGrid> {
         Format::Raw => read_raw(path)?,
         Format::Vdb => read_vdb(path, grid.unwrap_or(DEFAULT_VDB_GRID))?,
     };
-    check_bounds(path, loaded.bounds)?;
-    check_values(path, &loaded)?;
-    Ok(loaded)
+    check_grid(path, loaded)
+}
+
+/// [`load_grid`] for a file a scene names: errors show `shown` (the name the scene
+/// gave) and a raw header's data file relative to it, never the server's own path,
+/// since the server shows these messages to clients.
+pub fn load_grid_named(path: &Path, shown: &Path, grid: Option<&str>) -> Result<DenseGrid> {
+    load_grid(path, grid).map_err(|mut e| {
+        let named = e.path_mut();
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let shown_folder = shown.parent().unwrap_or(Path::new(""));
+        *named = match named.strip_prefix(folder) {
+            Ok(rel) if named.as_path() != path => shown_folder.join(rel),
+            _ => shown.to_path_buf(),
+        };
+        e
+    })
+}
+
+/// A Mitsuba `.vol` file in memory (for fuzzing and tests), checked as [`load_grid`]
+/// checks a file; errors name `<memory>`.
+pub fn decode_vol(bytes: &[u8]) -> Result<DenseGrid> {
+    let path = Path::new(MEMORY);
+    let grid = read_vol_from(path, bytes, bytes.len() as u64)?;
+    check_grid(path, grid)
+}
+
+/// A raw grid in memory: its JSON `header` and the bytes of the `data` file it names
+/// (whose name is checked, not opened), checked as [`load_grid`] checks files.
+pub fn decode_raw(header: &[u8], data: &[u8]) -> Result<DenseGrid> {
+    let path = Path::new(MEMORY);
+    let header = parse_raw_header(path, header)?;
+    if !is_plain_relative(&header.data) {
+        return Err(GridError::DataOutsideFolder {
+            path: path.to_path_buf(),
+            data: header.data,
+        });
+    }
+    let count = value_count(path, header.dims)?;
+    let values = read_floats(path, &mut &data[..], count, data.len() as u64)?;
+    check_grid(path, raw_grid(header, values))
+}
+
+fn check_grid(path: &Path, grid: DenseGrid) -> Result<DenseGrid> {
+    check_bounds(path, grid.bounds)?;
+    check_values(path, &grid)?;
+    Ok(grid)
 }
 
 /// Number of values for `dims`, refusing empty, overflowing or absurd sizes before
@@ -462,13 +544,17 @@ fn parse_vol_header(path: &Path, h: &[u8; VOL_HEADER_BYTES as usize]) -> Result<
 
 fn read_vol(path: &Path) -> Result<DenseGrid> {
     let (file, len) = open_with_len(path)?;
+    read_vol_from(path, BufReader::new(file), len)
+}
+
+/// Reads a volume of `len` bytes; `path` names it in errors.
+fn read_vol_from(path: &Path, mut reader: impl Read, len: u64) -> Result<DenseGrid> {
     if len < VOL_HEADER_BYTES {
         return Err(GridError::VolHeaderTruncated {
             path: path.to_path_buf(),
             found: len,
         });
     }
-    let mut reader = BufReader::new(file);
     let mut header = [0u8; VOL_HEADER_BYTES as usize];
     reader.read_exact(&mut header).map_err(io_error(path))?;
     let header = parse_vol_header(path, &header)?;
@@ -522,20 +608,34 @@ struct RawBounds {
 }
 
 fn read_raw(path: &Path) -> Result<DenseGrid> {
-    let text = std::fs::read_to_string(path).map_err(io_error(path))?;
-    let header: RawHeader = serde_json::from_str(&text).map_err(|source| GridError::Header {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read(path).map_err(io_error(path))?;
+    let header = parse_raw_header(path, &text)?;
     let count = value_count(path, header.dims)?;
     let data_path = resolve_data(path, &header.data)?;
     let (file, len) = open_with_len(&data_path)?;
     let data = read_floats(&data_path, &mut BufReader::new(file), count, len)?;
-    Ok(DenseGrid {
+    Ok(raw_grid(header, data))
+}
+
+fn parse_raw_header(path: &Path, text: &[u8]) -> Result<RawHeader> {
+    serde_json::from_slice(text).map_err(|source| GridError::Header {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn raw_grid(header: RawHeader, data: Vec<f32>) -> DenseGrid {
+    DenseGrid {
         dims: header.dims.map(|d| d as usize),
         data,
         bounds: header.bounds.map(|b| (b.min, b.max)),
-    })
+    }
+}
+
+/// No absolute path, no `..`: the name alone stays inside the folder.
+fn is_plain_relative(name: &str) -> bool {
+    let plain = |c: Component| matches!(c, Component::Normal(_) | Component::CurDir);
+    !name.is_empty() && Path::new(name).components().all(plain)
 }
 
 /// The header's data file, which must stay inside the header's folder: checked on
@@ -545,8 +645,7 @@ fn resolve_data(header: &Path, name: &str) -> Result<PathBuf> {
         path: header.to_path_buf(),
         data: name.to_string(),
     };
-    let plain = |c: Component| matches!(c, Component::Normal(_) | Component::CurDir);
-    if name.is_empty() || !Path::new(name).components().all(plain) {
+    if !is_plain_relative(name) {
         return Err(outside());
     }
     let folder = match header.parent() {
@@ -923,8 +1022,8 @@ mod tests {
         );
         let r = patched_vol(|b| b[8..12].copy_from_slice(&(-4i32).to_le_bytes()));
         assert!(matches!(r, Err(GridError::BadDims { .. })), "{r:?}");
-        // 2^30 * 4 * 5 values: over the cap, though the file is tiny.
-        let r = patched_vol(|b| b[8..12].copy_from_slice(&(1i32 << 30).to_le_bytes()));
+        // 2^26 * 4 * 5 values: over the cap, though the file is tiny.
+        let r = patched_vol(|b| b[8..12].copy_from_slice(&(1i32 << 26).to_le_bytes()));
         assert!(matches!(r, Err(GridError::TooLarge { .. })), "{r:?}");
     }
 

@@ -4,6 +4,9 @@
 use super::error::{Result, SceneError};
 use super::format::{Scale, SceneFile, TransformDesc};
 use crate::math::{Mat4, Quat, Vec3};
+use ply_rs::ply::{Property, PropertyAccess};
+use std::io::BufRead;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Component, Path, PathBuf};
 
 /// Parses scene JSON; serde errors carry the JSON path of the field.
@@ -16,19 +19,16 @@ pub fn parse_scene(text: &str) -> Result<SceneFile> {
     })
 }
 
+/// Reads and parses a scene file. Errors name it by its file name alone: the server
+/// keeps uploads under its data folder, whose path is none of a client's business.
 pub fn read_scene_file(path: &Path) -> Result<SceneFile> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path.display().to_string(), e.to_string()))?;
-    parse_scene(&text).map_err(|e| {
-        SceneError::new(
-            if e.path.is_empty() {
-                path.display().to_string()
-            } else {
-                e.path
-            },
-            e.message,
-        )
-    })
+    let shown = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    );
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::new(&shown, e.to_string()))?;
+    parse_scene(&text)
+        .map_err(|e| SceneError::new(if e.path.is_empty() { shown } else { e.path }, e.message))
 }
 
 /// Refuses absolute paths and any `..`: a reference must stay inside the bundle.
@@ -55,6 +55,12 @@ pub fn check_relative(field: &str, name: &str) -> Result<PathBuf> {
 /// outside it.
 pub fn resolve(base: &Path, field: &str, name: &str) -> Result<PathBuf> {
     let rel = check_relative(field, name)?;
+    // `Path::new("scene.json").parent()` is `""`: the scene sits in the current folder.
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
     let full = base.join(rel);
     let canon_base = base
         .canonicalize()
@@ -100,110 +106,445 @@ pub struct MeshData {
     pub indices: Vec<[u32; 3]>,
 }
 
-pub fn load_obj(path: &Path, field: &str) -> Result<MeshData> {
+impl MeshData {
+    /// Every index names a vertex and normals (if any) match the vertices, so that
+    /// compiling the mesh cannot index out of bounds whatever the file said.
+    fn checked(self, err: impl Fn(String) -> SceneError) -> Result<MeshData> {
+        let n = self.positions.len();
+        if let Some(bad) = self.indices.iter().flatten().find(|&&i| i as usize >= n) {
+            return Err(err(format!("face index {bad} out of range ({n} vertices)")));
+        }
+        if self.normals.as_ref().is_some_and(|ns| ns.len() != n) {
+            return Err(err("normals do not match the vertices".into()));
+        }
+        Ok(self)
+    }
+}
+
+/// The message of a panic caught in a third-party reader of `format`.
+fn reader_panic(format: &str, panic: Box<dyn std::any::Any + Send>) -> String {
+    let text = (panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown error".into());
+    format!("the {format} reader failed: {text}")
+}
+
+/// A mesh file's error: the scene field, then the file as the scene names it.
+fn mesh_error<'a>(field: &'a str, name: &'a str) -> impl Fn(String) -> SceneError + 'a {
+    move |m| SceneError::new(field, format!("\"{name}\": {m}"))
+}
+
+/// Reads the OBJ file at `path`, which the scene names `name` in `field`.
+pub fn load_obj(path: &Path, field: &str, name: &str) -> Result<MeshData> {
+    let file = std::fs::File::open(path).map_err(|e| mesh_error(field, name)(e.to_string()))?;
+    parse_obj(std::io::BufReader::new(file), field, name)
+}
+
+/// Parses OBJ text. `mtllib` lines are ignored: caustic takes materials from the
+/// scene, and the loader would otherwise open whatever path a line names
+/// (`mtllib /etc/passwd`, or `/dev/zero`, which never ends).
+pub fn parse_obj(mut reader: impl std::io::BufRead, field: &str, name: &str) -> Result<MeshData> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, _) = tobj::load_obj(path, &opts)
-        .map_err(|e| SceneError::new(field, format!("{}: {e}", path.display())))?;
+    let no_materials = |_: &Path| Ok((Vec::new(), Default::default()));
+    // tobj's index arithmetic overflows on huge indices (a panic where overflow is
+    // checked): an error, like any other malformed file.
+    let loaded = catch_unwind(AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut reader, &opts, no_materials).map_err(|e| e.to_string())
+    }));
+    let (models, _) = loaded
+        .unwrap_or_else(|panic| Err(reader_panic("OBJ", panic)))
+        .map_err(mesh_error(field, name))?;
     let mut out = MeshData {
         positions: Vec::new(),
         normals: Some(Vec::new()),
         indices: Vec::new(),
     };
     for m in models {
-        let mesh = m.mesh;
-        let base = out.positions.len() as u32;
-        let pos: Vec<Vec3> = mesh
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let has_normals = mesh.normals.len() == mesh.positions.len();
-        match (&mut out.normals, has_normals) {
-            (Some(n), true) => n.extend(
-                mesh.normals
-                    .chunks_exact(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2])),
-            ),
-            _ => out.normals = None,
-        }
-        out.positions.extend(pos);
-        out.indices.extend(
-            mesh.indices
-                .chunks_exact(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-        );
+        append_model(&mut out, m.mesh);
     }
-    Ok(out)
+    out.checked(mesh_error(field, name))
 }
 
-pub fn load_ply(path: &Path, field: &str) -> Result<MeshData> {
-    use ply_rs::parser::Parser;
-    use ply_rs::ply::{DefaultElement, Property};
-    let err = |m: String| SceneError::new(field, format!("{}: {m}", path.display()));
-    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-    let mut reader = std::io::BufReader::new(file);
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut reader)
-        .map_err(|e| err(e.to_string()))?;
-    let num = |p: Option<&Property>| -> Option<f32> {
-        match p? {
-            Property::Float(v) => Some(*v),
-            Property::Double(v) => Some(*v as f32),
-            Property::Int(v) => Some(*v as f32),
-            Property::UInt(v) => Some(*v as f32),
-            Property::Short(v) => Some(*v as f32),
-            Property::UShort(v) => Some(*v as f32),
-            Property::Char(v) => Some(*v as f32),
-            Property::UChar(v) => Some(*v as f32),
-            _ => None,
-        }
+fn append_model(out: &mut MeshData, mesh: tobj::Mesh) {
+    let base = out.positions.len() as u32;
+    let has_normals = mesh.normals.len() == mesh.positions.len();
+    match (&mut out.normals, has_normals) {
+        (Some(n), true) => n.extend(
+            mesh.normals
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        ),
+        _ => out.normals = None,
+    }
+    out.positions.extend(
+        mesh.positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2])),
+    );
+    out.indices.extend(
+        mesh.indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]].map(|i| i.saturating_add(base))),
+    );
+}
+
+/// Reads the PLY file at `path`, which the scene names `name` in `field`.
+pub fn load_ply(path: &Path, field: &str, name: &str) -> Result<MeshData> {
+    let file = std::fs::File::open(path).map_err(|e| mesh_error(field, name)(e.to_string()))?;
+    parse_ply(std::io::BufReader::new(file), field, name)
+}
+
+/// Parses a PLY file (ASCII, or binary of either byte order): `vertex` elements with
+/// numeric `x y z` (and `nx ny nz`, used when every vertex has them), `face` elements
+/// with a `vertex_indices` (or `vertex_index`) list; polygons become triangle fans.
+/// Elements are read one at a time straight into the mesh: ply-rs's own
+/// `DefaultElement` is a map from names to values per vertex, some 50 times the
+/// file's size in memory.
+pub fn parse_ply(mut reader: impl BufRead, field: &str, name: &str) -> Result<MeshData> {
+    let err = mesh_error(field, name);
+    // ply-rs panics on some malformed headers (it unwraps numbers too large for
+    // their type): an uploaded file must be an error, not a dead worker.
+    catch_unwind(AssertUnwindSafe(|| read_ply_mesh(&mut reader)))
+        .unwrap_or_else(|panic| Err(reader_panic("PLY", panic)))
+        .map_err(&err)?
+        .checked(err)
+}
+
+fn read_ply_mesh(reader: &mut impl BufRead) -> std::result::Result<MeshData, String> {
+    let header = ply_rs::parser::Parser::<PlySkip>::new()
+        .read_header(reader)
+        .map_err(|e| e.to_string())?;
+    check_ply_header(&header)?;
+    let mut mesh = PlyMesh::new();
+    for def in header.elements.values() {
+        match def.name.as_str() {
+            "vertex" => read_elements(reader, &header, def, |v: PlyVertex| mesh.vertex(v)),
+            "face" => read_elements(reader, &header, def, |f: PlyFace| mesh.face(f)),
+            _ => read_elements(reader, &header, def, |_: PlySkip| Ok(())),
+        }?;
+    }
+    Ok(mesh.finish())
+}
+
+/// Vertices need x, y, z and faces a vertex list, checked once here rather than per
+/// element (which also makes skipping elements without properties safe).
+fn check_ply_header(header: &ply_rs::ply::Header) -> std::result::Result<(), String> {
+    let has = |def: &ply_rs::ply::ElementDef, names: &[&str]| {
+        def.count == 0 || names.iter().all(|n| def.properties.contains_key(*n))
     };
-    let verts = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| err("no vertex element".into()))?;
-    let mut positions = Vec::with_capacity(verts.len());
-    let mut normals = Some(Vec::with_capacity(verts.len()));
-    for v in verts {
-        let p = (num(v.get("x")), num(v.get("y")), num(v.get("z")));
-        let (Some(x), Some(y), Some(z)) = p else {
-            return Err(err("vertex without numeric x, y, z".into()));
-        };
-        positions.push(Vec3::new(x, y, z));
-        match (num(v.get("nx")), num(v.get("ny")), num(v.get("nz"))) {
-            (Some(a), Some(b), Some(c)) => {
-                if let Some(n) = normals.as_mut() {
-                    n.push(Vec3::new(a, b, c))
+    let vertex = header.elements.get("vertex").ok_or("no vertex element")?;
+    if !has(vertex, &["x", "y", "z"]) {
+        return Err("vertex without numeric x, y, z".into());
+    }
+    if let Some(face) = header.elements.get("face") {
+        if !has(face, &["vertex_indices"]) && !has(face, &["vertex_index"]) {
+            return Err("face without a vertex_indices list".into());
+        }
+    }
+    Ok(())
+}
+
+/// Reads `def.count` elements of type `E`, handing each to `take`.
+fn read_elements<E: PropertyAccess>(
+    reader: &mut impl BufRead,
+    header: &ply_rs::ply::Header,
+    def: &ply_rs::ply::ElementDef,
+    mut take: impl FnMut(E) -> std::result::Result<(), String>,
+) -> std::result::Result<(), String> {
+    use ply_rs::ply::Encoding;
+    if def.properties.is_empty() {
+        // Nothing to read, however many a header claims (a loop of 2^64 no-ops).
+        return Ok(());
+    }
+    let parser = ply_rs::parser::Parser::<E>::new();
+    let mut line = String::new();
+    for i in 0..def.count {
+        let element = match header.encoding {
+            Encoding::Ascii => {
+                line.clear();
+                if reader.read_line(&mut line).map_err(|e| e.to_string())? == 0 {
+                    return Err(format!(
+                        "the file ends at {} {i} of {}",
+                        def.name, def.count
+                    ));
                 }
+                parser.read_ascii_element(&line, def)
             }
-            _ => normals = None,
-        }
-    }
-    let mut indices = Vec::new();
-    for f in ply.payload.get("face").map(|f| f.as_slice()).unwrap_or(&[]) {
-        let list: Vec<u32> = match f.get("vertex_indices").or_else(|| f.get("vertex_index")) {
-            Some(Property::ListInt(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListUInt(l)) => l.clone(),
-            Some(Property::ListUChar(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListShort(l)) => l.iter().map(|&i| i as u32).collect(),
-            Some(Property::ListUShort(l)) => l.iter().map(|&i| i as u32).collect(),
-            _ => return Err(err("face without a vertex_indices list".into())),
+            Encoding::BinaryLittleEndian => parser.read_little_endian_element(reader, def),
+            Encoding::BinaryBigEndian => parser.read_big_endian_element(reader, def),
         };
-        if list.iter().any(|&i| i as usize >= positions.len()) {
-            return Err(err("face index out of range".into()));
+        take(element.map_err(|e| format!("{} {i}: {e}", def.name))?)?;
+    }
+    Ok(())
+}
+
+/// A PLY element caustic does not use: read (to get past it) and dropped.
+struct PlySkip;
+
+impl PropertyAccess for PlySkip {
+    fn new() -> Self {
+        PlySkip
+    }
+}
+
+/// The numeric properties of a vertex that caustic uses.
+#[derive(Default)]
+struct PlyVertex {
+    p: [Option<f32>; 3],
+    n: [Option<f32>; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: String, value: Property) {
+        let slot = match name.as_str() {
+            "x" => &mut self.p[0],
+            "y" => &mut self.p[1],
+            "z" => &mut self.p[2],
+            "nx" => &mut self.n[0],
+            "ny" => &mut self.n[1],
+            "nz" => &mut self.n[2],
+            _ => return,
+        };
+        *slot = ply_number(&value);
+    }
+}
+
+fn ply_number(p: &Property) -> Option<f32> {
+    Some(match *p {
+        Property::Float(v) => v,
+        Property::Double(v) => v as f32,
+        Property::Int(v) => v as f32,
+        Property::UInt(v) => v as f32,
+        Property::Short(v) => v as f32,
+        Property::UShort(v) => v as f32,
+        Property::Char(v) => v as f32,
+        Property::UChar(v) => v as f32,
+        _ => return None,
+    })
+}
+
+/// A face's vertex list, as u32 (a negative index becomes one out of range).
+#[derive(Default)]
+struct PlyFace(Option<Vec<u32>>);
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: String, value: Property) {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return;
         }
-        // Polygons become triangle fans.
-        for k in 1..list.len().saturating_sub(1) {
-            indices.push([list[0], list[k], list[k + 1]]);
+        self.0 = match value {
+            Property::ListUInt(l) => Some(l),
+            Property::ListInt(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListUChar(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListChar(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListShort(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            Property::ListUShort(l) => Some(l.iter().map(|&i| i as u32).collect()),
+            _ => None,
+        };
+    }
+}
+
+/// The mesh as its elements arrive.
+struct PlyMesh {
+    positions: Vec<Vec3>,
+    /// `None` from the first vertex without a full normal on.
+    normals: Option<Vec<Vec3>>,
+    indices: Vec<[u32; 3]>,
+}
+
+impl PlyMesh {
+    fn new() -> Self {
+        PlyMesh {
+            positions: Vec::new(),
+            normals: Some(Vec::new()),
+            indices: Vec::new(),
         }
     }
-    Ok(MeshData {
-        positions,
-        normals,
-        indices,
-    })
+
+    fn vertex(&mut self, v: PlyVertex) -> std::result::Result<(), String> {
+        let [Some(x), Some(y), Some(z)] = v.p else {
+            return Err("vertex without numeric x, y, z".into());
+        };
+        self.positions.push(Vec3::new(x, y, z));
+        match (v.n, &mut self.normals) {
+            ([Some(a), Some(b), Some(c)], Some(n)) => n.push(Vec3::new(a, b, c)),
+            _ => self.normals = None,
+        }
+        Ok(())
+    }
+
+    /// Polygons become triangle fans.
+    fn face(&mut self, f: PlyFace) -> std::result::Result<(), String> {
+        let list = f.0.ok_or("face without a vertex_indices list")?;
+        for k in 1..list.len().saturating_sub(1) {
+            self.indices.push([list[0], list[k], list[k + 1]]);
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> MeshData {
+        MeshData {
+            positions: self.positions,
+            normals: self.normals,
+            indices: self.indices,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "comment a vertex with extra properties, an element caustic skips\n\
+        element vertex 4\nproperty float x\nproperty float y\nproperty double z\n\
+        property uchar red\nproperty float nx\nproperty float ny\nproperty float nz\n\
+        element material 1\nproperty int id\nproperty list uchar float weights\n";
+
+    const POSITIONS: [[f32; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.5], [0., 1., -2.]];
+    const FACES: [&[u32]; 2] = [&[0, 1, 2, 3], &[3, 2, 1]];
+
+    /// The same mesh in `format` ("ascii", "binary_little_endian" or
+    /// "binary_big_endian"), its faces as `list COUNT int NAME`.
+    fn ply(format: &str, count: &str, name: &str) -> Vec<u8> {
+        let mut out = format!(
+            "ply\nformat {format} 1.0\n{HEADER}element face 2\n\
+             property list {count} int {name}\nproperty int flags\nend_header\n"
+        )
+        .into_bytes();
+        let big = format == "binary_big_endian";
+        let mut put = |b: &[u8]| {
+            let mut b = b.to_vec();
+            if big {
+                b.reverse();
+            }
+            out.extend_from_slice(&b);
+        };
+        if format == "ascii" {
+            let mut text = String::new();
+            for p in POSITIONS {
+                text += &format!("{} {} {} 7 0 0 1\n", p[0], p[1], p[2]);
+            }
+            text += "5 2 0.5 0.25\n";
+            for f in FACES {
+                let idx: Vec<String> = f.iter().map(|i| i.to_string()).collect();
+                text += &format!("{} {} 9\n", f.len(), idx.join(" "));
+            }
+            out.extend_from_slice(text.as_bytes());
+            return out;
+        }
+        for p in POSITIONS {
+            put(&p[0].to_le_bytes());
+            put(&p[1].to_le_bytes());
+            put(&(p[2] as f64).to_le_bytes());
+            put(&[7]);
+            for n in [0f32, 0., 1.] {
+                put(&n.to_le_bytes());
+            }
+        }
+        put(&5i32.to_le_bytes());
+        put(&[2]);
+        put(&0.5f32.to_le_bytes());
+        put(&0.25f32.to_le_bytes());
+        for f in FACES {
+            match count {
+                "uchar" => put(&[f.len() as u8]),
+                _ => put(&(f.len() as i32).to_le_bytes()),
+            }
+            for &i in f {
+                put(&(i as i32).to_le_bytes());
+            }
+            put(&9i32.to_le_bytes());
+        }
+        out
+    }
+
+    fn parse(bytes: &[u8]) -> Result<MeshData> {
+        parse_ply(bytes, "shapes[0].filename", "m.ply")
+    }
+
+    #[test]
+    fn ply_encodings_count_types_and_index_names_give_the_same_mesh() {
+        let want_pos: Vec<Vec3> = POSITIONS.iter().map(|&p| Vec3::from(p)).collect();
+        let want_idx = vec![[0, 1, 2], [0, 2, 3], [3, 2, 1]];
+        for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            for (count, name) in [("uchar", "vertex_indices"), ("int", "vertex_index")] {
+                let mesh = parse(&ply(format, count, name)).unwrap();
+                let what = format!("{format} {count} {name}");
+                assert_eq!(mesh.positions, want_pos, "{what}");
+                assert_eq!(mesh.indices, want_idx, "{what}");
+                assert_eq!(mesh.normals, Some(vec![Vec3::Z; 4]), "{what}");
+            }
+        }
+    }
+
+    #[test]
+    fn ply_without_full_normals_or_faces() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 2\nproperty int x\nproperty int y\n\
+                    property short z\nproperty float nx\nend_header\n1 2 3 0\n4 5 6 0\n";
+        let mesh = parse(text.as_bytes()).unwrap();
+        assert_eq!(
+            mesh.positions,
+            [Vec3::new(1., 2., 3.), Vec3::new(4., 5., 6.)]
+        );
+        assert!(mesh.normals.is_none());
+        assert!(mesh.indices.is_empty());
+    }
+
+    #[test]
+    fn ply_errors_name_the_file_and_what_is_wrong() {
+        let cases = [
+            (
+                "ply\nformat ascii 1.0\nelement face 0\nend_header\n",
+                "no vertex element",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+                "numeric x, y, z",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 100000000\nproperty float x\n\
+                 property float y\nproperty float z\nend_header\n0 0 0\n",
+                "ends at vertex 1",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                 end_header\n0 0 0\n3 0 0 1\n",
+                "face index 1 out of range",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty int n\nend_header\n0 0 0\n3\n",
+                "face without a vertex_indices list",
+            ),
+            ("not a ply file\n", "m.ply"),
+        ];
+        for (text, words) in cases {
+            let err = parse(text.as_bytes()).err().expect(text).to_string();
+            assert!(err.starts_with("shapes[0].filename: \"m.ply\": "), "{err}");
+            assert!(err.contains(words), "{words}: {err}");
+        }
+    }
+
+    #[test]
+    fn ply_elements_without_properties_cost_nothing_however_many() {
+        // ply-rs alone pushes an empty element per claimed one: 2^64 of them.
+        let text = "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n\
+                    element vertex 1\nproperty float x\nproperty float y\nproperty float z\n\
+                    end_header\n";
+        let mut bytes = text.as_bytes().to_vec();
+        bytes.extend([0u8; 12]);
+        let mesh = parse(&bytes).unwrap();
+        assert_eq!(mesh.positions, [Vec3::ZERO]);
+    }
 }

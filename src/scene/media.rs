@@ -5,7 +5,7 @@ use super::error::{Result, SceneError};
 use super::format::{BoundsDesc, MediumDesc, PhaseDesc, TransformDesc, V3};
 use super::load::{resolve, transform_matrix};
 use crate::math::{Rgb, Vec3};
-use crate::medium::grid_io::{load_grid, DenseGrid};
+use crate::medium::grid_io::{load_grid_named, DenseGrid};
 use crate::medium::noise::{Fbm, FbmParams};
 use crate::medium::voxels::{DensityField, VoxelGrid};
 use crate::medium::{Heterogeneous, Homogeneous, Medium, Phase};
@@ -123,7 +123,8 @@ fn read_grid(
 ) -> Result<DenseGrid> {
     let base = base.ok_or_else(|| SceneError::new(field, "file references need a scene folder"))?;
     let full = resolve(base, field, file)?;
-    load_grid(&full, grid).map_err(|e| SceneError::new(field, format!("\"{file}\": {e}")))
+    // The error names the file as the scene does, not by the server's path.
+    load_grid_named(&full, Path::new(file), grid).map_err(|e| SceneError::new(field, e.to_string()))
 }
 
 /// World-to-unit-cube map from `bounds`, a `transform` of the unit cube, or the

@@ -166,9 +166,9 @@ impl Builder<'_> {
                 })?;
                 let full = resolve(base, &field, filename)?;
                 if matches!(g, GeometryDesc::Obj { .. }) {
-                    load_obj(&full, &field)?
+                    load_obj(&full, &field, filename)?
                 } else {
-                    load_ply(&full, &field)?
+                    load_ply(&full, &field, filename)?
                 }
             }
             GeometryDesc::Sphere { .. } | GeometryDesc::Disk {} => unreachable!("analytic"),
@@ -409,8 +409,9 @@ fn light(path: &str, l: &LightDesc, base: Option<&Path>) -> Result<Light> {
             let base =
                 base.ok_or_else(|| SceneError::new(&field, "file references need a scene folder"))?;
             let full = resolve(base, &field, filename)?;
-            let img =
-                crate::film::read_exr(&full).map_err(|e| SceneError::new(&field, e.to_string()))?;
+            // Named as the scene names it: the server shows the message to clients.
+            let img = crate::film::read_exr_named(&full, filename)
+                .map_err(|e| SceneError::new(&field, e.to_string()))?;
             let texels: Vec<Rgb> = img.pixels().iter().map(|p| *p * *scale).collect();
             if texels.iter().any(|t| !crate::math::is_valid_radiance(*t)) {
                 return Err(SceneError::new(
