@@ -27,11 +27,9 @@ mod wire;
 use inputs::*;
 use serde_json::{json, Value};
 use server_common::tiny_scene;
-use std::collections::VecDeque;
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::net::TcpStream;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use wire::{clip, send, Outcome, Req, Resp};
@@ -61,90 +59,41 @@ const LONG_SIZE: u32 = 32;
 const LONG_SPP: u64 = 20000;
 const LONG_SEED: u64 = 5;
 
-// ---- the server process (start and URL parsing as in tests/restart.rs) ------------
+// ---- the server process -------------------------------------------------------------
 
-struct Proc {
-    child: Child,
-    url: String,
-    stderr: Arc<Mutex<VecDeque<String>>>,
+type Proc = server_common::ServerProcess;
+
+/// The last `n` lines the server wrote to stderr, for a report.
+fn last_stderr(p: &Proc, n: usize) -> String {
+    let l = p.stderr.lock().unwrap();
+    let skip = l.len().saturating_sub(n);
+    l.iter()
+        .skip(skip)
+        .map(|line| clip(line, 300))
+        .collect::<Vec<_>>()
+        .join("\n    ")
 }
 
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Proc {
-    fn pid(&self) -> u32 {
-        self.child.id()
-    }
-
-    fn last_stderr(&self, n: usize) -> String {
-        let l = self.stderr.lock().unwrap();
-        let skip = l.len().saturating_sub(n);
-        l.iter()
-            .skip(skip)
-            .map(|line| clip(line, 300))
-            .collect::<Vec<_>>()
-            .join("\n    ")
-    }
-}
-
+/// A server process whose address space is capped (see [`ADDRESS_SPACE_LIMIT`]).
 fn start(data: &Path, extra: &[&str]) -> Proc {
     use std::os::unix::process::CommandExt;
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_caustic"));
-    cmd.args([
-        "serve",
-        "--addr",
-        "127.0.0.1:0",
-        "--grpc-addr",
-        "127.0.0.1:0",
-        "--workers",
-        "2",
-        "--data-dir",
-    ])
-    .arg(data)
-    .args(extra)
-    // A crash reports its message, not a backtrace that pushes it out of the lines kept.
-    .env("RUST_BACKTRACE", "0")
-    .env("NO_COLOR", "1")
-    .stderr(Stdio::piped())
-    .stdout(Stdio::null());
-    // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and exec.
-    unsafe {
-        cmd.pre_exec(|| {
-            let lim = libc::rlimit {
-                rlim_cur: ADDRESS_SPACE_LIMIT,
-                rlim_max: ADDRESS_SPACE_LIMIT,
-            };
-            libc::setrlimit(libc::RLIMIT_AS, &lim);
-            Ok(())
-        });
-    }
-    let mut child = cmd.spawn().unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let url = loop {
-        let line = lines.next().expect("server printed its address").unwrap();
-        if let Some(rest) = line.split("serving REST on ").nth(1) {
-            break rest.split_whitespace().next().unwrap().to_string();
+    Proc::start_with(data, extra, |cmd| {
+        // A crash reports its message, not a backtrace that pushes it out of the lines
+        // kept.
+        cmd.env("RUST_BACKTRACE", "0").env("NO_COLOR", "1");
+        // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and
+        // exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                let lim = libc::rlimit {
+                    rlim_cur: ADDRESS_SPACE_LIMIT,
+                    rlim_max: ADDRESS_SPACE_LIMIT,
+                };
+                libc::setrlimit(libc::RLIMIT_AS, &lim);
+                Ok(())
+            });
         }
-    };
-    // Keep draining stderr so the server never blocks on a full pipe; keep the last
-    // lines for the report should it die.
-    let stderr = Arc::new(Mutex::new(VecDeque::new()));
-    let keep = stderr.clone();
-    std::thread::spawn(move || {
-        for l in lines.map_while(Result::ok) {
-            let mut k = keep.lock().unwrap();
-            if k.len() == 40 {
-                k.pop_front();
-            }
-            k.push_back(l);
-        }
-    });
-    Proc { child, url, stderr }
+    })
 }
 
 /// Whether the process is still running (a zombie or a missing /proc entry is dead).
@@ -2944,7 +2893,7 @@ fn bad_request_battery() {
         if !alive(proc_.pid()) {
             b.fail(format!(
                 "the {label} server process is not alive at the end; its last lines:\n    {}",
-                proc_.last_stderr(30)
+                last_stderr(proc_, 30)
             ));
         }
     }
@@ -2972,7 +2921,7 @@ fn bad_request_battery() {
     if b.dead.is_some() {
         eprintln!(
             "battery: the main server's last lines:\n    {}",
-            p.last_stderr(30)
+            last_stderr(&p, 30)
         );
     }
     let failures = failures.lock().unwrap();

@@ -5,57 +5,20 @@
 
 mod server_common;
 use serde_json::{json, Value};
-use server_common::{respond, tiny_scene};
-use std::io::{BufRead, BufReader};
+use server_common::{direct_render, respond, tiny_scene, ServerProcess};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SPP: u64 = 40;
 const EVERY: u64 = 10;
 const SEED: u64 = 9;
 
-struct Proc {
-    child: Child,
-    url: String,
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn start(data: &Path, failpoint: Option<&str>) -> Proc {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_caustic"));
-    cmd.args([
-        "serve",
-        "--addr",
-        "127.0.0.1:0",
-        "--grpc-addr",
-        "127.0.0.1:0",
-        "--workers",
-        "1",
-        "--data-dir",
-    ])
-    .arg(data)
-    .env_remove("CAUSTIC_FAILPOINT")
-    .stderr(Stdio::piped())
-    .stdout(Stdio::null());
-    if let Some(f) = failpoint {
-        cmd.env("CAUSTIC_FAILPOINT", f);
-    }
-    let mut child = cmd.spawn().unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let url = loop {
-        let line = lines.next().expect("server printed its address").unwrap();
-        if let Some(rest) = line.split("serving REST on ").nth(1) {
-            break rest.split_whitespace().next().unwrap().to_string();
+fn start(data: &Path, failpoint: Option<&str>) -> ServerProcess {
+    ServerProcess::start_with(data, &["--workers", "1"], |cmd| {
+        if let Some(f) = failpoint {
+            cmd.env("CAUSTIC_FAILPOINT", f);
         }
-    };
-    std::thread::spawn(move || for _ in lines {});
-    Proc { child, url }
+    })
 }
 
 fn get(url: &str) -> Value {
@@ -82,24 +45,8 @@ fn wait_until(what: &str, secs: u64, mut f: impl FnMut() -> bool) {
 }
 
 /// The image of an uninterrupted render of the job.
-fn direct_render(scene: &Value) -> Vec<glam::Vec3> {
-    let file = caustic::scene::load::parse_scene(&scene.to_string()).unwrap();
-    let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
-    let settings =
-        caustic::integrator::Settings::resolve(Some("pt"), None, &Default::default()).unwrap();
-    caustic::integrator::driver::render(
-        &compiled,
-        settings.build().as_ref(),
-        SEED,
-        caustic::integrator::driver::Halt {
-            iterations: Some(SPP),
-            time: None,
-        },
-        |_, _| {},
-    )
-    .image()
-    .pixels()
-    .to_vec()
+fn uninterrupted(scene: &Value) -> Vec<glam::Vec3> {
+    direct_render(&scene.to_string(), Some("pt"), &json!({}), SEED, SPP)
 }
 
 /// Submits the job on a server armed with `failpoint`, waits for the abort, restarts
@@ -156,7 +103,7 @@ fn crash_and_resume(failpoint: &str, scene: &Value, expected: &[glam::Vec3]) {
 #[test]
 fn a_kill_at_any_write_of_the_last_snapshot_changes_nothing() {
     let scene = tiny_scene(16);
-    let expected = direct_render(&scene);
+    let expected = uninterrupted(&scene);
     let points = [
         "snapshot-exr",
         "snapshot-png",
@@ -179,7 +126,7 @@ fn a_kill_at_any_write_of_the_last_snapshot_changes_nothing() {
 #[test]
 fn a_kill_before_the_first_checkpoint_leaves_one_row_per_snapshot() {
     let scene = tiny_scene(16);
-    let expected = direct_render(&scene);
+    let expected = uninterrupted(&scene);
     for p in ["log", "checkpoint"] {
         crash_and_resume(&format!("{p}@{EVERY}"), &scene, &expected);
     }

@@ -6,44 +6,12 @@
 
 mod server_common;
 use serde_json::{json, Value};
-use server_common::{respond, tiny_scene};
-use std::io::{BufRead, BufReader};
+use server_common::{direct_render, respond, tiny_scene, ServerProcess};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-struct Proc {
-    child: Child,
-    url: String,
-}
-
-fn start(data: &Path) -> Proc {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_caustic"))
-        .args([
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--grpc-addr",
-            "127.0.0.1:0",
-            "--workers",
-            "2",
-            "--data-dir",
-        ])
-        .arg(data)
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let url = loop {
-        let line = lines.next().expect("server printed its address").unwrap();
-        if let Some(rest) = line.split("serving REST on ").nth(1) {
-            break rest.split_whitespace().next().unwrap().to_string();
-        }
-    };
-    // Keep draining stderr so the server never blocks on a full pipe.
-    std::thread::spawn(move || for _ in lines {});
-    Proc { child, url }
+fn start(data: &Path) -> ServerProcess {
+    ServerProcess::start(data, &[])
 }
 
 fn get(url: &str) -> Value {
@@ -124,8 +92,7 @@ fn kill_9_then_restart(alg: &str, params: Value, spp: u64) {
     });
     let before = get(&format!("{}/v1/jobs/{long}", p.url));
     assert_eq!(before["state"], "running");
-    p.child.kill().unwrap(); // SIGKILL: no chance to flush anything
-    p.child.wait().unwrap();
+    p.kill(); // SIGKILL: no chance to flush anything
 
     let p = start(dir.path());
     // Completed jobs and their files survived; the queued job is still queued.
@@ -171,27 +138,6 @@ fn kill_9_then_restart(alg: &str, params: Value, spp: u64) {
 
     let (_, exr) = respond(ureq::get(&format!("{}/v1/jobs/{long}/image.exr", p.url)).call());
     let served = caustic::film::decode_exr(&exr).unwrap();
-    let file = caustic::scene::load::parse_scene(&scene.to_string()).unwrap();
-    let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
-    let settings =
-        caustic::integrator::Settings::resolve(Some(alg), None, params.as_object().unwrap())
-            .unwrap();
-    let direct = caustic::integrator::driver::render(
-        &compiled,
-        settings.build().as_ref(),
-        77,
-        caustic::integrator::driver::Halt {
-            iterations: Some(spp),
-            time: None,
-        },
-        |_, _| {},
-    );
-    assert_eq!(
-        direct.image().pixels(),
-        served.pixels(),
-        "{alg}: resumed image differs"
-    );
-    let mut p = p;
-    p.child.kill().unwrap();
-    p.child.wait().unwrap();
+    let direct = direct_render(&scene.to_string(), Some(alg), &params, 77, spp);
+    assert_eq!(direct, served.pixels(), "{alg}: resumed image differs");
 }

@@ -179,27 +179,6 @@ fn a_higher_priority_job_sets_one_aside_which_resumes_bit_identically() {
         .find(|(n, _)| *n == "cornell-box")
         .unwrap()
         .1;
-    let scene =
-        caustic::scene::Scene::compile(&caustic::scene::load::parse_scene(text).unwrap(), None)
-            .unwrap();
-    let settings = caustic::integrator::Settings::resolve(
-        None,
-        scene.integrator.as_ref(),
-        &Default::default(),
-    )
-    .unwrap();
-    let direct = caustic::integrator::driver::render(
-        &scene,
-        settings.build().as_ref(),
-        21,
-        caustic::integrator::driver::Halt {
-            iterations: Some(spp),
-            time: None,
-        },
-        |_, _| {},
-    );
-    assert!(
-        direct.image().pixels() == served.pixels(),
-        "resumed image differs"
-    );
+    let direct = direct_render(text, None, &json!({}), 21, spp);
+    assert!(direct == served.pixels(), "resumed image differs");
 }

@@ -182,3 +182,123 @@ pub fn raw_request(url: &str, head: &str, body: &[u8]) -> (u16, Value) {
         .unwrap_or(Value::Null);
     (status, json)
 }
+
+/// The image of an uninterrupted in-process render of a scene document: what a job
+/// on that scene, algorithm, parameters and seed must serve, bit for bit.
+pub fn direct_render(
+    scene: &str,
+    algorithm: Option<&str>,
+    params: &Value,
+    seed: u64,
+    iterations: u64,
+) -> Vec<glam::Vec3> {
+    let file = caustic::scene::load::parse_scene(scene).unwrap();
+    let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
+    let empty = serde_json::Map::new();
+    let settings = caustic::integrator::Settings::resolve(
+        algorithm,
+        compiled.integrator.as_ref(),
+        params.as_object().unwrap_or(&empty),
+    )
+    .unwrap();
+    caustic::integrator::driver::render(
+        &compiled,
+        settings.build().as_ref(),
+        seed,
+        caustic::integrator::driver::Halt {
+            iterations: Some(iterations),
+            time: None,
+        },
+        |_, _| {},
+    )
+    .image()
+    .pixels()
+    .to_vec()
+}
+
+/// A `caustic serve` process on 127.0.0.1:0 (REST and gRPC) over `data`, killed when
+/// dropped. Its stderr is drained (so it never blocks) and its last lines kept.
+pub struct ServerProcess {
+    pub child: std::process::Child,
+    pub url: String,
+    pub grpc: String,
+    pub stderr: std::sync::Arc<std::sync::Mutex<std::collections::VecDeque<String>>>,
+}
+
+impl ServerProcess {
+    pub fn start(data: &std::path::Path, extra: &[&str]) -> ServerProcess {
+        Self::start_with(data, extra, |_| {})
+    }
+
+    /// As [`ServerProcess::start`], with the command adjusted first (environment,
+    /// limits).
+    pub fn start_with(
+        data: &std::path::Path,
+        extra: &[&str],
+        configure: impl FnOnce(&mut std::process::Command),
+    ) -> ServerProcess {
+        use std::io::BufRead;
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_caustic"));
+        cmd.args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--grpc-addr",
+            "127.0.0.1:0",
+        ]);
+        if !extra.contains(&"--workers") {
+            cmd.args(["--workers", "2"]);
+        }
+        cmd.arg("--data-dir")
+            .arg(data)
+            .args(extra)
+            .env_remove("CAUSTIC_FAILPOINT")
+            .env_remove("CAUSTIC_TOKEN")
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::null());
+        configure(&mut cmd);
+        let mut child = cmd.spawn().unwrap();
+        let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+        let (url, grpc) = loop {
+            let line = lines.next().expect("server printed its address").unwrap();
+            if let Some(rest) = line.split("serving REST on ").nth(1) {
+                let mut words = rest.split_whitespace();
+                let url = words.next().unwrap().to_string();
+                break (url, words.last().unwrap().to_string());
+            }
+        };
+        let stderr = std::sync::Arc::new(std::sync::Mutex::new(std::collections::VecDeque::new()));
+        let keep = stderr.clone();
+        std::thread::spawn(move || {
+            for l in lines.map_while(Result::ok) {
+                let mut k = keep.lock().unwrap();
+                if k.len() == 40 {
+                    k.pop_front();
+                }
+                k.push_back(l);
+            }
+        });
+        ServerProcess {
+            child,
+            url,
+            grpc,
+            stderr,
+        }
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// `kill -9` and wait for it.
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for ServerProcess {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}

@@ -6,39 +6,15 @@ mod server_common;
 use caustic::server::grpc::pb;
 use pb::caustic_client::CausticClient;
 use serde_json::{json, Value};
-use server_common::{respond, tiny_scene};
-use std::io::{BufRead, BufReader, Read, Write};
-use std::process::{Command, Stdio};
+use server_common::{respond, tiny_scene, ServerProcess};
+use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 #[test]
 fn ctrl_c_ends_streams_checkpoints_and_exits_promptly() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_caustic"))
-        .args([
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--grpc-addr",
-            "127.0.0.1:0",
-        ])
-        .args(["--workers", "2", "--data-dir"])
-        .arg(dir.path())
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let (url, grpc) = loop {
-        let line = lines.next().expect("server printed its address").unwrap();
-        if let Some(rest) = line.split("serving REST on ").nth(1) {
-            let mut w = rest.split_whitespace();
-            let url = w.next().unwrap().to_string();
-            let grpc = w.last().unwrap().to_string();
-            break (url, grpc);
-        }
-    };
-    std::thread::spawn(move || for _ in lines {});
+    let mut server = ServerProcess::start(dir.path(), &[]);
+    let (url, grpc) = (server.url.clone(), server.grpc.clone());
 
     let (_, info) = respond(ureq::post(&format!("{url}/v1/scenes")).send_json(tiny_scene(64)));
     let scene = serde_json::from_slice::<Value>(&info).unwrap()["id"].clone();
@@ -107,13 +83,13 @@ fn ctrl_c_ends_streams_checkpoints_and_exits_promptly() {
 
     let t = Instant::now();
     // SAFETY: signalling our own child process.
-    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    unsafe { libc::kill(server.pid() as i32, libc::SIGINT) };
     let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
+        if let Some(s) = server.child.try_wait().unwrap() {
             break s;
         }
         if t.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
+            server.kill();
             panic!("the server did not exit within 20 s of Ctrl-C");
         }
         std::thread::sleep(Duration::from_millis(10));

@@ -106,27 +106,6 @@ fn on_disk_state(data: &Path, id: &str) -> String {
         .to_string()
 }
 
-fn direct_render(spp: u64) -> Vec<glam::Vec3> {
-    let scene = server_common::tiny_scene(32);
-    let file = caustic::scene::load::parse_scene(&scene.to_string()).unwrap();
-    let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
-    let settings =
-        caustic::integrator::Settings::resolve(Some("pt"), None, &Default::default()).unwrap();
-    caustic::integrator::driver::render(
-        &compiled,
-        settings.build().as_ref(),
-        3,
-        caustic::integrator::driver::Halt {
-            iterations: Some(spp),
-            time: None,
-        },
-        |_, _| {},
-    )
-    .image()
-    .pixels()
-    .to_vec()
-}
-
 #[test]
 fn a_read_only_disk_fails_the_job_consistently_and_retry_finishes_it() {
     let Some(fs) = Tmpfs::mount("size=64m") else {
@@ -182,7 +161,14 @@ fn a_read_only_disk_fails_the_job_consistently_and_retry_finishes_it() {
     let image = svc.image_exr(&id).unwrap();
     let served = caustic::film::decode_exr(&image).unwrap();
     assert!(
-        served.pixels() == direct_render(spp),
+        served.pixels()
+            == server_common::direct_render(
+                &server_common::tiny_scene(32).to_string(),
+                Some("pt"),
+                &json!({}),
+                3,
+                spp
+            ),
         "retried image differs"
     );
     // Retrying what completed makes no sense.

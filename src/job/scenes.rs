@@ -218,7 +218,7 @@ impl SceneStore {
             size_bytes: if builtin {
                 0
             } else {
-                dir_size(&self.scene_dir(id))
+                super::disk::dir_size(&self.scene_dir(id))
             },
         })
     }
@@ -267,19 +267,6 @@ fn without_folder(message: &str, folder: &Path) -> String {
 
 fn hex16(digest: &[u8]) -> String {
     digest[..8].iter().map(|b| format!("{b:02x}")).collect()
-}
-
-fn dir_size(dir: &Path) -> u64 {
-    std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .map(|e| match e.metadata() {
-            Ok(m) if m.is_dir() => dir_size(&e.path()),
-            Ok(m) => m.len(),
-            Err(_) => 0,
-        })
-        .sum()
 }
 
 /// `scene.json` at the top, else the only top-level `.json` file.
