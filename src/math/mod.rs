@@ -27,13 +27,24 @@ pub fn max_component(c: Rgb) -> f32 {
     c.x.max(c.y).max(c.z)
 }
 
-/// Power heuristic with beta = 2, written so that it never divides by zero.
+/// Power heuristic with beta = 2, written so that it never divides by zero. Squares
+/// of densities above ~1.8e19 (a small light far away) overflow f32: those cases go
+/// through the ratio of the two, so the answer is never inf / inf.
 #[inline]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     let a = pdf_a * pdf_a;
     let b = pdf_b * pdf_b;
-    if a + b > 0.0 {
-        a / (a + b)
+    let sum = a + b;
+    if sum > 0.0 && sum.is_finite() {
+        a / sum
+    } else if pdf_a > pdf_b {
+        let r = pdf_b / pdf_a;
+        1.0 / (1.0 + r * r)
+    } else if pdf_b > pdf_a {
+        let r = pdf_a / pdf_b;
+        r * r / (1.0 + r * r)
+    } else if pdf_a > 0.0 {
+        0.5
     } else {
         0.0
     }
@@ -130,6 +141,30 @@ pub fn is_valid_radiance(c: Rgb) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Densities whose squares overflow f32 still give the heuristic's value (found by
+    /// the property test: a 1e-3 disk light lighting a floor 1e7 away gave NaN).
+    #[test]
+    fn power_heuristic_survives_densities_whose_squares_overflow() {
+        for (a, b) in [
+            (1e20f32, 1e19f32),
+            (3e25, 3e25),
+            (1e30, 1.0),
+            (f32::INFINITY, 2.0),
+        ] {
+            let exact = |a: f64, b: f64| 1.0 / (1.0 + (b / a).powi(2));
+            let w = power_heuristic(a, b);
+            let w2 = power_heuristic(b, a);
+            assert!(
+                (w as f64 - exact(a as f64, b as f64)).abs() < 1e-6,
+                "{a} {b}: {w}"
+            );
+            assert!((w + w2 - 1.0).abs() < 1e-6, "{a} {b}: {w} + {w2}");
+        }
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(0.0, 1e30), 0.0);
+        assert_eq!(power_heuristic(0.5, 0.5), 0.5);
+    }
 
     #[test]
     fn pow_lobe_matches_double_precision_powers() {

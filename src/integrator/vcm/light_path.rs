@@ -437,7 +437,9 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
                 // The density with which light sampling from this point picks the
                 // origin, in area measure ([TR] eq. 31); geometric, no transmittance.
                 let pdf_w = scene.lights[l].pdf_li(v.p(), -ray.d, p0, n0);
-                walk.q.dvcm = pass.mis.f(pick * pdf_w * cos0 / dist2 / emission);
+                walk.q.dvcm = pass
+                    .mis
+                    .f(pick as f64 * pdf_w as f64 * cos0 as f64 / (dist2 as f64 * emission as f64));
             }
         }
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.

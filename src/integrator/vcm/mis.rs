@@ -49,11 +49,11 @@ use crate::integrator::pt::Heuristic;
 pub struct Mis {
     pub heuristic: Heuristic,
     /// Mis(eta_VCM) when merging is used, else 0 ([TR] eq. 20, n_VC = 1).
-    pub vm: f32,
+    pub vm: f64,
     /// Mis(1 / eta_VCM) when connections are used, else 0.
-    pub vc: f32,
+    pub vc: f64,
     /// Light subpaths per iteration (the light-tracing technique's sample count).
-    pub light_paths: f32,
+    pub light_paths: f64,
     /// Merging at the first camera vertex is a technique; when false it is removed
     /// from every denominator as well as from the estimator.
     pub merge_first: bool,
@@ -69,12 +69,16 @@ pub fn transmittance(depth: f32) -> f32 {
     (-depth.min(MAX_MIS_DEPTH)).exp()
 }
 
-/// The three partial weights of a subpath vertex.
+/// The three partial weights of a subpath vertex. They are products of squared
+/// density ratios along the whole subpath, which overflow f32 (and underflow in the
+/// other factor of a weight, giving 0 x inf) in optically thin media, where free
+/// flights stop ~1 / sigma_t away and D = sigma_t: hence f64, whose range covers
+/// sigma_t down to ~1e-40 with the power heuristic.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Partial {
-    pub dvcm: f32,
-    pub dvc: f32,
-    pub dvm: f32,
+    pub dvcm: f64,
+    pub dvc: f64,
+    pub dvm: f64,
 }
 
 impl Mis {
@@ -84,10 +88,10 @@ impl Mis {
             heuristic,
             vm: 0.0,
             vc: 0.0,
-            light_paths,
+            light_paths: light_paths as f64,
             merge_first: true,
         };
-        let eta = crate::math::PI * radius * radius * light_paths;
+        let eta = std::f64::consts::PI * (radius as f64).powi(2) * light_paths as f64;
         if vm {
             m.vm = m.f(eta);
         }
@@ -99,7 +103,8 @@ impl Mis {
 
     /// The heuristic's power of a density ratio.
     #[inline]
-    pub fn f(&self, x: f32) -> f32 {
+    pub fn f(&self, x: impl Into<f64>) -> f64 {
+        let x = x.into();
         match self.heuristic {
             Heuristic::Balance => x,
             Heuristic::Power => x * x,
@@ -109,7 +114,7 @@ impl Mis {
     /// The merge technique's weight factor at a camera vertex `len` segments from the
     /// camera (zero at the first vertex when merging there is off).
     #[inline]
-    fn vm_at(&self, camera_len: Option<u32>) -> (f32, f32) {
+    fn vm_at(&self, camera_len: Option<u32>) -> (f64, f64) {
         if camera_len == Some(1) && !self.merge_first {
             (0.0, 0.0)
         } else {
@@ -130,13 +135,14 @@ impl Mis {
         delta: bool,
         finite: bool,
     ) -> Partial {
+        let emission = emission as f64;
         let dvc = if delta {
             0.0
         } else {
-            self.f(if finite { cos } else { 1.0 } / emission)
+            self.f(if finite { cos as f64 } else { 1.0 } / emission)
         };
         Partial {
-            dvcm: self.f(direct / emission),
+            dvcm: self.f(direct as f64 / emission),
             dvc,
             dvm: dvc * self.vc,
         }
@@ -147,7 +153,7 @@ impl Mis {
     #[inline]
     pub fn camera_start(&self, camera_pdf: f32) -> Partial {
         Partial {
-            dvcm: self.f(self.light_paths / camera_pdf),
+            dvcm: self.f(self.light_paths / camera_pdf as f64),
             dvc: 0.0,
             dvm: 0.0,
         }
@@ -158,12 +164,11 @@ impl Mis {
     /// light at infinity, which has no distance ([TR] sec. 5.1); T is 1 without media.
     #[inline]
     pub fn on_hit(&self, q: Partial, seg: f32, cos: f32) -> Partial {
-        let dvcm = q.dvcm * self.f(seg);
-        let c = self.f(cos);
+        let inv = 1.0 / self.f(cos);
         Partial {
-            dvcm: dvcm / c,
-            dvc: q.dvc / c,
-            dvm: q.dvm / c,
+            dvcm: q.dvcm * self.f(seg) * inv,
+            dvc: q.dvc * inv,
+            dvm: q.dvm * inv,
         }
     }
 
@@ -180,7 +185,7 @@ impl Mis {
         delta: bool,
         camera_len: Option<u32>,
     ) -> Partial {
-        let g = self.f(cos_out / pdf_dir);
+        let g = self.f(cos_out as f64 / pdf_dir as f64);
         if delta {
             let r = self.f(pdf_rev);
             return Partial {
@@ -194,7 +199,7 @@ impl Mis {
         Partial {
             dvc: g * (q.dvc * r + q.dvcm + vm),
             dvm: g * (q.dvm * r + q.dvcm * self.vc + one),
-            dvcm: self.f(1.0 / pdf_dir),
+            dvcm: self.f(1.0 / pdf_dir as f64),
         }
     }
 
@@ -204,7 +209,7 @@ impl Mis {
     #[inline]
     pub fn weight_emitter_hit(&self, camera: Partial, direct: f32, emission: f32) -> f32 {
         let w_camera = self.f(direct) * camera.dvcm + self.f(emission) * camera.dvc;
-        1.0 / (1.0 + w_camera)
+        (1.0 / (1.0 + w_camera)) as f32
     }
 
     /// Light sampling from a camera vertex ([TR] eqs. 44-45). `bsdf_dir` is the camera
@@ -227,10 +232,11 @@ impl Mis {
         bsdf_rev: f32,
     ) -> f32 {
         let (vm, _) = self.vm_at(Some(camera_len));
-        let w_light = self.f(bsdf_dir / (pick * direct));
-        let w_camera = self.f(emission * cos_at_vertex / (direct * cos_at_light))
+        let (direct, cos_at_light) = (direct as f64, cos_at_light as f64);
+        let w_light = self.f(bsdf_dir as f64 / (pick as f64 * direct));
+        let w_camera = self.f(emission as f64 * cos_at_vertex as f64 / (direct * cos_at_light))
             * (vm + camera.dvcm + camera.dvc * self.f(bsdf_rev));
-        1.0 / (w_light + 1.0 + w_camera)
+        (1.0 / (w_light + 1.0 + w_camera)) as f32
     }
 
     /// Connection of a light vertex and a camera vertex ([TR] eqs. 40-41).
@@ -254,7 +260,7 @@ impl Mis {
             self.f(camera_to_light_a) * (self.vm + light.dvcm + light.dvc * self.f(light_rev));
         let w_camera =
             self.f(light_to_camera_a) * (vm_cam + camera.dvcm + camera.dvc * self.f(camera_rev));
-        1.0 / (w_light + 1.0 + w_camera)
+        (1.0 / (w_light + 1.0 + w_camera)) as f32
     }
 
     /// Connection of a light vertex to the lens ([TR] eqs. 46-47): `camera_a` is the
@@ -264,9 +270,9 @@ impl Mis {
     #[inline]
     pub fn weight_camera_connection(&self, light: Partial, camera_a: f32, light_rev: f32) -> f32 {
         let (vm, _) = self.vm_at(Some(1));
-        let w_light =
-            self.f(camera_a / self.light_paths) * (vm + light.dvcm + light.dvc * self.f(light_rev));
-        1.0 / (w_light + 1.0)
+        let w_light = self.f(camera_a as f64 / self.light_paths)
+            * (vm + light.dvcm + light.dvc * self.f(light_rev));
+        (1.0 / (w_light + 1.0)) as f32
     }
 
     /// Merging a light vertex at a camera vertex ([TR] eqs. 38-39). `camera_dir` is the
@@ -282,7 +288,7 @@ impl Mis {
     ) -> f32 {
         let w_light = light.dvcm * self.vc + light.dvm * self.f(camera_dir);
         let w_camera = camera.dvcm * self.vc + camera.dvm * self.f(camera_rev);
-        1.0 / (w_light + 1.0 + w_camera)
+        (1.0 / (w_light + 1.0 + w_camera)) as f32
     }
 }
 
@@ -525,10 +531,10 @@ mod tests {
                     techs.extend((1..last).map(Tech::Vm));
                 }
                 let p = |t: Tech| m.f(path.density(t, eta, light_paths));
-                let total: f32 = techs.iter().map(|&t| p(t)).sum();
+                let total: f64 = techs.iter().map(|&t| p(t)).sum();
                 let mut sum = 0.0;
                 for &t in &techs {
-                    let expect = p(t) / total;
+                    let expect = (p(t) / total) as f32;
                     let got = path.recursive_weight(&m, t);
                     assert!(
                         (got - expect).abs() <= 1e-4 * expect.max(1e-3),
