@@ -6,7 +6,7 @@
 #[path = "bidirectional/stats.rs"]
 mod stats;
 
-use caustic::integrator::vcm::VcmSettings;
+use caustic::integrator::bidir::BidirSettings;
 use caustic::integrator::Settings;
 use caustic::scene::{load::read_scene_file, Scene};
 use serde_json::{json, Value};
@@ -167,7 +167,7 @@ fn bidirectional_settings() {
     }
 
     let pt_default = json!({"algorithm": "pt", "max_depth": 10});
-    let expect = |max_depth| VcmSettings {
+    let expect = |max_depth| BidirSettings {
         max_depth,
         ..Default::default()
     };
@@ -176,7 +176,7 @@ fn bidirectional_settings() {
         Settings::Vcm(expect(10))
     );
     for (alg, wrap) in [
-        ("lt", Settings::Lt as fn(VcmSettings) -> Settings),
+        ("lt", Settings::Lt as fn(BidirSettings) -> Settings),
         ("bpt", Settings::Bpt),
         ("bpm", Settings::Bpm),
     ] {
@@ -200,7 +200,7 @@ fn bidirectional_settings() {
     let vcm_default = json!({"algorithm": "vcm", "max_depth": 6, "alpha": 0.5});
     assert_eq!(
         resolve("vcm", Some(vcm_default), json!({})).unwrap(),
-        Settings::Vcm(VcmSettings {
+        Settings::Vcm(BidirSettings {
             max_depth: 6,
             alpha: 0.5,
             ..Default::default()

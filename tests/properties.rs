@@ -1207,7 +1207,9 @@ fn check_case(case: &Case) -> Result<(), String> {
         )
         .map_err(|e| format!("{alg}: settings refused: {e}"))?;
         if let Err(e) = s.check_scene(&scene) {
-            if scene.has_media && NO_MEDIA.contains(&alg) {
+            // Also documented: pt's albedo roulette (its variant) on scenes with media.
+            let pt_albedo = alg == "pt" && case.variant;
+            if scene.has_media && (NO_MEDIA.contains(&alg) || pt_albedo) {
                 continue;
             }
             return Err(format!("{alg}: check_scene refused: {e}"));

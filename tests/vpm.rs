@@ -427,7 +427,11 @@ fn no_dropped_samples_and_no_dependence_on_the_thread_count() {
             let Settings::Vpm(vs) = &s else {
                 unreachable!()
             };
-            let k = if vs.estimate == Estimate::Beam { 2 } else { 3 };
+            let k = if vs.estimate == Estimate::BeamRadiance {
+                2
+            } else {
+                3
+            };
             let r2 = radius_schedule(0.1, vs.alpha(), k, 2);
             assert_eq!(
                 st.merge_radius, r2,

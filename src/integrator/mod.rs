@@ -5,14 +5,14 @@
 //! iteration i depends only on (scene, settings, seed, i), so iterations can run
 //! anywhere, in any order, and be summed. The image is sum / iterations.
 
+pub mod accel;
+pub mod bidir;
+pub mod common;
 mod debug;
 pub mod driver;
-pub mod hashgrid;
-mod huge;
 mod pixels;
 pub mod pt;
 pub mod sppm;
-pub mod vcm;
 pub mod volpath;
 pub mod vpm;
 
@@ -116,13 +116,13 @@ pub enum Settings {
     /// Volumetric path tracing (what `pt` runs on scenes with media).
     Volpath(volpath::VolpathSettings),
     /// Light tracing: light paths splatted to the camera.
-    Lt(vcm::VcmSettings),
+    Lt(bidir::BidirSettings),
     /// Bidirectional path tracing with all (s, t) connections.
-    Bpt(vcm::VcmSettings),
+    Bpt(bidir::BidirSettings),
     /// Bidirectional photon mapping: merging at every non-specular camera vertex.
-    Bpm(vcm::VcmSettings),
+    Bpm(bidir::BidirSettings),
     /// Vertex connection and merging.
-    Vcm(vcm::VcmSettings),
+    Vcm(bidir::BidirSettings),
     /// Progressive photon mapping (visible points fixed per pixel).
     Ppm(sppm::SppmSettings),
     /// Stochastic progressive photon mapping (new visible points every pass).
@@ -244,6 +244,13 @@ impl Settings {
                 | Settings::Normals {}
                 | Settings::Albedo {}
         );
+        if let (Settings::Pt(s), true) = (self, scene.has_media) {
+            if s.roulette == pt::Roulette::Albedo {
+                return Err(SettingsError::Invalid(
+                    "roulette = albedo applies to scenes without media; this scene has media, where pt renders as volpath with throughput roulette (leave roulette out, or set it to throughput)".into(),
+                ));
+            }
+        }
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
                 "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt or vpm)",
@@ -258,16 +265,16 @@ impl Settings {
             Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Volpath(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Lt(s) => s
-                .validate(vcm::Technique::Lt)
+                .validate(bidir::Technique::Lt)
                 .map_err(SettingsError::Invalid),
             Settings::Bpt(s) => s
-                .validate(vcm::Technique::Bpt)
+                .validate(bidir::Technique::Bpt)
                 .map_err(SettingsError::Invalid),
             Settings::Bpm(s) => s
-                .validate(vcm::Technique::Bpm)
+                .validate(bidir::Technique::Bpm)
                 .map_err(SettingsError::Invalid),
             Settings::Vcm(s) => s
-                .validate(vcm::Technique::Vcm)
+                .validate(bidir::Technique::Vcm)
                 .map_err(SettingsError::Invalid),
             Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vpm(s) => s.validate().map_err(SettingsError::Invalid),
@@ -279,10 +286,10 @@ impl Settings {
         match self {
             Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
             Settings::Volpath(s) => Box::new(volpath::VolPath::new(s.clone())),
-            Settings::Lt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Lt, s.clone())),
-            Settings::Bpt(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpt, s.clone())),
-            Settings::Bpm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Bpm, s.clone())),
-            Settings::Vcm(s) => Box::new(vcm::Vcm::new(vcm::Technique::Vcm, s.clone())),
+            Settings::Lt(s) => Box::new(bidir::Bidir::new(bidir::Technique::Lt, s.clone())),
+            Settings::Bpt(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpt, s.clone())),
+            Settings::Bpm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpm, s.clone())),
+            Settings::Vcm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Vcm, s.clone())),
             Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
             Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
             Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),
@@ -324,5 +331,30 @@ mod tests {
         );
         let s = Settings::resolve(Some("normals"), Some(&scene), &serde_json::Map::new()).unwrap();
         assert_eq!(s, Settings::Normals {});
+    }
+
+    /// pt renders scenes with media as volpath, which has no albedo roulette: asking
+    /// for it there is refused with a message, not silently dropped.
+    #[test]
+    fn pt_refuses_albedo_roulette_on_scenes_with_media() {
+        let fog = r#"{"format": 1,
+            "camera": {"look_at": {"origin": [0, 0, 1.5], "target": [0, 0, 0], "up": [0, 1, 0]},
+                       "fov": 40, "medium": "fog"},
+            "film": {"width": 4, "height": 4},
+            "media": {"fog": {"type": "homogeneous", "sigma_t": [1, 1, 1], "albedo": [1, 1, 1]}},
+            "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]}]}"#;
+        let scene = crate::scene::load::parse_scene(fog)
+            .and_then(|f| Scene::compile(&f, None))
+            .unwrap();
+        let params = |r: &str| {
+            let mut m = serde_json::Map::new();
+            m.insert("roulette".into(), r.into());
+            m
+        };
+        let albedo = Settings::resolve(Some("pt"), None, &params("albedo")).unwrap();
+        let err = albedo.check_scene(&scene).unwrap_err().to_string();
+        assert!(err.contains("roulette") && err.contains("media"), "{err}");
+        let throughput = Settings::resolve(Some("pt"), None, &params("throughput")).unwrap();
+        throughput.check_scene(&scene).unwrap();
     }
 }

@@ -5,6 +5,7 @@
 use super::{Counters, RenderStats};
 use crate::film::{tiles, Film, Tile, TileBuffer};
 use crate::geometry::Ray;
+use crate::integrator::common::Stream;
 use crate::math::{Rgb, Rng, Vec2};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -126,7 +127,7 @@ fn camera_sample(
     y: u32,
     stats: &mut RenderStats,
 ) -> (Ray, Rng) {
-    let mut rng = Rng::new(seed, iteration, index);
+    let mut rng = Stream::Pixels.rng(seed, iteration, index);
     let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
     let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
     stats.samples += 1;

@@ -2,71 +2,16 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
+use super::common::{emitted, escaped, Heuristic};
 use super::pixels::{render_paths, PathKernel};
+use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::material::{Material, Mode};
-use crate::math::{balance_heuristic, max_component, power_heuristic, Frame, Rgb, Rng, Vec3};
+use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};
 use serde::{Deserialize, Serialize};
-
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Heuristic {
-    #[default]
-    Power,
-    Balance,
-}
-
-impl Heuristic {
-    /// The MIS weight of a strategy with density `a` against one with density `b`.
-    #[inline(always)]
-    pub fn weight(self, a: f32, b: f32) -> f32 {
-        match self {
-            Heuristic::Power => power_heuristic(a, b),
-            Heuristic::Balance => balance_heuristic(a, b),
-        }
-    }
-}
-
-/// Emission at surface `it` reached along `d` by a sampled direction of density
-/// `pdf` from `prev_p`, weighted against next-event estimation of the same light
-/// (weight 1 after a delta event, which light sampling cannot produce).
-#[inline(always)]
-pub(super) fn emitted(
-    scene: &Scene,
-    it: &Interaction,
-    d: Vec3,
-    prev_p: Vec3,
-    specular: bool,
-    pdf: f32,
-    h: Heuristic,
-) -> Rgb {
-    let Some((li, area)) = scene.area_light(it) else {
-        return Rgb::ZERO;
-    };
-    let le = area.le(it.ng, -d);
-    if le == Rgb::ZERO || specular {
-        return le;
-    }
-    let pdf_l = scene.light_sampler.pmf(li) * area.pdf_li(prev_p, it.p, it.ng);
-    le * h.weight(pdf, pdf_l)
-}
-
-/// Environment light along an escaping direction, weighted like [`emitted`].
-#[inline(always)]
-pub(super) fn escaped(scene: &Scene, d: Vec3, specular: bool, pdf: f32, h: Heuristic) -> Rgb {
-    if scene.env_lights.is_empty() {
-        return Rgb::ZERO;
-    }
-    let le = scene.env_radiance(d);
-    if specular {
-        le
-    } else {
-        le * h.weight(pdf, scene.env_pdf(d))
-    }
-}
 
 /// How Russian roulette picks a path's survival probability.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
@@ -88,7 +33,7 @@ pub enum Roulette {
 /// |---|---|---|
 /// | `max_depth` | 64 | longest path, in Mitsuba's sense (1 = emitters seen directly) |
 /// | `rr_depth` | 5 | scattering events before Russian roulette starts |
-/// | `roulette` | `throughput` | survival probability: `throughput` (min(largest throughput channel, 0.95)) or `albedo` (min(1, largest albedo channel) at each vertex, as SmallVCM; surfaces only, scenes with media use `throughput`) |
+/// | `roulette` | `throughput` | survival probability: `throughput` (min(largest throughput channel, 0.95)) or `albedo` (min(1, largest albedo channel) at each vertex, as SmallVCM; scenes without media only: with media `pt` renders as `volpath`, which has throughput roulette alone) |
 /// | `heuristic` | `power` | MIS weights: `power` (beta = 2) or `balance` |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -131,11 +76,20 @@ struct Vertex<'a, 'm> {
 
 pub struct PathTracer {
     s: PtSettings,
+    /// What renders scenes with media: the volumetric path tracer with these settings
+    /// (built once; scenes without media pay nothing for it, not even a branch per ray).
+    media: VolPath,
 }
 
 impl PathTracer {
     pub fn new(s: PtSettings) -> Self {
-        PathTracer { s }
+        let media = VolPath::new(VolpathSettings {
+            max_depth: s.max_depth,
+            rr_depth: s.rr_depth,
+            heuristic: s.heuristic,
+            equiangular: true,
+        });
+        PathTracer { s, media }
     }
 
     #[inline]
@@ -378,15 +332,7 @@ struct Shadow {
 impl Integrator for PathTracer {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
         if scene.has_media {
-            // Scenes with media get the volumetric path tracer; scenes without pay
-            // nothing for it (not even a branch per ray).
-            let v = super::volpath::VolPath::new(super::volpath::VolpathSettings {
-                max_depth: self.s.max_depth,
-                rr_depth: self.s.rr_depth,
-                heuristic: self.s.heuristic,
-                equiangular: true,
-            });
-            return v.iterate(scene, seed, iteration, film);
+            return self.media.iterate(scene, seed, iteration, film);
         }
         // Inlined into render_paths' per-processor copies of the tile loop, so that the
         // whole kernel, not just the loop around it, is compiled with AVX2 and FMA.

@@ -39,9 +39,9 @@
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::integrator::hashgrid::HashGrid;
+use crate::integrator::accel::HashGrid;
+use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
-use crate::math::rng::mix64;
 use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};
 use rayon::prelude::*;
@@ -125,14 +125,8 @@ pub enum Variant {
 
 /// Photon paths traced (and their photons held in memory) at once.
 const WAVE: usize = 1 << 19;
-/// Photon paths per parallel task.
-const CHUNK: usize = 1024;
 /// Pixels per parallel task of the camera pass.
 const PIXEL_CHUNK: usize = 256;
-/// Seed mixes that keep camera, direct-lighting and photon streams apart.
-const CAMERA_STREAM: u64 = 0x5350_504D_4341_4D31;
-const NEE_STREAM: u64 = 0x5350_504D_4E45_4531;
-const PHOTON_STREAM: u64 = 0x5350_504D_5048_4F31;
 
 /// One pixel's progressive statistics.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -365,7 +359,7 @@ impl PhotonMapper {
             Variant::Ppm => 0,
             Variant::Sppm => iteration,
         };
-        let mut rng = Rng::new(mix64(seed ^ CAMERA_STREAM), cam_iteration, index);
+        let mut rng = Stream::SppmCamera.rng(seed, cam_iteration, index);
         let film_pos = Vec2::new((index % w) as f32, (index / w) as f32) + rng.next_2d();
         let mut ray = scene.camera.generate_ray(film_pos, rng.next_2d());
         stats.samples += 1;
@@ -394,7 +388,7 @@ impl PhotonMapper {
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() {
-                let mut nee_rng = Rng::new(mix64(seed ^ NEE_STREAM), iteration, index);
+                let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
                 l += beta * direct(scene, &it, &frame, wo, m, &mut nee_rng, stats);
                 let vp = VisiblePoint {
                     p: it.p,
@@ -433,7 +427,7 @@ impl PhotonMapper {
         index: u64,
         out: &mut PhotonChunk,
     ) {
-        let mut rng = Rng::new(mix64(seed ^ PHOTON_STREAM), iteration, index);
+        let mut rng = Stream::SppmPhotons.rng(seed, iteration, index);
         let (li, pmf, _) = scene.light_sampler.sample(rng.next_f32());
         let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
         let Some(e) = scene.lights[li].sample_le(&scene.sphere, u_pos, u_dir) else {
@@ -523,8 +517,8 @@ impl PhotonMapper {
         map: &mut PhotonMap,
     ) -> RenderStats {
         let chunks: Vec<(u64, u64)> = (start..end)
-            .step_by(CHUNK)
-            .map(|a| (a, (a + CHUNK as u64).min(end)))
+            .step_by(PATHS_PER_TASK)
+            .map(|a| (a, (a + PATHS_PER_TASK as u64).min(end)))
             .collect();
         let parts: Vec<PhotonChunk> = chunks
             .into_par_iter()

@@ -11,8 +11,8 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
+use super::common::{emitted, escaped, Heuristic};
 use super::pixels::render_pixels;
-use super::pt::{emitted, escaped, Heuristic};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;

@@ -68,19 +68,10 @@
 //! ~ n^-1/3 and n^-2/7. The radius is a function of the iteration index alone.
 //!
 //! ## Acceleration
-//! Point queries use the shared hash grid (cells of 2r, 8 cells per query). Beam
-//! queries use a BVH over the photon points built here: photons sorted along a Morton
-//! curve (keys hold the photon index, so the order never depends on threads), split
-//! where the Morton codes change their highest differing bit (the LBVH split, an
-//! octree-like hierarchy), leaves of a few photons; every photon has the same
-//! radius in an iteration, so nodes store point bounds and the ray is tested against
-//! them grown by r. A BVH bounds a segment query by the photons near the segment and
-//! fixes the order in which they are summed. Walking hash-grid cells along the ray
-//! would need a 3D DDA dilated by r through a hashed table whose slots alias far-away
-//! cells. obvhs could build over photon boxes, but its PLOC builder divides the work
-//! by `rayon::current_num_threads()`, so its tree (and with it the summation order,
-//! and the image bits) would not obviously be thread-count independent; a Morton sort
-//! with unique keys is, and building it costs one parallel sort per iteration.
+//! Point queries use the shared hash grid (cells of 2r, 8 cells per query), beam
+//! queries the point BVH of `accel::point_bvh`, rebuilt every iteration. Walking
+//! hash-grid cells along the ray would need a 3D DDA dilated by r through a hashed
+//! table whose slots alias far-away cells.
 //!
 //! ## Determinism
 //! Photon paths run in fixed chunks, each with its own RNG stream per path; chunks are
@@ -88,13 +79,13 @@
 //! pass is the shared tile loop. An iteration is a pure function of (scene, settings,
 //! seed, iteration).
 
-use super::hashgrid::HashGrid;
+use super::accel::{HashGrid, Point, PointBvh};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
-use crate::math::rng::mix64;
 use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec3, PI};
 use crate::medium::Flight;
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
@@ -106,9 +97,12 @@ use std::sync::Mutex;
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Estimate {
-    /// The beam radiance estimate: one query per camera segment, 2D kernel.
+    /// The beam radiance estimate (Jarosz et al. 2008): camera beams against photon
+    /// points, one query per camera segment, 2D kernel. Not photon beams (photons
+    /// stored as segments), which are another estimator. Written `beam` in settings.
     #[default]
-    Beam,
+    #[serde(rename = "beam", alias = "beam_radiance")]
+    BeamRadiance,
     /// A 3D kernel at a distance-sampled point of each camera segment.
     Point,
 }
@@ -117,7 +111,7 @@ impl Estimate {
     /// Dimension of the kernel (the exponent of r in its normalisation).
     pub fn kernel_dims(self) -> u32 {
         match self {
-            Estimate::Beam => 2,
+            Estimate::BeamRadiance => 2,
             Estimate::Point => 3,
         }
     }
@@ -160,7 +154,7 @@ impl Default for VpmSettings {
             max_depth: 64,
             rr_depth: 5,
             light_paths: 1.0,
-            estimate: Estimate::Beam,
+            estimate: Estimate::BeamRadiance,
             radius: None,
             radius_factor: 0.03,
             alpha: None,
@@ -238,10 +232,12 @@ struct Photon {
     depth: u32,
 }
 
-/// Photon paths per parallel task: fixed, so the split never depends on threads.
-const CHUNK: usize = 1024;
-/// Seed mix that keeps the photon streams apart from the camera streams.
-const PHOTON_STREAM: u64 = 0x5650_4D50_484F_5431;
+impl Point for Photon {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
 
 /// One chunk's photons, kept between iterations for its buffer.
 #[derive(Default)]
@@ -258,7 +254,7 @@ struct Workspace {
     photons: Vec<Photon>,
     positions: Vec<Vec3>,
     grid: HashGrid,
-    bvh: PointBvh,
+    bvh: PointBvh<Photon>,
 }
 
 /// A camera segment [0, tmax) of `ray` in `medium`, reached with throughput `beta`
@@ -276,7 +272,7 @@ struct Segment<'a> {
 struct Gather<'a> {
     photons: &'a [Photon],
     grid: &'a HashGrid,
-    bvh: &'a PointBvh,
+    bvh: &'a PointBvh<Photon>,
     radius: f32,
     /// 1 / photon paths emitted this iteration.
     inv_paths: f32,
@@ -313,19 +309,18 @@ impl Vpm {
         paths: usize,
         ws: &mut Workspace,
     ) -> RenderStats {
-        let chunks = paths.div_ceil(CHUNK);
+        let chunks = paths.div_ceil(PATHS_PER_TASK);
         ws.chunks.resize_with(chunks, Chunk::default);
         ws.chunks.truncate(chunks);
         let budget = (self.s.max_photon_mib as f64 * 1048576.0
             / std::mem::size_of::<Photon>() as f64
             / chunks.max(1) as f64) as usize;
-        let stream = mix64(seed ^ PHOTON_STREAM);
         ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
             chunk.photons.clear();
             chunk.stats = RenderStats::default();
             chunk.over_budget = false;
-            for i in c * CHUNK..((c + 1) * CHUNK).min(paths) {
-                let mut rng = Rng::new(stream, iteration, i as u64);
+            for i in c * PATHS_PER_TASK..((c + 1) * PATHS_PER_TASK).min(paths) {
+                let mut rng = Stream::VpmPhotons.rng(seed, iteration, i as u64);
                 self.trace_photon(scene, &mut rng, chunk, budget);
             }
         });
@@ -556,7 +551,7 @@ impl Vpm {
         let med = &scene.media[mi as usize];
         let counts = depth + 2 <= self.s.max_depth;
         match self.s.estimate {
-            Estimate::Beam => {
+            Estimate::BeamRadiance => {
                 let l = if counts {
                     self.beam(scene, g, mi, ray, tmax, depth, rng, stats)
                 } else {
@@ -785,7 +780,7 @@ impl Integrator for Vpm {
         let ws = &mut *guard;
         let mut stats = self.trace_photons(scene, seed, iteration, paths, ws);
         let index_bytes = match self.s.estimate {
-            Estimate::Beam => {
+            Estimate::BeamRadiance => {
                 ws.bvh.build(&mut ws.photons);
                 ws.bvh.bytes()
             }
@@ -820,290 +815,9 @@ impl Integrator for Vpm {
     }
 }
 
-// -------------------------------------------------------------------------------------
-// Beam queries: a BVH over photon points
-// -------------------------------------------------------------------------------------
-
-/// Photons per leaf: a few point tests cost less than more box tests. Measured on 84k
-/// uniform photons in a cube of side 2 (rays of length 3, r = 0.04): 7.8 us per ray
-/// with 8, 7.5 with 16, 9.3 with 4, and 21.7 for index-middle splits with 4.
-const LEAF: usize = 8;
-
-/// A binary BVH over points in Morton order (module notes). `keys` keeps the sorted
-/// (code, index) pairs of the last build for the splits. Node 0 is the root; an
-/// inner node's first child follows it, `index` names the second.
-#[derive(Default)]
-struct PointBvh {
-    nodes: Vec<BvhNode>,
-    keys: Vec<u64>,
-    scratch: Vec<Photon>,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct BvhNode {
-    lo: Vec3,
-    hi: Vec3,
-    /// Leaf: the first photon; inner: the second child.
-    index: u32,
-    /// Photons in a leaf; 0 for inner nodes.
-    count: u32,
-}
-
-impl PointBvh {
-    /// Reorders `photons` along a Morton curve and builds the tree over them.
-    fn build(&mut self, photons: &mut Vec<Photon>) {
-        assert!(
-            photons.len() < u32::MAX as usize,
-            "too many photons for the BVH"
-        );
-        self.nodes.clear();
-        if photons.is_empty() {
-            return;
-        }
-        let (lo, hi) = photons.par_iter().map(|p| (p.p, p.p)).reduce(
-            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-        let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
-        self.keys.clear();
-        self.keys
-            .par_extend(photons.par_iter().enumerate().map(|(i, p)| {
-                let c = ((p.p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-                (morton3(c.x as u32, c.y as u32, c.z as u32) as u64) << 32 | i as u64
-            }));
-        // Keys are unique (they hold the index): the sorted order is the same for any
-        // number of threads.
-        self.keys.par_sort_unstable();
-        self.scratch.clear();
-        self.scratch
-            .par_extend(self.keys.par_iter().map(|k| photons[*k as u32 as usize]));
-        std::mem::swap(photons, &mut self.scratch);
-        self.node(photons, 0, photons.len());
-    }
-
-    /// Appends the subtree over `photons[a..b]`; returns its root's index.
-    fn node(&mut self, photons: &[Photon], a: usize, b: usize) -> u32 {
-        let at = self.nodes.len();
-        if b - a <= LEAF {
-            let (lo, hi) = photons[a..b].iter().fold(
-                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(p.p), hi.max(p.p)),
-            );
-            self.nodes.push(BvhNode {
-                lo,
-                hi,
-                index: a as u32,
-                count: (b - a) as u32,
-            });
-            return at as u32;
-        }
-        self.nodes.push(BvhNode {
-            lo: Vec3::ZERO,
-            hi: Vec3::ZERO,
-            index: 0,
-            count: 0,
-        });
-        let mid = self.split(a, b);
-        let left = self.node(photons, a, mid) as usize;
-        let right = self.node(photons, mid, b);
-        let (l, r) = (self.nodes[left], self.nodes[right as usize]);
-        self.nodes[at] = BvhNode {
-            lo: l.lo.min(r.lo),
-            hi: l.hi.max(r.hi),
-            index: right,
-            count: 0,
-        };
-        at as u32
-    }
-
-    /// Where `[a, b)` divides: at the first photon whose Morton code has the highest bit
-    /// in which the range's first and last codes differ, i.e. the spatial middle of the
-    /// range's octree cell (Karras 2012, "Maximizing parallelism in the construction of
-    /// BVHs, octrees, and k-d trees"), which keeps node boxes tight where an index
-    /// middle would straddle jumps of the curve; the index middle when every code is
-    /// equal.
-    fn split(&self, a: usize, b: usize) -> usize {
-        let code = |k: u64| (k >> 32) as u32;
-        let (first, last) = (code(self.keys[a]), code(self.keys[b - 1]));
-        if first == last {
-            return a + (b - a) / 2;
-        }
-        // The codes in [a, b) share every bit above `bit`, so it is 0 then 1 along it.
-        let bit = 31 - (first ^ last).leading_zeros();
-        a + self.keys[a..b].partition_point(|&k| code(k) >> bit & 1 == 0)
-    }
-
-    /// Calls `f(photon, t)` for every photon within `r` of the segment o + t d, t in
-    /// [0, tmax) (unit d), t being its projection on the ray; in a fixed order.
-    #[inline]
-    fn query(
-        &self,
-        photons: &[Photon],
-        o: Vec3,
-        d: Vec3,
-        tmax: f32,
-        r: f32,
-        mut f: impl FnMut(&Photon, f32),
-    ) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        let inv = d.recip();
-        let (grow, r2) = (Vec3::splat(r), r * r);
-        // Depth is at most 30 Morton levels plus log2(n) middle splits of equal codes.
-        let mut stack = [0u32; 96];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let at = stack[top] as usize;
-            let n = self.nodes[at];
-            if !slab_hit(n.lo - grow, n.hi + grow, o, inv, tmax) {
-                continue;
-            }
-            if n.count == 0 {
-                stack[top] = n.index;
-                stack[top + 1] = at as u32 + 1;
-                top += 2;
-                continue;
-            }
-            let start = n.index as usize;
-            for ph in &photons[start..start + n.count as usize] {
-                let v = ph.p - o;
-                let t = v.dot(d);
-                if !(0.0..tmax).contains(&t) {
-                    continue;
-                }
-                if (v - d * t).length_squared() <= r2 {
-                    f(ph, t);
-                }
-            }
-        }
-    }
-
-    fn bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<BvhNode>()
-            + self.keys.capacity() * 8
-            + self.scratch.capacity() * std::mem::size_of::<Photon>()
-    }
-}
-
-/// Whether the segment t in [0, tmax] of o + t d (inv = 1 / d) meets the box. NaN from
-/// 0 * inf (a ray in a slab's plane) is ignored by min/max, which only widens the
-/// interval: the test stays conservative.
-#[inline]
-fn slab_hit(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, tmax: f32) -> bool {
-    let a = (lo - o) * inv;
-    let b = (hi - o) * inv;
-    let near = a.min(b).max_element().max(0.0);
-    let far = a.max(b).min_element().min(tmax);
-    near <= far
-}
-
-/// Interleaves the low 10 bits of x, y and z (x in the lowest position).
-#[inline]
-fn morton3(x: u32, y: u32, z: u32) -> u32 {
-    spread(x) | spread(y) << 1 | spread(z) << 2
-}
-
-/// Puts two zero bits between each of the low 10 bits of v.
-#[inline]
-fn spread(v: u32) -> u32 {
-    let mut v = v & 0x3ff;
-    v = (v | v << 16) & 0x030000ff;
-    v = (v | v << 8) & 0x0300f00f;
-    v = (v | v << 4) & 0x030c30c3;
-    (v | v << 2) & 0x09249249
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn photon_at(p: Vec3, i: u32) -> Photon {
-        Photon {
-            p,
-            d: Vec3::Z,
-            beta: Rgb::ONE,
-            medium: 0,
-            depth: i,
-        }
-    }
-
-    #[test]
-    fn beam_query_finds_exactly_the_photons_near_the_segment() {
-        let mut rng = Rng::new(3, 1, 4);
-        let mut photons: Vec<Photon> = (0..4000)
-            .map(|i| {
-                let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32() * 0.2);
-                photon_at(p * 2.0 - 1.0, i)
-            })
-            .collect();
-        let original = photons.clone();
-        let mut bvh = PointBvh::default();
-        bvh.build(&mut photons);
-        for q in 0..300 {
-            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 - 1.5;
-            let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
-            // Axis-parallel rays exercise the slab test's 0 * inf case.
-            let d = if q % 7 == 0 { Vec3::X } else { d.normalize() };
-            let tmax = if q % 5 == 0 {
-                f32::INFINITY
-            } else {
-                2.0 * rng.next_f32()
-            };
-            let r = 0.02 + 0.2 * rng.next_f32();
-            let mut found = Vec::new();
-            bvh.query(&photons, o, d, tmax, r, |ph, _| found.push(ph.depth));
-            let mut expect: Vec<u32> = original
-                .iter()
-                .filter(|ph| {
-                    let v = ph.p - o;
-                    let t = v.dot(d);
-                    (0.0..tmax).contains(&t) && (v - d * t).length_squared() <= r * r
-                })
-                .map(|ph| ph.depth)
-                .collect();
-            found.sort_unstable();
-            expect.sort_unstable();
-            assert_eq!(found, expect, "query {q}");
-        }
-    }
-
-    #[test]
-    fn bvh_of_nothing_or_one_photon() {
-        let mut bvh = PointBvh::default();
-        let mut none = Vec::new();
-        bvh.build(&mut none);
-        let mut n = 0;
-        bvh.query(&none, Vec3::ZERO, Vec3::X, 1.0, 1.0, |_, _| n += 1);
-        assert_eq!(n, 0);
-        let mut one = vec![photon_at(Vec3::new(0.5, 0.1, 0.0), 0)];
-        bvh.build(&mut one);
-        bvh.query(&one, Vec3::ZERO, Vec3::X, 1.0, 0.2, |_, t| {
-            assert!((t - 0.5).abs() < 1e-6);
-            n += 1;
-        });
-        assert_eq!(n, 1);
-    }
-
-    #[test]
-    fn bvh_splits_ranges_of_equal_morton_codes() {
-        // 1000 photons on one point (one Morton code) among a few others.
-        let mut photons: Vec<Photon> = (0..1000)
-            .map(|i| photon_at(Vec3::splat(0.25), i))
-            .chain((0..50).map(|i| photon_at(Vec3::new(i as f32 * 0.02, 0.0, 0.0), 1000 + i)))
-            .collect();
-        let mut bvh = PointBvh::default();
-        bvh.build(&mut photons);
-        let mut found = Vec::new();
-        let d = Vec3::new(1.0, 1.0, 1.0).normalize();
-        bvh.query(&photons, Vec3::ZERO, d, 1.0, 0.01, |ph, _| {
-            found.push(ph.depth)
-        });
-        // The 1000 coincident photons and the one at the origin, each once.
-        found.sort_unstable();
-        assert_eq!(found, (0..=1000).collect::<Vec<u32>>());
-    }
 
     #[test]
     fn radius_follows_knaus_and_zwicker() {

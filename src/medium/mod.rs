@@ -90,7 +90,7 @@ impl Medium {
     /// The grey extinction coefficient bidirectional MIS assumes for distance sampling
     /// in this medium: the channel mean of sigma_t when homogeneous (exact for grey
     /// media), None when heterogeneous (no closed form; MIS leaves the medium's
-    /// densities out, see `integrator::vcm::mis`).
+    /// densities out, see `integrator::bidir::mis`).
     #[inline(always)]
     pub fn mis_sigma_t(&self) -> Option<f32> {
         match self {

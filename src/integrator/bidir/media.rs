@@ -7,9 +7,9 @@
 //! without media the walk is `Scene::next_scattering` and a connection is a visibility
 //! test, exactly the surface-only code, with MIS transmittance 1.
 
-use super::light_path::Walk;
 use super::mis;
 use super::vertex::Media;
+use super::walk::Walk;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};

@@ -9,7 +9,7 @@
 //! in registers and never tests for, and the surface-only code costs what it did
 //! before media existed.
 
-use super::light_path::{scatter, Eval, Surface, Walk, MIN_COS};
+use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::material::{Material, Mode};

@@ -19,10 +19,11 @@ mod light_path;
 mod media;
 pub mod mis;
 mod vertex;
+mod walk;
 
-use super::hashgrid::HashGrid;
+use super::accel::HashGrid;
+use super::common::Heuristic;
 use super::pixels::render_paths;
-use super::pt::Heuristic;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::material::Material;
@@ -77,7 +78,7 @@ impl Technique {
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
-pub struct VcmSettings {
+pub struct BidirSettings {
     pub max_depth: u32,
     pub light_paths: f32,
     pub radius: Option<f32>,
@@ -91,9 +92,9 @@ pub struct VcmSettings {
     pub strategy_images: u32,
 }
 
-impl Default for VcmSettings {
+impl Default for BidirSettings {
     fn default() -> Self {
-        VcmSettings {
+        BidirSettings {
             max_depth: 64,
             light_paths: 1.0,
             radius: None,
@@ -109,7 +110,7 @@ impl Default for VcmSettings {
     }
 }
 
-impl VcmSettings {
+impl BidirSettings {
     pub fn validate(&self, technique: Technique) -> Result<(), String> {
         if self.max_depth == 0 {
             return Err("max_depth must be at least 1".into());
@@ -173,7 +174,7 @@ pub(crate) struct Layers {
 }
 
 impl Layers {
-    fn new(s: &VcmSettings) -> Self {
+    fn new(s: &BidirSettings) -> Self {
         let mut names = Vec::new();
         if s.technique_layers {
             names = vec!["vc".to_string(), "vm".to_string()];
@@ -212,7 +213,7 @@ impl Layers {
 /// Per-iteration constants shared by both subpath tracers.
 pub(crate) struct Pass<'a> {
     pub scene: &'a Scene,
-    pub s: &'a VcmSettings,
+    pub s: &'a BidirSettings,
     pub technique: Technique,
     pub mis: Mis,
     pub radius: f32,
@@ -258,16 +259,16 @@ struct Workspace {
     merge: Vec<MergeVertex>,
 }
 
-pub struct Vcm {
-    s: VcmSettings,
+pub struct Bidir {
+    s: BidirSettings,
     technique: Technique,
     layers: Layers,
     ws: Mutex<Workspace>,
 }
 
-impl Vcm {
-    pub fn new(technique: Technique, s: VcmSettings) -> Self {
-        Vcm {
+impl Bidir {
+    pub fn new(technique: Technique, s: BidirSettings) -> Self {
+        Bidir {
             layers: Layers::new(&s),
             s,
             technique,
@@ -308,7 +309,7 @@ impl Vcm {
     }
 }
 
-impl Integrator for Vcm {
+impl Integrator for Bidir {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
         let pass = self.pass(scene, iteration);
         let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());

@@ -1,9 +1,10 @@
 //! Camera subpaths: emitter hits, light sampling, connections to the paired light
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
-use super::light_path::{LightVertex, Surface, Walk, MIN_COS};
+use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::vertex::{Media, Vertex};
+use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::pixels::PathKernel;

@@ -5,22 +5,15 @@
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::Partial;
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
+use super::walk::{Eval, Surface, Walk};
 use super::{Pass, Splat, Workspace};
-use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::integrator::{huge, RenderStats};
+use crate::geometry::{spawn_ray, spawn_ray_to, Ray};
+use crate::integrator::common::{Stream, PATHS_PER_TASK};
+use crate::integrator::{accel::huge, RenderStats};
 use crate::light::Light;
-use crate::material::{Material, Mode};
+use crate::material::Mode;
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
 use rayon::prelude::*;
-
-/// Light paths per parallel chunk: fixed, so the split never depends on threads.
-const CHUNK: usize = 1024;
-
-/// Cosines below this end a path: the MIS quantities divide by them.
-pub(super) const MIN_COS: f32 = 1e-6;
-
-/// Seed offset that separates light-path streams from camera-path streams.
-const LIGHT_STREAM: u64 = 0x5DEE_CE66_D1CE_4E5B;
 
 /// `LightVertex::material` of a scattering point in a medium.
 pub(crate) const MEDIUM_VERTEX: u32 = u32::MAX;
@@ -115,63 +108,6 @@ pub(crate) struct Chunk {
     over_budget: bool,
 }
 
-/// The shading context of a non-specular vertex, for evaluating connections.
-pub(crate) struct Surface<'a> {
-    pub m: &'a Material,
-    pub frame: Frame,
-    pub ng: Vec3,
-    /// Towards the previous vertex, local frame.
-    pub wo: Vec3,
-    pub cont: f32,
-}
-
-/// f |cos| towards a direction, with both solid-angle densities (continuation
-/// probability not included). At a medium vertex f is the phase function and `cos` the
-/// MIS factor D (see `mis`).
-pub(crate) struct Eval {
-    pub f: Rgb,
-    pub cos: f32,
-    pub pdf_dir: f32,
-    pub pdf_rev: f32,
-}
-
-impl Surface<'_> {
-    #[inline(always)]
-    pub fn eval(&self, wi_world: Vec3, mode: Mode) -> Option<Eval> {
-        let wi = self.frame.to_local(wi_world);
-        // A direction on different sides of the shading and geometric normals would
-        // leak light through the surface.
-        if (wi_world.dot(self.ng) > 0.0) != (wi.z > 0.0) {
-            return None;
-        }
-        let (f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
-        if f == Rgb::ZERO {
-            return None;
-        }
-        Some(Eval {
-            f,
-            cos: wi.z.abs(),
-            pdf_dir,
-            pdf_rev,
-        })
-    }
-}
-
-/// State of a subpath between vertices.
-#[derive(Clone, Copy)]
-pub(crate) struct Walk {
-    /// The last scattering vertex (or the path's origin).
-    pub origin: Vec3,
-    pub throughput: Rgb,
-    /// Segments traced so far, including the one being traced.
-    pub len: u32,
-    pub q: Partial,
-    /// Every scattering event so far was specular.
-    pub specular: bool,
-    /// The medium the path travels in (always None in scenes without media).
-    pub medium: Option<u32>,
-}
-
 pub(super) fn trace_light_paths(
     pass: &Pass,
     seed: u64,
@@ -179,7 +115,7 @@ pub(super) fn trace_light_paths(
     ws: &mut Workspace,
 ) -> RenderStats {
     let n = pass.light_paths;
-    let chunks = n.div_ceil(CHUNK);
+    let chunks = n.div_ceil(PATHS_PER_TASK);
     ws.chunks.resize_with(chunks, Chunk::default);
     ws.chunks.truncate(chunks);
     let budget = (pass.s.max_vertex_mib as f64 * 1048576.0
@@ -190,16 +126,16 @@ pub(super) fn trace_light_paths(
             // The first iteration: room for a typical chunk (light paths store two or
             // three vertices in closed scenes), rather than growth by doubling, each
             // step a copy into freshly faulted pages. Later iterations reuse it all.
-            chunk.vertices.reserve((CHUNK * 3).min(budget));
-            chunk.ends.reserve(CHUNK);
-            chunk.splats.reserve(CHUNK * 2);
+            chunk.vertices.reserve((PATHS_PER_TASK * 3).min(budget));
+            chunk.ends.reserve(PATHS_PER_TASK);
+            chunk.splats.reserve(PATHS_PER_TASK * 2);
         }
         chunk.vertices.clear();
         chunk.ends.clear();
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
         chunk.over_budget = false;
-        let paths = c * CHUNK..((c + 1) * CHUNK).min(n);
+        let paths = c * PATHS_PER_TASK..((c + 1) * PATHS_PER_TASK).min(n);
         trace_chunk(pass, seed, iteration, paths, chunk, budget);
     });
     // Connections and merging read the vertices where the chunks stored them; only
@@ -232,8 +168,8 @@ impl Workspace {
     /// The stored vertices of light path `path`, in order of length.
     #[inline(always)]
     pub(super) fn light_path(&self, path: usize) -> &[LightVertex] {
-        let chunk = &self.chunks[path / CHUNK];
-        let i = path % CHUNK;
+        let chunk = &self.chunks[path / PATHS_PER_TASK];
+        let i = path % PATHS_PER_TASK;
         let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
         &chunk.vertices[begin as usize..chunk.ends[i] as usize]
     }
@@ -307,7 +243,7 @@ fn trace_chunk_body(
     budget: usize,
 ) {
     for i in paths {
-        let mut rng = Rng::new(seed ^ LIGHT_STREAM, iteration, i as u64);
+        let mut rng = Stream::LightSubpaths.rng(seed, iteration, i as u64);
         if pass.scene.has_media {
             trace_one::<WithMedia>(pass, &mut rng, chunk, budget);
         } else {
@@ -532,50 +468,6 @@ fn stored<M: Media>(
         len: walk.len,
         q: walk.q,
     }
-}
-
-/// Samples the next direction and updates throughput and MIS state; None ends the
-/// path. `camera_len` is Some on camera subpaths.
-#[inline(always)]
-pub(super) fn scatter(
-    pass: &Pass,
-    rng: &mut Rng,
-    walk: &mut Walk,
-    it: &Interaction,
-    surface: &Surface,
-    mode: Mode,
-    camera_len: Option<u32>,
-) -> Option<Ray> {
-    let u_lobe = rng.next_f32();
-    let s = surface.m.sample(surface.wo, u_lobe, rng.next_2d(), mode)?;
-    let wi = surface.frame.to_world(s.wi.into());
-    if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-        return None;
-    }
-    let cont = surface.cont;
-    if cont < 1.0 && rng.next_f32() >= cont {
-        return None;
-    }
-    let pdf_dir = s.pdf * cont;
-    let pdf_rev = if s.delta {
-        pdf_dir
-    } else {
-        surface.m.pdf(s.wi.into(), surface.wo) * cont
-    };
-    if pdf_dir.is_nan() || pdf_dir <= 0.0 {
-        return None;
-    }
-    walk.q = pass
-        .mis
-        .on_scatter(walk.q, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta, camera_len);
-    walk.specular &= s.delta;
-    walk.throughput *= Rgb::from(s.weight) / cont;
-    if walk.throughput == Rgb::ZERO {
-        return None;
-    }
-    walk.origin = it.p;
-    walk.len += 1;
-    Some(spawn_ray(it.p, it.p_err, it.ng, wi))
 }
 
 /// Connects a light vertex to a point on the lens and splats the result, through

@@ -42,7 +42,7 @@
 //! would not, is not offered in media.) T is clamped below at exp(-MAX_MIS_DEPTH) so
 //! that 1 / T stays finite under the power heuristic's squares.
 
-use crate::integrator::pt::Heuristic;
+use crate::integrator::common::Heuristic;
 
 /// Per-iteration MIS constants.
 #[derive(Clone, Copy, Debug)]

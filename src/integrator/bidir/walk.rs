@@ -1,0 +1,112 @@
+//! The state a subpath carries between vertices and the scattering move both subpaths
+//! make at surfaces: what the light and camera walks of the bidirectional core share.
+
+use super::mis::Partial;
+use super::Pass;
+use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::material::{Material, Mode};
+use crate::math::{Frame, Rgb, Rng, Vec3};
+
+/// Cosines below this end a path: the MIS quantities divide by them.
+pub(crate) const MIN_COS: f32 = 1e-6;
+
+/// The shading context of a non-specular vertex, for evaluating connections.
+pub(crate) struct Surface<'a> {
+    pub m: &'a Material,
+    pub frame: Frame,
+    pub ng: Vec3,
+    /// Towards the previous vertex, local frame.
+    pub wo: Vec3,
+    pub cont: f32,
+}
+
+/// f |cos| towards a direction, with both solid-angle densities (continuation
+/// probability not included). At a medium vertex f is the phase function and `cos` the
+/// MIS factor D (see `mis`).
+pub(crate) struct Eval {
+    pub f: Rgb,
+    pub cos: f32,
+    pub pdf_dir: f32,
+    pub pdf_rev: f32,
+}
+
+impl Surface<'_> {
+    #[inline(always)]
+    pub fn eval(&self, wi_world: Vec3, mode: Mode) -> Option<Eval> {
+        let wi = self.frame.to_local(wi_world);
+        // A direction on different sides of the shading and geometric normals would
+        // leak light through the surface.
+        if (wi_world.dot(self.ng) > 0.0) != (wi.z > 0.0) {
+            return None;
+        }
+        let (f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
+        if f == Rgb::ZERO {
+            return None;
+        }
+        Some(Eval {
+            f,
+            cos: wi.z.abs(),
+            pdf_dir,
+            pdf_rev,
+        })
+    }
+}
+
+/// State of a subpath between vertices.
+#[derive(Clone, Copy)]
+pub(crate) struct Walk {
+    /// The last scattering vertex (or the path's origin).
+    pub origin: Vec3,
+    pub throughput: Rgb,
+    /// Segments traced so far, including the one being traced.
+    pub len: u32,
+    pub q: Partial,
+    /// Every scattering event so far was specular.
+    pub specular: bool,
+    /// The medium the path travels in (always None in scenes without media).
+    pub medium: Option<u32>,
+}
+
+/// Samples the next direction and updates throughput and MIS state; None ends the
+/// path. `camera_len` is Some on camera subpaths.
+#[inline(always)]
+pub(crate) fn scatter(
+    pass: &Pass,
+    rng: &mut Rng,
+    walk: &mut Walk,
+    it: &Interaction,
+    surface: &Surface,
+    mode: Mode,
+    camera_len: Option<u32>,
+) -> Option<Ray> {
+    let u_lobe = rng.next_f32();
+    let s = surface.m.sample(surface.wo, u_lobe, rng.next_2d(), mode)?;
+    let wi = surface.frame.to_world(s.wi.into());
+    if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
+        return None;
+    }
+    let cont = surface.cont;
+    if cont < 1.0 && rng.next_f32() >= cont {
+        return None;
+    }
+    let pdf_dir = s.pdf * cont;
+    let pdf_rev = if s.delta {
+        pdf_dir
+    } else {
+        surface.m.pdf(s.wi.into(), surface.wo) * cont
+    };
+    if pdf_dir.is_nan() || pdf_dir <= 0.0 {
+        return None;
+    }
+    walk.q = pass
+        .mis
+        .on_scatter(walk.q, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta, camera_len);
+    walk.specular &= s.delta;
+    walk.throughput *= Rgb::from(s.weight) / cont;
+    if walk.throughput == Rgb::ZERO {
+        return None;
+    }
+    walk.origin = it.p;
+    walk.len += 1;
+    Some(spawn_ray(it.p, it.p_err, it.ng, wi))
+}

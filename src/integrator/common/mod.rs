@@ -1,0 +1,8 @@
+//! What every tracer shares: MIS between unidirectional strategies, next-event
+//! estimation, and the random streams.
+
+pub mod mis;
+pub mod streams;
+
+pub use mis::{emitted, escaped, Heuristic};
+pub use streams::{Stream, PATHS_PER_TASK};
