@@ -2,12 +2,13 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
+use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::{render_paths, PathKernel};
 use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
-use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};
@@ -112,43 +113,29 @@ impl PathTracer {
     /// Next-event estimation at a non-delta vertex: one light sample and the shadow
     /// ray that decides it, not yet traced.
     #[inline(always)]
-    fn direct<'m>(
+    fn direct(
         &self,
         scene: &Scene,
-        v: Vertex<'_, 'm>,
+        v: Vertex<'_, '_>,
         beta: Rgb,
         survival: f32,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Option<Shadow> {
         let Vertex { it, frame, wo, m } = v;
-        let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
-        let u = rng.next_2d();
-        let ls = scene.lights[li].sample_li(it.p, u)?;
-        let wi = frame.to_local(ls.wi());
-        // Light arriving from behind the geometric surface would leak through it.
-        if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) {
-            return None;
-        }
-        // With the pdf: `eval_pdfs` shares the orientation and the material's dispatch
-        // (the reverse pdf is unused, and compiled away).
-        let (f, pdf_bsdf, _) = m.eval_pdfs(wo, wi, Mode::Radiance);
-        if f == Rgb::ZERO {
-            return None;
-        }
-        let ray = if ls.dist.is_finite() {
-            spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
+        let at = Origin::Surface { it, frame, wo, m };
+        let link = sample_light(scene, &at, rng, stats)?;
+        let pdf_bsdf = if link.delta {
+            0.0
         } else {
-            spawn_ray(it.p, it.p_err, it.ng, ls.wi())
+            link.pdf_scatter * survival
         };
-        stats.shadow_rays += 1;
-        let pdf_bsdf = if ls.delta { 0.0 } else { pdf_bsdf * survival };
         Some(Shadow {
-            ray,
-            fl: f * ls.li(),
-            pdf_light: sel_pdf * ls.pdf,
+            ray: link.ray,
+            fl: link.f * link.li,
+            pdf_light: link.pdf_light,
             pdf_bsdf,
-            delta: ls.delta,
+            delta: link.delta,
             beta,
         })
     }

@@ -11,16 +11,17 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
+use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
-use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::geometry::{spawn_ray, Ray};
 use crate::light::Light;
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
-use crate::medium::{Flight, Homogeneous, Phase};
+use crate::medium::{Flight, Homogeneous};
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 use serde::{Deserialize, Serialize};
 
@@ -115,24 +116,6 @@ impl EquiAngular {
     }
 }
 
-/// Where next-event estimation starts.
-enum At<'a> {
-    Surface {
-        it: &'a Interaction,
-        frame: &'a Frame,
-        wo: Vec3,
-        m: &'a Material,
-    },
-    /// A scattering point in a medium; `seg` is the free-flight segment it was
-    /// sampled on, for equi-angular MIS.
-    Medium {
-        p: Vec3,
-        d: Vec3,
-        phase: &'a Phase,
-        seg: Option<Segment<'a>>,
-    },
-}
-
 /// A homogeneous free-flight segment: the ray, its length, the throughput the flight
 /// was sampled with, and the distance sampled on it.
 #[derive(Clone, Copy)]
@@ -167,74 +150,37 @@ impl VolPath {
         }
     }
 
-    /// Next-event estimation: one light, transmittance to it, MIS.
+    /// Next-event estimation: one light, transmittance to it, MIS. `seg` is the
+    /// free-flight segment a medium point was sampled on, for equi-angular MIS.
     #[inline(always)]
     fn direct(
         &self,
         scene: &Scene,
-        at: &At,
+        at: &Origin,
+        seg: Option<&Segment>,
         medium: Option<u32>,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
-        let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
-        let light = &scene.lights[li];
-        let p = match at {
-            At::Surface { it, .. } => it.p,
-            At::Medium { p, .. } => *p,
-        };
-        let Some(ls) = light.sample_li(p, rng.next_2d()) else {
+        let Some(link) = sample_light(scene, at, rng, stats) else {
             return Rgb::ZERO;
         };
-        let (f, pdf_scatter, ray, start_medium) = match *at {
-            At::Surface { it, frame, wo, m } => {
-                let wi = frame.to_local(ls.wi());
-                if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) {
-                    return Rgb::ZERO;
-                }
-                let ray = if ls.dist.is_finite() {
-                    spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
-                } else {
-                    spawn_ray(it.p, it.p_err, it.ng, ls.wi())
-                };
-                let med = scene.medium_after(it, ls.wi(), medium);
-                (m.eval(wo, wi, Mode::Radiance), m.pdf(wo, wi), ray, med)
-            }
-            At::Medium { p, d, phase, .. } => {
-                let ph = phase.eval(d, ls.wi());
-                let ray = if ls.dist.is_finite() {
-                    Ray {
-                        o: p,
-                        d: ls.p() - p,
-                        tmax: 1.0 - SHADOW_EPSILON,
-                    }
-                } else {
-                    Ray::new(p, ls.wi())
-                };
-                (Rgb::splat(ph), ph, ray, medium)
-            }
-        };
-        if f == Rgb::ZERO {
-            return Rgb::ZERO;
-        }
-        stats.shadow_rays += 1;
-        let tr = scene.transmittance(&ray, start_medium, rng, &mut stats.shadow_rays);
+        let tr = link.transmittance(scene, at, medium, rng, stats);
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let pdf_light = sel_pdf * ls.pdf;
-        let w = if !ls.delta {
-            self.mis(pdf_light, pdf_scatter)
+        let w = if !link.delta {
+            self.mis(link.pdf_light, link.pdf_scatter)
         } else {
-            self.equiangular_partner(at, light)
+            self.equiangular_partner(seg, &scene.lights[link.light])
         };
-        f * tr * ls.li() * (w / pdf_light)
+        link.f * tr * link.li * (w / link.pdf_light)
     }
 
     /// MIS weight of a distance-sampled connection to a point or spot light against
     /// equi-angular sampling of the same segment (1 where that is not used).
-    fn equiangular_partner(&self, at: &At, light: &Light) -> f32 {
-        let At::Medium { seg: Some(seg), .. } = at else {
+    fn equiangular_partner(&self, seg: Option<&Segment>, light: &Light) -> f32 {
+        let Some(seg) = seg else {
             return 1.0;
         };
         let Some(c) = Self::point_position(light) else {
@@ -338,13 +284,8 @@ impl VolPath {
                         });
                         let phase = med.phase();
                         if !scene.lights.is_empty() {
-                            let at = At::Medium {
-                                p,
-                                d: ray.d,
-                                phase,
-                                seg,
-                            };
-                            l += beta * self.direct(scene, &at, medium, rng, stats);
+                            let at = Origin::Medium { p, d: ray.d, phase };
+                            l += beta * self.direct(scene, &at, seg.as_ref(), medium, rng, stats);
                         }
                         let (wi, pdf) = phase.sample(ray.d, rng.next_2d());
                         specular = false;
@@ -394,13 +335,13 @@ impl VolPath {
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() && !scene.lights.is_empty() {
-                let at = At::Surface {
+                let at = Origin::Surface {
                     it: &it,
                     frame: &frame,
                     wo,
                     m,
                 };
-                l += beta * self.direct(scene, &at, medium, rng, stats);
+                l += beta * self.direct(scene, &at, None, medium, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {

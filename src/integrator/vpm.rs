@@ -83,7 +83,8 @@ use super::accel::{HashGrid, Point, PointBvh};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
-use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::integrator::common::nee::{sample_light, Origin};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
 use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec3, PI};
@@ -745,31 +746,13 @@ fn direct(
     rng: &mut Rng,
     stats: &mut RenderStats,
 ) -> Rgb {
-    if scene.lights.is_empty() {
-        return Rgb::ZERO;
-    }
-    let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
-    let Some(ls) = scene.lights[li].sample_li(it.p, rng.next_2d()) else {
+    let at = Origin::Surface { it, frame, wo, m };
+    let Some(link) = sample_light(scene, &at, rng, stats) else {
         return Rgb::ZERO;
     };
-    let wi = frame.to_local(ls.wi());
-    if (ls.wi().dot(it.ng) > 0.0) != (wi.z > 0.0) || !(ls.pdf > 0.0 && sel_pdf > 0.0) {
-        return Rgb::ZERO;
-    }
-    let f = m.eval(wo, wi, Mode::Radiance);
-    if f == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    let ray = if ls.dist.is_finite() {
-        spawn_ray_to(it.p, it.p_err, it.ng, ls.p(), Vec3::ZERO, Vec3::ZERO)
-    } else {
-        spawn_ray(it.p, it.p_err, it.ng, ls.wi())
-    };
-    stats.shadow_rays += 1;
     stats.connections += 1;
-    let start = scene.medium_after(it, ls.wi(), medium);
-    let tr = scene.transmittance(&ray, start, rng, &mut stats.shadow_rays);
-    f * tr * ls.li() / (sel_pdf * ls.pdf)
+    let tr = link.transmittance(scene, &at, medium, rng, stats);
+    link.f * tr * link.li / link.pdf_light
 }
 
 impl Integrator for Vpm {

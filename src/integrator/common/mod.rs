@@ -2,6 +2,7 @@
 //! estimation, and the random streams.
 
 pub mod mis;
+pub mod nee;
 pub mod streams;
 
 pub use mis::{emitted, escaped, Heuristic};
