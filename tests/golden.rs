@@ -4,7 +4,7 @@
 //! reorganised; a change that should not alter any image must leave them all equal.
 //!
 //! Images are a pure function of (scene, settings, seed, iteration), whatever the
-//! thread count (DESIGN.md), so the hashes are the same on every run of one build
+//! thread count (`caustic::integrator`), so the hashes are the same on every run of one build
 //! target. To record them again after a deliberate change of images, run
 //! `CAUSTIC_GOLDEN_WRITE=1 cargo test --release --test golden` and say in the commit
 //! which images changed and why.

@@ -38,12 +38,13 @@
 
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
-use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::geometry::{spawn_ray, Interaction};
 use crate::integrator::accel::HashGrid;
+use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::nee::{sample_light, Origin};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
-use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec2, Vec3};
+use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -429,27 +430,14 @@ impl PhotonMapper {
         out: &mut PhotonChunk,
     ) {
         let mut rng = Stream::SppmPhotons.rng(seed, iteration, index);
-        let (li, pmf, _) = scene.light_sampler.sample(rng.next_f32());
-        let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
-        let Some(e) = scene.lights[li].sample_le(&scene.sphere, u_pos, u_dir) else {
+        let Some(start) = sample_emission(scene, &mut rng) else {
             return;
         };
-        if !(e.pdf_pos > 0.0 && e.pdf_dir > 0.0 && pmf > 0.0) {
-            return;
-        }
-        // Photon power: Le cos / (p_pos p_dir p_select).
-        let mut beta = e.weight() / pmf;
+        let mut beta = start.power();
         if !is_valid_sample(beta) || beta == Rgb::ZERO {
             return;
         }
-        // Points sampled on an area light carry a small relative error; leave the
-        // surface as a hit point would.
-        let mut ray = if e.n == Vec3::ZERO {
-            Ray::new(e.p, e.d)
-        } else {
-            let err = Vec3::splat(e.p.abs().max_element() * gamma(16));
-            spawn_ray(e.p, err, e.n, e.d)
-        };
+        let mut ray = start.ray;
         let max_depth = self.s.max_depth;
         let mut depth = 0u32; // scattering events so far
         loop {

@@ -84,10 +84,11 @@ use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::nee::{sample_light, Origin};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
-use crate::math::{gamma, max_component, Frame, Rgb, Rng, Vec3, PI};
+use crate::math::{max_component, Frame, Rgb, Rng, Vec3, PI};
 use crate::medium::Flight;
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 use rayon::prelude::*;
@@ -658,25 +659,12 @@ impl Vpm {
 /// Where a photon path starts: its ray, power (Le cos / (p_pos p_dir p_select)) and the
 /// medium the light emits into.
 fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32>)> {
-    let (li, pmf, _) = scene.light_sampler.sample(rng.next_f32());
-    let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
-    let e = scene.lights[li].sample_le(&scene.sphere, u_pos, u_dir)?;
-    if !(e.pdf_pos > 0.0 && e.pdf_dir > 0.0 && pmf > 0.0) {
-        return None;
-    }
-    let beta = e.weight() / pmf;
+    let start = sample_emission(scene, rng)?;
+    let beta = start.power();
     if !is_valid_sample(beta) || beta == Rgb::ZERO {
         return None;
     }
-    // Points sampled on an area light carry a small relative error; leave the surface
-    // as a hit point would.
-    let ray = if e.n == Vec3::ZERO {
-        Ray::new(e.p, e.d)
-    } else {
-        let err = Vec3::splat(e.p.abs().max_element() * gamma(16));
-        spawn_ray(e.p, err, e.n, e.d)
-    };
-    Some((ray, beta, scene.light_media[li]))
+    Some((start.ray, beta, start.medium))
 }
 
 /// A photon's BSDF sample at a surface: the new direction and the power factor, with

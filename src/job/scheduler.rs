@@ -1,5 +1,5 @@
 //! The scheduler: one thread that runs short batches of iterations, job after job, on
-//! the rayon worker pool. Iterations are independent units (DESIGN.md), so a batch of
+//! the rayon worker pool. Iterations are independent units (`crate::integrator`), so a batch of
 //! about a quarter second is the longest any job waits for the pool once it is next.
 //!
 //! Choice of job: highest effective priority, where a job gains one point per batch it

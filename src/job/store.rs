@@ -1,4 +1,4 @@
-//! The job directory (DESIGN.md): job.json, checkpoint, snapshots, log.csv, final
+//! The job directory (README, "Job directory"): job.json, checkpoint, snapshots, log.csv, final
 //! images. Every file a reader may see is written atomically (temp file + rename), so
 //! a crash at any moment leaves the previous complete version.
 

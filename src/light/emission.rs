@@ -13,6 +13,10 @@ pub struct EmissionSample {
     pub p: Vec3,
     /// Front normal at `p` for area lights; zero otherwise.
     pub n: Vec3,
+    /// Bound on the rounding error of `p` per component (area lights; zero for points
+    /// that are not on a surface), for offsetting the ray off the light's surface as
+    /// from a hit point.
+    pub p_err: Vec3,
     /// Unit direction the light travels.
     pub d: Vec3,
     /// Radiance (area and environment lights), intensity (point and spot) or
@@ -105,6 +109,7 @@ fn point_like(p: Vec3, d: Vec3, intensity: Rgb, pdf_dir: f32) -> EmissionSample 
     EmissionSample {
         p,
         n: Vec3::ZERO,
+        p_err: Vec3::ZERO,
         d,
         le: intensity,
         pdf_pos: 1.0,
@@ -123,6 +128,7 @@ fn from_infinity(sphere: &SceneSphere, d: Vec3, le: Rgb, pdf_dir: f32, u: Vec2) 
     EmissionSample {
         p,
         n: Vec3::ZERO,
+        p_err: Vec3::ZERO,
         d,
         le,
         pdf_pos: 1.0 / (PI * sphere.radius * sphere.radius),

@@ -7,7 +7,8 @@ use super::mis::Partial;
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::walk::{Eval, Surface, Walk};
 use super::{Pass, Splat, Workspace};
-use crate::geometry::{spawn_ray, spawn_ray_to, Ray};
+use crate::geometry::{spawn_ray_to, Ray};
+use crate::integrator::common::emit::{sample_emission, LightStart};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::integrator::{accel::huge, RenderStats};
 use crate::light::Light;
@@ -265,15 +266,11 @@ struct Start {
 }
 
 #[inline(always)]
-fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSample, usize, f32)> {
+fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
     let scene = pass.scene;
-    if scene.lights.is_empty() {
-        return None;
-    }
-    let (li, pick, _) = scene.light_sampler.sample(rng.next_f32());
+    let ls = sample_emission(scene, rng)?;
+    let (li, pick, es) = (ls.light, ls.pick, &ls.sample);
     let light = &scene.lights[li];
-    let (u_pos, u_dir) = (rng.next_2d(), rng.next_2d());
-    let es = light.sample_le(&scene.sphere, u_pos, u_dir)?;
     let emission = pick * es.pdf_pos * es.pdf_dir;
     if emission.is_nan() || emission <= 0.0 {
         return None;
@@ -290,12 +287,6 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
     let q = pass
         .mis
         .light_start(direct, emission, es.cos, light.is_delta(), finite);
-    let p_err = es.p.abs() * gamma(6);
-    let ray = if es.n == Vec3::ZERO {
-        Ray::new(es.p, es.d)
-    } else {
-        spawn_ray(es.p, p_err, es.n, es.d)
-    };
     let area = matches!(light, Light::Area(_)).then_some((li, pick, emission, es.p, es.n, es.cos));
     let walk = Walk {
         origin: es.p,
@@ -305,29 +296,26 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, crate::light::EmissionSam
         specular: true,
         medium: None,
     };
-    Some((
-        Start {
-            ray,
-            walk,
-            finite,
-            area,
-        },
-        es,
-        li,
-        pick,
-    ))
+    let st = Start {
+        ray: ls.ray,
+        walk,
+        finite,
+        area,
+    };
+    Some((st, ls))
 }
 
 /// One light subpath; `M` (whether the scene has media) is decided once per path.
 #[inline(always)]
 fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
     let scene = pass.scene;
-    let Some((st, es, li, pick)) = start(pass, rng) else {
+    let Some((st, ls)) = start(pass, rng) else {
         return;
     };
+    let (es, li, pick) = (&ls.sample, ls.light, ls.pick);
     chunk.stats.samples += 1;
     if pass.technique == super::Technique::Lt {
-        splat_emitter::<M>(pass, rng, chunk, &es, li, pick);
+        splat_emitter::<M>(pass, rng, chunk, es, li, pick);
     }
     let Start {
         mut ray,
@@ -336,7 +324,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
         area,
     } = st;
     if M::ON {
-        walk.medium = emission_medium(scene, li, &es);
+        walk.medium = ls.medium;
     }
     let store = pass.technique.connects() || pass.technique.merges();
     let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
@@ -414,28 +402,6 @@ struct LensShadow {
     /// The splat if nothing blocks the ray.
     value: Rgb,
     layer: Option<usize>,
-}
-
-/// The medium light emitted as `es` by light `li` starts in: the light's, except that
-/// a two-sided emitter on a medium boundary emits into the medium on the side the
-/// light leaves by.
-#[inline(always)]
-fn emission_medium(
-    scene: &crate::scene::Scene,
-    li: usize,
-    es: &crate::light::EmissionSample,
-) -> Option<u32> {
-    if let Light::Area(a) = &scene.lights[li] {
-        let shape = &scene.shapes[a.shape as usize];
-        if shape.is_medium_boundary() {
-            return if es.d.dot(es.n) > 0.0 {
-                shape.exterior
-            } else {
-                shape.interior
-            };
-        }
-    }
-    scene.light_media[li]
 }
 
 /// The stored form of vertex `v`, reached along `d`.

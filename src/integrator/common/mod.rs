@@ -1,6 +1,7 @@
 //! What every tracer shares: MIS between unidirectional strategies, next-event
 //! estimation, and the random streams.
 
+pub mod emit;
 pub mod mis;
 pub mod nee;
 pub mod streams;
