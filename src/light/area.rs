@@ -337,7 +337,7 @@ mod tests {
                 );
                 // Where terms cancel, gamma(6) |p| (the rule light subpaths used
                 // before) is below the error.
-                let old = d(Vec3::from(p).abs().into()) * crate::math::gamma(6) as f64;
+                let old = d(p.abs().into()) * crate::math::gamma(6) as f64;
                 old_fails += err.cmpgt(old).any() as u32;
             }
         }
