@@ -79,19 +79,19 @@
 //! pass is the shared tile loop. An iteration is a pure function of (scene, settings,
 //! seed, iteration).
 
-use super::accel::{HashGrid, Point, PointBvh};
+mod photons;
+
+use super::accel::{HashGrid, PointBvh};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
-use crate::film::{is_valid_sample, Film};
+use crate::film::Film;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::nee::{sample_light, Origin};
-use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3, PI};
 use crate::medium::Flight;
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
-use rayon::prelude::*;
+use photons::{Chunk, Photon};
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
@@ -220,35 +220,6 @@ pub fn radius_schedule(r1: f32, alpha: f32, k: u32, iteration: u64) -> f32 {
     (r1 as f64 * (log / k as f64).exp()) as f32
 }
 
-/// A photon stored at a scattering event in a medium.
-#[derive(Clone, Copy, Debug)]
-struct Photon {
-    p: Vec3,
-    /// Direction the light travelled before scattering here (the phase function's `d`).
-    d: Vec3,
-    /// Power: flux per emitted path, times the weight sigma_s T / pdf of the free flight
-    /// that ended here.
-    beta: Rgb,
-    medium: u32,
-    /// Scattering events on the photon path before this one.
-    depth: u32,
-}
-
-impl Point for Photon {
-    #[inline]
-    fn position(&self) -> Vec3 {
-        self.p
-    }
-}
-
-/// One chunk's photons, kept between iterations for its buffer.
-#[derive(Default)]
-struct Chunk {
-    photons: Vec<Photon>,
-    stats: RenderStats,
-    over_budget: bool,
-}
-
 /// What `iterate` reuses between iterations.
 #[derive(Default)]
 struct Workspace {
@@ -300,150 +271,6 @@ impl Vpm {
         }
         let px = scene.width() as f64 * scene.height() as f64;
         (self.s.light_paths as f64 * px).ceil().max(1.0) as usize
-    }
-
-    /// The photon pass: fixed chunks in parallel, concatenated in chunk order.
-    fn trace_photons(
-        &self,
-        scene: &Scene,
-        seed: u64,
-        iteration: u64,
-        paths: usize,
-        ws: &mut Workspace,
-    ) -> RenderStats {
-        let chunks = paths.div_ceil(PATHS_PER_TASK);
-        ws.chunks.resize_with(chunks, Chunk::default);
-        ws.chunks.truncate(chunks);
-        let budget = (self.s.max_photon_mib as f64 * 1048576.0
-            / std::mem::size_of::<Photon>() as f64
-            / chunks.max(1) as f64) as usize;
-        ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
-            chunk.photons.clear();
-            chunk.stats = RenderStats::default();
-            chunk.over_budget = false;
-            for i in c * PATHS_PER_TASK..((c + 1) * PATHS_PER_TASK).min(paths) {
-                let mut rng = Stream::VpmPhotons.rng(seed, iteration, i as u64);
-                self.trace_photon(scene, &mut rng, chunk, budget);
-            }
-        });
-        ws.photons.clear();
-        let mut stats = RenderStats::default();
-        for chunk in &ws.chunks {
-            ws.photons.extend_from_slice(&chunk.photons);
-            stats += chunk.stats;
-        }
-        if ws.chunks.iter().any(|c| c.over_budget) {
-            tracing::warn!(
-                "photons beyond max_photon_mib = {} were not stored this iteration; raise it or lower light_paths",
-                self.s.max_photon_mib
-            );
-        }
-        stats.light_vertices = ws.photons.len() as u64;
-        stats
-    }
-
-    /// One photon path: free flights through media, photons stored where they scatter
-    /// in one, BSDF sampling at surfaces.
-    fn trace_photon(&self, scene: &Scene, rng: &mut Rng, out: &mut Chunk, budget: usize) {
-        let Some((mut ray, beta, mut medium)) = emit(scene, rng) else {
-            return;
-        };
-        let mut walk = PhotonWalk { beta, depth: 0 };
-        let mut crossings = 0u32;
-        loop {
-            out.stats.rays += 1;
-            let hit = scene.intersect(&ray);
-            if let Some(mi) = medium {
-                let tmax = hit
-                    .as_ref()
-                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
-                match self.photon_flight(scene, mi, &ray, tmax, &mut walk, rng, out, budget) {
-                    Flown::Scattered(next) => {
-                        ray = next;
-                        crossings = 0;
-                        continue;
-                    }
-                    Flown::Passed => {}
-                    Flown::Ended => return,
-                }
-            }
-            let Some(it) = hit else {
-                return;
-            };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                crossings += 1;
-                if crossings > MAX_NULL_CROSSINGS {
-                    return;
-                }
-                medium = scene.medium_after(&it, ray.d, medium);
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                continue;
-            }
-            // Photons stored after this bounce have k >= depth + 1.
-            if walk.depth + 3 > self.s.max_depth {
-                return;
-            }
-            let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
-                return;
-            };
-            if !walk.scatter(weight, rng) {
-                return;
-            }
-            medium = scene.medium_after(&it, wi, medium);
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            crossings = 0;
-        }
-    }
-
-    /// A photon's free flight over [0, tmax) of `ray` in medium `mi`; stores a photon
-    /// where it scatters.
-    #[allow(clippy::too_many_arguments)]
-    fn photon_flight(
-        &self,
-        scene: &Scene,
-        mi: u32,
-        ray: &Ray,
-        tmax: f32,
-        walk: &mut PhotonWalk,
-        rng: &mut Rng,
-        out: &mut Chunk,
-        budget: usize,
-    ) -> Flown {
-        let med = &scene.media[mi as usize];
-        let (t, weight) = match med.sample_flight(ray.o, ray.d, tmax, walk.beta, rng) {
-            Flight::Scatter { t, weight } => (t, weight),
-            Flight::Pass { weight } => {
-                walk.beta *= weight;
-                return Flown::Passed;
-            }
-            Flight::Absorbed => return Flown::Ended,
-        };
-        let p = ray.at(t);
-        let stored = walk.beta * weight;
-        // A camera segment reached directly (j = 0) needs k + 2 <= max_depth.
-        if walk.depth + 2 <= self.s.max_depth {
-            if out.photons.len() < budget {
-                out.photons.push(Photon {
-                    p,
-                    d: ray.d,
-                    beta: stored,
-                    medium: mi,
-                    depth: walk.depth,
-                });
-            } else {
-                out.over_budget = true;
-            }
-        }
-        if walk.depth + 3 > self.s.max_depth {
-            return Flown::Ended;
-        }
-        let (wi, _) = med.phase().sample(ray.d, rng.next_2d());
-        // The phase function is sampled exactly: its weight is 1.
-        if !walk.scatter(weight, rng) {
-            return Flown::Ended;
-        }
-        Flown::Scattered(Ray::new(p, wi))
     }
 
     /// Radiance along one camera ray (module notes: media from photons, surfaces path
@@ -653,71 +480,6 @@ impl Vpm {
             *beta /= q;
         }
         *beta != Rgb::ZERO
-    }
-}
-
-/// Where a photon path starts: its ray, power (Le cos / (p_pos p_dir p_select)) and the
-/// medium the light emits into.
-fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32>)> {
-    let start = sample_emission(scene, rng)?;
-    let beta = start.power();
-    if !is_valid_sample(beta) || beta == Rgb::ZERO {
-        return None;
-    }
-    Some((start.ray, beta, start.medium))
-}
-
-/// A photon's BSDF sample at a surface: the new direction and the power factor, with
-/// the adjoint correction for shading normals |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)
-/// (Veach 1997, eq. (5.17)).
-fn photon_bounce(
-    it: &Interaction,
-    m: &Material,
-    wo_world: Vec3,
-    rng: &mut Rng,
-) -> Option<(Vec3, Rgb)> {
-    let frame = Frame::from_normal(it.ns);
-    let wo = frame.to_local(wo_world);
-    let s = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance)?;
-    let wi = frame.to_world(s.wi.into());
-    let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
-    if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
-        return None;
-    }
-    let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
-    corr.is_finite().then_some((wi, Rgb::from(s.weight) * corr))
-}
-
-/// How a photon's free flight through a medium ended.
-enum Flown {
-    /// It scattered (a photon was stored) and goes on along this ray.
-    Scattered(Ray),
-    /// It reached the end of the segment (the next surface, or nothing).
-    Passed,
-    /// It was absorbed, rouletted away or reached the depth limit.
-    Ended,
-}
-
-/// A photon path between events: its power and the scattering events so far.
-struct PhotonWalk {
-    beta: Rgb,
-    depth: u32,
-}
-
-impl PhotonWalk {
-    /// A scattering event multiplies the power by `weight`, then Russian roulette with
-    /// survival (new power) / (old power) lets survivors keep about the power they had
-    /// (the best case for a density estimate); false ends the path.
-    #[inline]
-    fn scatter(&mut self, weight: Rgb, rng: &mut Rng) -> bool {
-        let new = self.beta * weight;
-        self.depth += 1;
-        let q = (max_component(new) / max_component(self.beta)).min(1.0);
-        if q.is_nan() || rng.next_f32() >= q {
-            return false;
-        }
-        self.beta = new / q;
-        self.beta != Rgb::ZERO && self.beta.is_finite()
     }
 }
 
