@@ -2,11 +2,11 @@
 //! serve it on an ephemeral port.
 
 use super::error::ApiError;
-use crate::job::events::Event;
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::store::LogRow;
 use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::watch::Watched;
 use crate::job::JobState;
 use crate::job::{JobError, JobSpec, JobStatus, Service};
 use axum::body::Bytes;
@@ -463,58 +463,32 @@ async fn log(
 }
 
 /// Server-Sent Events for one job: its current state first, then progress, snapshot and
-/// state events, and a final `done`.
+/// state events, and a final `done` ([`crate::job::watch`]).
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", description = "Server-Sent Events: state first, then progress, snapshot and state events, ending with done.", params(("id" = String, Path)), responses((status = 200, content_type = "text/event-stream", body = String)))]
 async fn events(
     State(svc): State<Svc>,
     Path(id): Path<String>,
 ) -> ApiResult<Sse<impl Stream<Item = Result<sse::Event, Infallible>>>> {
-    // Subscribe before reading the state, so no event falls between the two.
-    let rx = svc.subscribe();
     let jid = id.clone();
-    let jid_for_shutdown = id.clone();
-    let status = blocking(&svc, move |s| s.get_job(&jid)).await?;
-    let first = if status.state.is_terminal() {
-        Event::Done {
-            job: id.clone(),
-            status: Box::new(status),
-        }
-    } else {
-        Event::State {
-            job: id.clone(),
-            state: status.state,
-        }
-    };
-    let done_already = matches!(first, Event::Done { .. });
-    let live = tokio_stream::wrappers::BroadcastStream::new(rx)
-        .filter_map(move |r| {
-            let id = id.clone();
-            async move { r.ok().filter(|e| e.job() == id) }
-        })
-        .boxed();
-    let sent_done = Arc::new(std::sync::atomic::AtomicBool::new(done_already));
-    let mark = sent_done.clone();
-    let events = futures::stream::once(async move { first })
-        .chain(until_done(live, done_already))
-        .map(move |e| {
-            if matches!(e, Event::Done { .. }) {
-                mark.store(true, std::sync::atomic::Ordering::Relaxed);
+    let watch = blocking(&svc, move |s| s.watch(&jid)).await?;
+    let stream = watch.into_stream().filter_map(move |w| {
+        let e = match w {
+            Watched::Event(e) => Some(
+                sse::Event::default()
+                    .event(e.name())
+                    .json_data(&e)
+                    .expect("event serialises"),
+            ),
+            // When the server stops, the stream ends with a `shutdown` event, so that
+            // the connection closes and the server can exit.
+            Watched::Stopping => Some(shutdown_event(&id)),
+            Watched::Lost(e) => {
+                tracing::warn!(job = %id, error = %e, "event stream ends: the job is gone");
+                None
             }
-            Ok(sse::Event::default()
-                .event(e.name())
-                .json_data(&e)
-                .expect("event serialises"))
-        });
-    // When the server stops, the stream ends with a `shutdown` event (unless `done`
-    // was already the last), so that the connection closes and the server can exit.
-    let stream = events.take_until(svc.until_closing()).chain(
-        futures::stream::once(async move {
-            let stopping =
-                svc.is_closing() && !sent_done.load(std::sync::atomic::Ordering::Relaxed);
-            stopping.then(|| Ok(shutdown_event(&jid_for_shutdown)))
-        })
-        .filter_map(|e| async move { e }),
-    );
+        };
+        futures::future::ready(e.map(Ok))
+    });
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
 }
 
@@ -527,22 +501,6 @@ fn shutdown_event(job: &str) -> sse::Event {
         })
         .to_string(),
     )
-}
-
-/// Passes events through up to and including the first `done`, then ends (at once,
-/// not when some later event arrives).
-fn until_done(
-    events: futures::stream::BoxStream<'static, Event>,
-    finished: bool,
-) -> impl Stream<Item = Event> {
-    futures::stream::unfold((events, finished), |(mut events, finished)| async move {
-        if finished {
-            return None;
-        }
-        let e = events.next().await?;
-        let finished = matches!(e, Event::Done { .. });
-        Some((e, (events, finished)))
-    })
 }
 
 #[utoipa::path(post, path = "/v1/sweeps", description = "Expand a base job and a parameter grid into jobs tagged with the sweep.", request_body = SweepSpec, responses((status = 201, body = SweepTable), (status = 400, body = ErrorBody)))]
