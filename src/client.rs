@@ -6,8 +6,8 @@
 //! to stderr, and returns `Ok(true)` when everything it waited for completed.
 
 use crate::job::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
-use crate::job::sweep::SweepSpec;
-use crate::server::http::{JobView, SweepTable};
+use crate::job::sweep::{SweepSpec, SweepTable};
+use crate::server::http::JobView;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

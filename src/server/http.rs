@@ -5,7 +5,7 @@ use super::error::ApiError;
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::store::LogRow;
-use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::sweep::{SweepRow, SweepSpec, SweepTable};
 use crate::job::watch::Watched;
 use crate::job::JobState;
 use crate::job::{JobError, JobSpec, JobStatus, Service};
@@ -463,12 +463,13 @@ async fn log(
 }
 
 /// Server-Sent Events for one job: its current state first, then progress, snapshot and
-/// state events, and a final `done` ([`crate::job::watch`]).
+/// state events, and a final `done`.
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", description = "Server-Sent Events: state first, then progress, snapshot and state events, ending with done.", params(("id" = String, Path)), responses((status = 200, content_type = "text/event-stream", body = String)))]
 async fn events(
     State(svc): State<Svc>,
     Path(id): Path<String>,
 ) -> ApiResult<Sse<impl Stream<Item = Result<sse::Event, Infallible>>>> {
+    // One stream for both transports: crate::job::watch.
     let jid = id.clone();
     let watch = blocking(&svc, move |s| s.watch(&jid)).await?;
     let stream = watch.into_stream().filter_map(move |w| {
@@ -508,90 +509,8 @@ async fn create_sweep(
     State(svc): State<Svc>,
     JsonBody(spec): JsonBody<SweepSpec>,
 ) -> ApiResult<impl IntoResponse> {
-    let sweep = blocking(&svc, move |s| s.create_sweep(spec)).await?;
-    let table = blocking(&svc, move |s| sweep_table(s, sweep)).await?;
+    let table = blocking(&svc, move |s| Ok(s.sweep_table(s.create_sweep(spec)?))).await?;
     Ok((StatusCode::CREATED, Json(table)))
-}
-
-/// One row per job of a sweep.
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct SweepRow {
-    pub job: String,
-    #[schema(value_type = Object)]
-    pub point: std::collections::BTreeMap<String, serde_json::Value>,
-    pub state: crate::job::JobState,
-    pub iterations: u64,
-    pub time_s: f64,
-    pub rmse: Option<f64>,
-}
-
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct SweepTable {
-    pub id: String,
-    pub name: Option<String>,
-    pub rows: Vec<SweepRow>,
-}
-
-fn sweep_table(s: &Service, sweep: Sweep) -> Result<SweepTable, JobError> {
-    let rows = sweep
-        .jobs
-        .iter()
-        .map(|(point, id)| {
-            let st = s.get_job(id);
-            SweepRow {
-                job: id.clone(),
-                point: point.clone(),
-                state: st
-                    .as_ref()
-                    .map(|j| j.state)
-                    .unwrap_or(crate::job::JobState::Failed),
-                iterations: st.as_ref().map(|j| j.iteration).unwrap_or(0),
-                time_s: st.as_ref().map(|j| j.elapsed_s).unwrap_or(0.0),
-                rmse: st.as_ref().ok().and_then(|j| j.last_rmse),
-            }
-        })
-        .collect();
-    Ok(SweepTable {
-        id: sweep.id,
-        name: sweep.spec.name,
-        rows,
-    })
-}
-
-impl SweepTable {
-    pub fn csv(&self) -> String {
-        let keys: Vec<&String> = self
-            .rows
-            .first()
-            .map(|r| r.point.keys().collect())
-            .unwrap_or_default();
-        let mut out = String::from("job");
-        for k in &keys {
-            out.push(',');
-            out.push_str(k);
-        }
-        out.push_str(",state,iterations,time_s,rmse\n");
-        for r in &self.rows {
-            out.push_str(&r.job);
-            for k in &keys {
-                out.push(',');
-                let v = &r.point[*k];
-                out.push_str(
-                    &v.as_str()
-                        .map(String::from)
-                        .unwrap_or_else(|| v.to_string()),
-                );
-            }
-            let rmse = r.rmse.map(|x| format!("{x:.6e}")).unwrap_or_default();
-            out.push_str(&format!(
-                ",{},{},{:.3},{rmse}\n",
-                r.state.as_str(),
-                r.iterations,
-                r.time_s
-            ));
-        }
-        out
-    }
 }
 
 #[derive(Deserialize)]
@@ -608,11 +527,7 @@ async fn get_sweep(
     q: Result<Query<SweepQuery>, axum::extract::rejection::QueryRejection>,
 ) -> ApiResult<Response> {
     let Query(q) = q.map_err(|e| ApiError::bad_request(e.body_text()))?;
-    let table = blocking(&svc, move |s| {
-        let sweep = s.get_sweep(&id)?;
-        sweep_table(s, sweep)
-    })
-    .await?;
+    let table = blocking(&svc, move |s| Ok(s.sweep_table(s.get_sweep(&id)?))).await?;
     if q.format.as_deref() == Some("csv") || wants(&headers, "text/csv") {
         return Ok(bytes_response("text/csv", table.csv().into_bytes()));
     }
