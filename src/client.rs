@@ -5,9 +5,9 @@
 //! Every command function writes its results to `out` (stdout in the CLI) and progress
 //! to stderr, and returns `Ok(true)` when everything it waited for completed.
 
+use crate::api::{JobView, SweepTable};
 use crate::job::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
-use crate::job::sweep::{SweepSpec, SweepTable};
-use crate::server::http::JobView;
+use crate::job::sweep::SweepSpec;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

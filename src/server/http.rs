@@ -2,10 +2,12 @@
 //! serve it on an ephemeral port.
 
 use super::error::ApiError;
+use crate::api::{ErrorBody, ErrorDetail, JobUrls, JobView};
+use crate::api::{SweepRow, SweepTable};
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::store::LogRow;
-use crate::job::sweep::{SweepRow, SweepSpec, SweepTable};
+use crate::job::sweep::SweepSpec;
 use crate::job::watch::Watched;
 use crate::job::JobState;
 use crate::job::{JobError, JobSpec, JobStatus, Service};
@@ -19,10 +21,10 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures::{Stream, StreamExt};
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use std::convert::Infallible;
 use std::sync::Arc;
-use utoipa::{OpenApi, ToSchema};
+use utoipa::OpenApi;
 
 type Svc = Arc<Service>;
 type ApiResult<T> = Result<T, ApiError>;
@@ -75,39 +77,6 @@ async fn blocking<T: Send + 'static>(
         .await
         .map_err(|e| ApiError::from(JobError::Internal(e.to_string())))?
         .map_err(ApiError::from)
-}
-
-/// A job with the URLs a client follows.
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct JobView {
-    #[serde(flatten)]
-    pub job: JobStatus,
-    pub urls: JobUrls,
-}
-
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct JobUrls {
-    pub this: String,
-    pub preview: String,
-    pub image: String,
-    pub snapshots: String,
-    pub log: String,
-    pub events: String,
-}
-
-fn view(job: JobStatus) -> JobView {
-    let base = format!("/v1/jobs/{}", job.id);
-    JobView {
-        urls: JobUrls {
-            preview: format!("{base}/preview.png"),
-            image: format!("{base}/image.exr"),
-            snapshots: format!("{base}/snapshots"),
-            log: format!("{base}/log"),
-            events: format!("{base}/events"),
-            this: base,
-        },
-        job,
-    }
 }
 
 pub fn app(svc: Svc, token: Option<String>) -> Router {
@@ -318,7 +287,7 @@ async fn submit(
     JsonBody(spec): JsonBody<JobSpec>,
 ) -> ApiResult<impl IntoResponse> {
     let job = blocking(&svc, move |s| s.submit(spec)).await?;
-    Ok((StatusCode::CREATED, Json(view(job))))
+    Ok((StatusCode::CREATED, Json(JobView::new(job))))
 }
 
 #[derive(Deserialize)]
@@ -341,17 +310,21 @@ async fn list_jobs(
         sweep: q.sweep,
     };
     let jobs = blocking(&svc, move |s| Ok(s.list_jobs(&f))).await?;
-    Ok(Json(jobs.into_iter().map(view).collect::<Vec<_>>()))
+    Ok(Json(jobs.into_iter().map(JobView::new).collect::<Vec<_>>()))
 }
 
 #[utoipa::path(get, path = "/v1/jobs/{id}", description = "One job: state, iteration, elapsed, samples/s, last RMSE, ETA, dropped samples.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody)))]
 async fn get_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.get_job(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.get_job(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/retry", description = "Queue a failed or cancelled job again; it resumes from its checkpoint (or starts over, to the same image). Returns the queued job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
 async fn retry(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.retry(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.retry(&id)).await?,
+    )))
 }
 
 #[utoipa::path(delete, path = "/v1/jobs/{id}", description = "Delete a job that is not running, with its directory.", params(("id" = String, Path)), responses((status = 204), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
@@ -362,17 +335,23 @@ async fn delete_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/cancel", description = "Cancel a queued, running or paused job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn cancel(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.cancel(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.cancel(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/pause", description = "Pause a queued or running job (after its current batch).", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn pause(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.pause(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.pause(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/resume", description = "Queue a paused job again.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn resume(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.resume(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.resume(&id)).await?,
+    )))
 }
 
 #[derive(Deserialize)]
@@ -538,19 +517,6 @@ async fn get_sweep(
 async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
     let text = blocking(&svc, |s| Ok(s.metrics())).await?;
     Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response())
-}
-
-/// Error responses: what went wrong, in words a client can act on.
-#[derive(Serialize, ToSchema)]
-pub struct ErrorBody {
-    pub error: ErrorDetail,
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct ErrorDetail {
-    /// bad_request, invalid_scene, not_found, conflict, too_large, unauthorized, internal
-    pub code: String,
-    pub message: String,
 }
 
 /// The OpenAPI document, generated from the handlers' annotations and the types, and
