@@ -1,6 +1,7 @@
 //! caustic: progressive, physically based global illumination, as a library, a CLI and
 //! a render server.
 
+pub mod api;
 pub mod bench;
 pub mod camera;
 pub mod client;

@@ -13,6 +13,7 @@ pub mod service;
 pub mod spec;
 pub mod store;
 pub mod sweep;
+pub mod watch;
 
 pub use service::{Service, ServiceConfig};
 pub use spec::{HaltSpec, JobSpec, JobState, JobStatus};

@@ -140,19 +140,6 @@ impl Service {
         self.closing.send_replace(true);
     }
 
-    /// Whether [`Service::begin_shutdown`] has been called.
-    pub fn is_closing(&self) -> bool {
-        *self.closing.borrow()
-    }
-
-    /// Resolves once [`Service::begin_shutdown`] has been called.
-    pub fn until_closing(&self) -> impl std::future::Future<Output = ()> + Send + 'static {
-        let mut rx = self.closing.subscribe();
-        async move {
-            let _ = rx.wait_for(|c| *c).await;
-        }
-    }
-
     /// Stops the scheduler after its current batch, writes a checkpoint for every job
     /// held in memory and any job.json still unwritten; jobs resume on the next start.
     pub fn shutdown(&self) {
@@ -172,6 +159,15 @@ impl Service {
 
     pub fn subscribe(&self) -> tokio::sync::broadcast::Receiver<Event> {
         self.shared.events.subscribe()
+    }
+
+    pub(super) fn shared(&self) -> &Arc<Shared> {
+        &self.shared
+    }
+
+    /// Turns true when [`Service::begin_shutdown`] is called.
+    pub(super) fn closing(&self) -> tokio::sync::watch::Receiver<bool> {
+        self.closing.subscribe()
     }
 
     // ---- scenes -------------------------------------------------------------

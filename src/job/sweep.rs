@@ -1,8 +1,8 @@
 //! Sweeps: a base job and a grid of parameter values expand into one job per grid
 //! point, tagged with the sweep's id; the sweep's table summarises their results.
 
-use super::spec::JobSpec;
-use super::JobError;
+use super::spec::{JobSpec, JobState};
+use super::{JobError, Service};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -106,6 +106,90 @@ impl SweepSpec {
             out.push((point, spec));
         }
         Ok(out)
+    }
+}
+
+/// One row per job of a sweep.
+#[derive(Serialize, Deserialize, Debug, Clone, utoipa::ToSchema)]
+pub struct SweepRow {
+    pub job: String,
+    #[schema(value_type = Object)]
+    pub point: std::collections::BTreeMap<String, serde_json::Value>,
+    pub state: JobState,
+    pub iterations: u64,
+    pub time_s: f64,
+    pub rmse: Option<f64>,
+}
+
+// A sweep's summary, one row per job in grid order (no doc comment: it would change
+// the OpenAPI schema's description).
+#[derive(Serialize, Deserialize, Debug, Clone, utoipa::ToSchema)]
+pub struct SweepTable {
+    pub id: String,
+    pub name: Option<String>,
+    pub rows: Vec<SweepRow>,
+}
+
+impl Service {
+    /// The sweep's table: each job's state, iterations, time and last RMSE. A job that
+    /// is gone (deleted) shows as failed with nothing rendered.
+    pub fn sweep_table(&self, sweep: Sweep) -> SweepTable {
+        let rows = sweep
+            .jobs
+            .iter()
+            .map(|(point, id)| {
+                let st = self.get_job(id);
+                SweepRow {
+                    job: id.clone(),
+                    point: point.clone(),
+                    state: st.as_ref().map(|j| j.state).unwrap_or(JobState::Failed),
+                    iterations: st.as_ref().map(|j| j.iteration).unwrap_or(0),
+                    time_s: st.as_ref().map(|j| j.elapsed_s).unwrap_or(0.0),
+                    rmse: st.as_ref().ok().and_then(|j| j.last_rmse),
+                }
+            })
+            .collect();
+        SweepTable {
+            id: sweep.id,
+            name: sweep.spec.name,
+            rows,
+        }
+    }
+}
+
+impl SweepTable {
+    pub fn csv(&self) -> String {
+        let keys: Vec<&String> = self
+            .rows
+            .first()
+            .map(|r| r.point.keys().collect())
+            .unwrap_or_default();
+        let mut out = String::from("job");
+        for k in &keys {
+            out.push(',');
+            out.push_str(k);
+        }
+        out.push_str(",state,iterations,time_s,rmse\n");
+        for r in &self.rows {
+            out.push_str(&r.job);
+            for k in &keys {
+                out.push(',');
+                let v = &r.point[*k];
+                out.push_str(
+                    &v.as_str()
+                        .map(String::from)
+                        .unwrap_or_else(|| v.to_string()),
+                );
+            }
+            let rmse = r.rmse.map(|x| format!("{x:.6e}")).unwrap_or_default();
+            out.push_str(&format!(
+                ",{},{},{:.3},{rmse}\n",
+                r.state.as_str(),
+                r.iterations,
+                r.time_s
+            ));
+        }
+        out
     }
 }
 

@@ -7,10 +7,10 @@ use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::spec::{KeepSnapshots, ReferenceSpec, SnapshotEvery};
 use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::watch::{Watch, Watched};
 use crate::job::{HaltSpec, JobError, JobSpec, JobState, JobStatus, Service};
 use std::pin::Pin;
 use std::sync::Arc;
-use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::service::interceptor::InterceptedService;
@@ -402,16 +402,6 @@ fn done_event(j: JobStatus) -> pb::JobEvent {
     }))
 }
 
-fn progress_event(j: &JobStatus) -> pb::JobEvent {
-    event(pb::job_event::Event::Progress(pb::Progress {
-        iteration: j.iteration,
-        elapsed_s: j.elapsed_s,
-        samples_per_s: j.samples_per_s,
-        eta_s: j.eta_s,
-        dropped: j.dropped,
-    }))
-}
-
 /// A domain event as a stream message; snapshot PNGs are attached by the caller.
 fn event_to_pb(e: Event) -> pb::JobEvent {
     use pb::job_event::Event as E;
@@ -450,83 +440,46 @@ fn event_to_pb(e: Event) -> pb::JobEvent {
 
 type EventSender = mpsc::Sender<Result<pb::JobEvent, Status>>;
 
-/// Forwards one job's events until `done`, the client leaving, or the service
-/// stopping. `events` was subscribed before the job's state (`sent`, already sent)
-/// was read, so nothing after that read is lost. State events that repeat the last
-/// state sent are dropped: watchers see changes only.
-async fn watch(
+/// Forwards a watch ([`crate::job::watch`]) until its last item or the client
+/// leaving. The job's state was sent already; state events that repeat the last state
+/// sent are dropped: watchers see changes only.
+async fn forward(
     svc: Arc<Service>,
     id: String,
     include_snapshots: bool,
-    mut events: tokio::sync::broadcast::Receiver<Event>,
-    mut sent: JobState,
+    mut watch: Watch,
     tx: EventSender,
 ) {
-    let closing = svc.until_closing();
-    tokio::pin!(closing);
+    let mut sent = watch.state();
     loop {
-        let next = tokio::select! {
-            e = events.recv() => e,
+        let item = tokio::select! {
+            w = watch.next() => w,
             _ = tx.closed() => return,
-            _ = &mut closing => {
-                let e = Status::unavailable(
-                    "the server is stopping; the job resumes from its checkpoint when it starts again",
-                );
-                return send_last(&tx, Err(e)).await;
-            }
         };
-        let msg = match next {
-            Ok(e) if e.job() != id => continue,
-            Ok(Event::State { state, .. }) if state == sent => continue,
-            Ok(Event::State { state, .. }) => {
+        let msg = match item {
+            None => return,
+            Some(Watched::Event(Event::State { state, .. })) if state == sent => continue,
+            Some(Watched::Event(Event::State { state, .. })) => {
                 sent = state;
-                state_event(state)
+                Ok(state_event(state))
             }
-            Ok(e @ Event::Snapshot { iteration, .. }) if include_snapshots => {
+            Some(Watched::Event(e @ Event::Snapshot { iteration, .. })) if include_snapshots => {
                 let mut msg = event_to_pb(e);
                 if let Some(pb::job_event::Event::Snapshot(s)) = &mut msg.event {
                     s.png = snapshot_png(&svc, &id, iteration).await;
                 }
-                msg
+                Ok(msg)
             }
-            Ok(e) => event_to_pb(e),
-            Err(RecvError::Lagged(n)) => {
-                // Events were lost: resynchronise from the job's current status.
-                tracing::warn!(job = %id, missed = n, "watcher lagged behind");
-                let (svc, jid) = (svc.clone(), id.clone());
-                let status = match tokio::task::spawn_blocking(move || svc.get_job(&jid)).await {
-                    Ok(Ok(s)) => s,
-                    Ok(Err(e)) => return send_last(&tx, Err(to_status(e))).await,
-                    Err(e) => {
-                        let e = JobError::Internal(format!("service task: {e}"));
-                        return send_last(&tx, Err(to_status(e))).await;
-                    }
-                };
-                if status.state.is_terminal() {
-                    return send_last(&tx, Ok(done_event(status))).await;
-                }
-                if status.state != sent {
-                    sent = status.state;
-                    if tx.send(Ok(state_event(sent))).await.is_err() {
-                        return;
-                    }
-                }
-                progress_event(&status)
-            }
-            Err(RecvError::Closed) => {
-                let e = Status::unavailable("the server is shutting down");
-                return send_last(&tx, Err(e)).await;
-            }
+            Some(Watched::Event(e)) => Ok(event_to_pb(e)),
+            Some(Watched::Stopping) => Err(Status::unavailable(
+                "the server is stopping; the job resumes from its checkpoint when it starts again",
+            )),
+            Some(Watched::Lost(e)) => Err(to_status(e)),
         };
-        let last = matches!(msg.event, Some(pb::job_event::Event::Done(_)));
-        if tx.send(Ok(msg)).await.is_err() || last {
+        if tx.send(msg).await.is_err() {
             return;
         }
     }
-}
-
-async fn send_last(tx: &EventSender, msg: Result<pb::JobEvent, Status>) {
-    let _ = tx.send(msg).await;
 }
 
 /// The snapshot's PNG, or empty if it cannot be read (e.g. the job was deleted).
@@ -675,26 +628,13 @@ impl Caustic for Grpc {
             id,
             include_snapshots,
         } = req.into_inner();
-        // Subscribe before reading the state, so no event after that read is missed.
-        let events = self.svc.subscribe();
         let job_id = id.clone();
-        let status = self.call(move |s| s.get_job(&job_id)).await?;
+        let watch = self.call(move |s| s.watch(&job_id)).await?;
         let (tx, rx) = mpsc::channel(16);
-        // The channel is new and has room: these sends cannot fail or wait.
-        let _ = tx.try_send(Ok(state_event(status.state)));
-        if status.state.is_terminal() {
-            let _ = tx.try_send(Ok(done_event(status)));
-        } else {
-            let state = status.state;
-            tokio::spawn(watch(
-                self.svc.clone(),
-                id,
-                include_snapshots,
-                events,
-                state,
-                tx,
-            ));
-        }
+        // The state first, for a finished job too (its `done` follows). The channel is
+        // new and has room: this send cannot fail or wait.
+        let _ = tx.try_send(Ok(state_event(watch.state())));
+        tokio::spawn(forward(self.svc.clone(), id, include_snapshots, watch, tx));
         Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
     }
 }

@@ -2,11 +2,13 @@
 //! serve it on an ephemeral port.
 
 use super::error::ApiError;
-use crate::job::events::Event;
+use crate::api::{ErrorBody, ErrorDetail, JobUrls, JobView};
+use crate::api::{SweepRow, SweepTable};
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::store::LogRow;
-use crate::job::sweep::{Sweep, SweepSpec};
+use crate::job::sweep::SweepSpec;
+use crate::job::watch::Watched;
 use crate::job::JobState;
 use crate::job::{JobError, JobSpec, JobStatus, Service};
 use axum::body::Bytes;
@@ -19,10 +21,10 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures::{Stream, StreamExt};
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use std::convert::Infallible;
 use std::sync::Arc;
-use utoipa::{OpenApi, ToSchema};
+use utoipa::OpenApi;
 
 type Svc = Arc<Service>;
 type ApiResult<T> = Result<T, ApiError>;
@@ -75,39 +77,6 @@ async fn blocking<T: Send + 'static>(
         .await
         .map_err(|e| ApiError::from(JobError::Internal(e.to_string())))?
         .map_err(ApiError::from)
-}
-
-/// A job with the URLs a client follows.
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct JobView {
-    #[serde(flatten)]
-    pub job: JobStatus,
-    pub urls: JobUrls,
-}
-
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct JobUrls {
-    pub this: String,
-    pub preview: String,
-    pub image: String,
-    pub snapshots: String,
-    pub log: String,
-    pub events: String,
-}
-
-fn view(job: JobStatus) -> JobView {
-    let base = format!("/v1/jobs/{}", job.id);
-    JobView {
-        urls: JobUrls {
-            preview: format!("{base}/preview.png"),
-            image: format!("{base}/image.exr"),
-            snapshots: format!("{base}/snapshots"),
-            log: format!("{base}/log"),
-            events: format!("{base}/events"),
-            this: base,
-        },
-        job,
-    }
 }
 
 pub fn app(svc: Svc, token: Option<String>) -> Router {
@@ -318,7 +287,7 @@ async fn submit(
     JsonBody(spec): JsonBody<JobSpec>,
 ) -> ApiResult<impl IntoResponse> {
     let job = blocking(&svc, move |s| s.submit(spec)).await?;
-    Ok((StatusCode::CREATED, Json(view(job))))
+    Ok((StatusCode::CREATED, Json(JobView::new(job))))
 }
 
 #[derive(Deserialize)]
@@ -341,17 +310,21 @@ async fn list_jobs(
         sweep: q.sweep,
     };
     let jobs = blocking(&svc, move |s| Ok(s.list_jobs(&f))).await?;
-    Ok(Json(jobs.into_iter().map(view).collect::<Vec<_>>()))
+    Ok(Json(jobs.into_iter().map(JobView::new).collect::<Vec<_>>()))
 }
 
 #[utoipa::path(get, path = "/v1/jobs/{id}", description = "One job: state, iteration, elapsed, samples/s, last RMSE, ETA, dropped samples.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody)))]
 async fn get_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.get_job(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.get_job(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/retry", description = "Queue a failed or cancelled job again; it resumes from its checkpoint (or starts over, to the same image). Returns the queued job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
 async fn retry(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.retry(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.retry(&id)).await?,
+    )))
 }
 
 #[utoipa::path(delete, path = "/v1/jobs/{id}", description = "Delete a job that is not running, with its directory.", params(("id" = String, Path)), responses((status = 204), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
@@ -362,17 +335,23 @@ async fn delete_job(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/cancel", description = "Cancel a queued, running or paused job.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn cancel(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.cancel(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.cancel(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/pause", description = "Pause a queued or running job (after its current batch).", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn pause(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.pause(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.pause(&id)).await?,
+    )))
 }
 
 #[utoipa::path(post, path = "/v1/jobs/{id}/resume", description = "Queue a paused job again.", params(("id" = String, Path)), responses((status = 200, body = JobView), (status = 409, body = ErrorBody)))]
 async fn resume(State(svc): State<Svc>, Path(id): Path<String>) -> ApiResult<impl IntoResponse> {
-    Ok(Json(view(blocking(&svc, move |s| s.resume(&id)).await?)))
+    Ok(Json(JobView::new(
+        blocking(&svc, move |s| s.resume(&id)).await?,
+    )))
 }
 
 #[derive(Deserialize)]
@@ -469,52 +448,27 @@ async fn events(
     State(svc): State<Svc>,
     Path(id): Path<String>,
 ) -> ApiResult<Sse<impl Stream<Item = Result<sse::Event, Infallible>>>> {
-    // Subscribe before reading the state, so no event falls between the two.
-    let rx = svc.subscribe();
+    // One stream for both transports: crate::job::watch.
     let jid = id.clone();
-    let jid_for_shutdown = id.clone();
-    let status = blocking(&svc, move |s| s.get_job(&jid)).await?;
-    let first = if status.state.is_terminal() {
-        Event::Done {
-            job: id.clone(),
-            status: Box::new(status),
-        }
-    } else {
-        Event::State {
-            job: id.clone(),
-            state: status.state,
-        }
-    };
-    let done_already = matches!(first, Event::Done { .. });
-    let live = tokio_stream::wrappers::BroadcastStream::new(rx)
-        .filter_map(move |r| {
-            let id = id.clone();
-            async move { r.ok().filter(|e| e.job() == id) }
-        })
-        .boxed();
-    let sent_done = Arc::new(std::sync::atomic::AtomicBool::new(done_already));
-    let mark = sent_done.clone();
-    let events = futures::stream::once(async move { first })
-        .chain(until_done(live, done_already))
-        .map(move |e| {
-            if matches!(e, Event::Done { .. }) {
-                mark.store(true, std::sync::atomic::Ordering::Relaxed);
+    let watch = blocking(&svc, move |s| s.watch(&jid)).await?;
+    let stream = watch.into_stream().filter_map(move |w| {
+        let e = match w {
+            Watched::Event(e) => Some(
+                sse::Event::default()
+                    .event(e.name())
+                    .json_data(&e)
+                    .expect("event serialises"),
+            ),
+            // When the server stops, the stream ends with a `shutdown` event, so that
+            // the connection closes and the server can exit.
+            Watched::Stopping => Some(shutdown_event(&id)),
+            Watched::Lost(e) => {
+                tracing::warn!(job = %id, error = %e, "event stream ends: the job is gone");
+                None
             }
-            Ok(sse::Event::default()
-                .event(e.name())
-                .json_data(&e)
-                .expect("event serialises"))
-        });
-    // When the server stops, the stream ends with a `shutdown` event (unless `done`
-    // was already the last), so that the connection closes and the server can exit.
-    let stream = events.take_until(svc.until_closing()).chain(
-        futures::stream::once(async move {
-            let stopping =
-                svc.is_closing() && !sent_done.load(std::sync::atomic::Ordering::Relaxed);
-            stopping.then(|| Ok(shutdown_event(&jid_for_shutdown)))
-        })
-        .filter_map(|e| async move { e }),
-    );
+        };
+        futures::future::ready(e.map(Ok))
+    });
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
 }
 
@@ -529,111 +483,13 @@ fn shutdown_event(job: &str) -> sse::Event {
     )
 }
 
-/// Passes events through up to and including the first `done`, then ends (at once,
-/// not when some later event arrives).
-fn until_done(
-    events: futures::stream::BoxStream<'static, Event>,
-    finished: bool,
-) -> impl Stream<Item = Event> {
-    futures::stream::unfold((events, finished), |(mut events, finished)| async move {
-        if finished {
-            return None;
-        }
-        let e = events.next().await?;
-        let finished = matches!(e, Event::Done { .. });
-        Some((e, (events, finished)))
-    })
-}
-
 #[utoipa::path(post, path = "/v1/sweeps", description = "Expand a base job and a parameter grid into jobs tagged with the sweep.", request_body = SweepSpec, responses((status = 201, body = SweepTable), (status = 400, body = ErrorBody)))]
 async fn create_sweep(
     State(svc): State<Svc>,
     JsonBody(spec): JsonBody<SweepSpec>,
 ) -> ApiResult<impl IntoResponse> {
-    let sweep = blocking(&svc, move |s| s.create_sweep(spec)).await?;
-    let table = blocking(&svc, move |s| sweep_table(s, sweep)).await?;
+    let table = blocking(&svc, move |s| Ok(s.sweep_table(s.create_sweep(spec)?))).await?;
     Ok((StatusCode::CREATED, Json(table)))
-}
-
-/// One row per job of a sweep.
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct SweepRow {
-    pub job: String,
-    #[schema(value_type = Object)]
-    pub point: std::collections::BTreeMap<String, serde_json::Value>,
-    pub state: crate::job::JobState,
-    pub iterations: u64,
-    pub time_s: f64,
-    pub rmse: Option<f64>,
-}
-
-#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
-pub struct SweepTable {
-    pub id: String,
-    pub name: Option<String>,
-    pub rows: Vec<SweepRow>,
-}
-
-fn sweep_table(s: &Service, sweep: Sweep) -> Result<SweepTable, JobError> {
-    let rows = sweep
-        .jobs
-        .iter()
-        .map(|(point, id)| {
-            let st = s.get_job(id);
-            SweepRow {
-                job: id.clone(),
-                point: point.clone(),
-                state: st
-                    .as_ref()
-                    .map(|j| j.state)
-                    .unwrap_or(crate::job::JobState::Failed),
-                iterations: st.as_ref().map(|j| j.iteration).unwrap_or(0),
-                time_s: st.as_ref().map(|j| j.elapsed_s).unwrap_or(0.0),
-                rmse: st.as_ref().ok().and_then(|j| j.last_rmse),
-            }
-        })
-        .collect();
-    Ok(SweepTable {
-        id: sweep.id,
-        name: sweep.spec.name,
-        rows,
-    })
-}
-
-impl SweepTable {
-    pub fn csv(&self) -> String {
-        let keys: Vec<&String> = self
-            .rows
-            .first()
-            .map(|r| r.point.keys().collect())
-            .unwrap_or_default();
-        let mut out = String::from("job");
-        for k in &keys {
-            out.push(',');
-            out.push_str(k);
-        }
-        out.push_str(",state,iterations,time_s,rmse\n");
-        for r in &self.rows {
-            out.push_str(&r.job);
-            for k in &keys {
-                out.push(',');
-                let v = &r.point[*k];
-                out.push_str(
-                    &v.as_str()
-                        .map(String::from)
-                        .unwrap_or_else(|| v.to_string()),
-                );
-            }
-            let rmse = r.rmse.map(|x| format!("{x:.6e}")).unwrap_or_default();
-            out.push_str(&format!(
-                ",{},{},{:.3},{rmse}\n",
-                r.state.as_str(),
-                r.iterations,
-                r.time_s
-            ));
-        }
-        out
-    }
 }
 
 #[derive(Deserialize)]
@@ -650,11 +506,7 @@ async fn get_sweep(
     q: Result<Query<SweepQuery>, axum::extract::rejection::QueryRejection>,
 ) -> ApiResult<Response> {
     let Query(q) = q.map_err(|e| ApiError::bad_request(e.body_text()))?;
-    let table = blocking(&svc, move |s| {
-        let sweep = s.get_sweep(&id)?;
-        sweep_table(s, sweep)
-    })
-    .await?;
+    let table = blocking(&svc, move |s| Ok(s.sweep_table(s.get_sweep(&id)?))).await?;
     if q.format.as_deref() == Some("csv") || wants(&headers, "text/csv") {
         return Ok(bytes_response("text/csv", table.csv().into_bytes()));
     }
@@ -665,19 +517,6 @@ async fn get_sweep(
 async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
     let text = blocking(&svc, |s| Ok(s.metrics())).await?;
     Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response())
-}
-
-/// Error responses: what went wrong, in words a client can act on.
-#[derive(Serialize, ToSchema)]
-pub struct ErrorBody {
-    pub error: ErrorDetail,
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct ErrorDetail {
-    /// bad_request, invalid_scene, not_found, conflict, too_large, unauthorized, internal
-    pub code: String,
-    pub message: String,
 }
 
 /// The OpenAPI document, generated from the handlers' annotations and the types, and

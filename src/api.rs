@@ -1,0 +1,58 @@
+//! The JSON wire types of the REST API under /v1 that are not domain values
+//! themselves: what [`crate::server::http`] answers and [`crate::client`] reads.
+//! Request bodies are the domain's own ([`crate::job::JobSpec`],
+//! [`crate::job::sweep::SweepSpec`]).
+
+use crate::job::JobStatus;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+pub use crate::job::sweep::{SweepRow, SweepTable};
+
+/// A job with the URLs a client follows.
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
+pub struct JobView {
+    #[serde(flatten)]
+    pub job: JobStatus,
+    pub urls: JobUrls,
+}
+
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
+pub struct JobUrls {
+    pub this: String,
+    pub preview: String,
+    pub image: String,
+    pub snapshots: String,
+    pub log: String,
+    pub events: String,
+}
+
+impl JobView {
+    pub fn new(job: JobStatus) -> JobView {
+        let base = format!("/v1/jobs/{}", job.id);
+        JobView {
+            urls: JobUrls {
+                preview: format!("{base}/preview.png"),
+                image: format!("{base}/image.exr"),
+                snapshots: format!("{base}/snapshots"),
+                log: format!("{base}/log"),
+                events: format!("{base}/events"),
+                this: base,
+            },
+            job,
+        }
+    }
+}
+
+/// Error responses: what went wrong, in words a client can act on.
+#[derive(Serialize, ToSchema)]
+pub struct ErrorBody {
+    pub error: ErrorDetail,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct ErrorDetail {
+    /// bad_request, invalid_scene, not_found, conflict, too_large, unauthorized, internal
+    pub code: String,
+    pub message: String,
+}

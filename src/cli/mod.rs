@@ -1,0 +1,8 @@
+//! The command line of the `caustic` binary: its arguments and one module per group of
+//! commands.
+
+pub mod args;
+pub mod bench;
+pub mod client;
+pub mod render;
+pub mod serve;

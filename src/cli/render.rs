@@ -1,0 +1,226 @@
+//! `caustic render`, `reference` and `diff`: local renders with a progress bar, and
+//! image comparison.
+
+use super::args::{ReferenceArgs, RenderArgs};
+use anyhow::{Context, Result};
+use caustic::client::parse_params;
+use caustic::film::{self, Image};
+use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::{RenderStats, Settings};
+use caustic::scene::Scene;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+pub fn load_scene(path: &Path) -> Result<Scene> {
+    let t = Instant::now();
+    let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let s = &scene.stats;
+    eprintln!(
+        "scene: {} triangles ({} pairs as parallelograms), {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",
+        s.triangles,
+        s.quads,
+        s.spheres,
+        s.disks,
+        scene.lights.len(),
+        s.bvh_build.as_secs_f64() * 1e3,
+        s.bvh_bytes as f64 / 1024.0,
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    if s.degenerate_dropped > 0 {
+        eprintln!(
+            "warning: {} degenerate triangles dropped",
+            s.degenerate_dropped
+        );
+    }
+    Ok(scene)
+}
+
+pub fn render(a: &RenderArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let settings = Settings::resolve(
+        a.algorithm.as_deref(),
+        scene.integrator.as_ref(),
+        &parse_params(&a.params)?,
+    )?;
+    settings.check_scene(&scene)?;
+    let halt = match (a.spp, a.time) {
+        (None, None) => Halt {
+            iterations: Some(16),
+            time: None,
+        },
+        (spp, time) => Halt {
+            iterations: spp,
+            time: time.map(Duration::from_secs_f64),
+        },
+    };
+    let out = render_with_progress(&scene, &settings, a.seed, halt, "");
+    let image = out.image();
+    write_outputs(a, &scene, &image, &out.film.layer_images())?;
+    print_summary(
+        settings.name(),
+        out.iterations,
+        out.elapsed,
+        &out.stats,
+        out.film.dropped(),
+    );
+    Ok(())
+}
+
+/// A progress bar over iterations, or over milliseconds for a time budget, with an
+/// optional label in front.
+pub fn progress_bar(halt: Halt, label: &str) -> ProgressBar {
+    let (len, unit) = match (halt.iterations, halt.time) {
+        (Some(n), _) => (n, "it"),
+        (None, Some(t)) => (t.as_millis() as u64, "ms"),
+        _ => (1, "it"),
+    };
+    let bar = ProgressBar::new(len);
+    let style =
+        format!("{{prefix}}{{bar:40}} {{pos}}/{{len}} {unit} {{msg}} [{{elapsed}} < {{eta}}]");
+    bar.set_style(ProgressStyle::with_template(&style).expect("template"));
+    if !label.is_empty() {
+        bar.set_prefix(format!("{label} "));
+    }
+    bar
+}
+
+/// Advances `bar` after `i` iterations and `elapsed` time.
+pub fn show_progress(bar: &ProgressBar, by_count: bool, i: u64, elapsed: Duration) {
+    if by_count {
+        bar.set_position(i);
+    } else {
+        bar.set_position(elapsed.as_millis() as u64);
+    }
+    bar.set_message(format!("{i} it"));
+}
+
+/// `driver::render` with a progress bar on stderr.
+pub fn render_with_progress(
+    scene: &Scene,
+    settings: &Settings,
+    seed: u64,
+    halt: Halt,
+    label: &str,
+) -> driver::RenderOutcome {
+    let integrator = settings.build();
+    let bar = progress_bar(halt, label);
+    let by_count = halt.iterations.is_some();
+    let out = driver::render(scene, integrator.as_ref(), seed, halt, |i, el| {
+        show_progress(&bar, by_count, i, el)
+    });
+    bar.finish_and_clear();
+    out
+}
+
+pub fn reference(a: &ReferenceArgs) -> Result<()> {
+    let scene = load_scene(&a.scene)?;
+    let settings = Settings::resolve(
+        a.algorithm.as_deref(),
+        scene.integrator.as_ref(),
+        &parse_params(&a.params)?,
+    )?;
+    settings.check_scene(&scene)?;
+    let halt = Halt {
+        iterations: a.spp,
+        time: a.time.map(Duration::from_secs_f64),
+    };
+    let out = render_with_progress(&scene, &settings, a.seed, halt, "");
+    let image = out.image();
+    film::write_exr(&a.output, &image)?;
+    eprintln!("wrote {}", a.output.display());
+    if let Some(p) = &a.png {
+        film::write_png(p, &image, 0.0)?;
+        eprintln!("wrote {}", p.display());
+    }
+    print_summary(
+        settings.name(),
+        out.iterations,
+        out.elapsed,
+        &out.stats,
+        out.film.dropped(),
+    );
+    Ok(())
+}
+
+/// Writes the image, with the integrator's own layers (technique or strategy parts)
+/// and, with `--exr-layers`, albedo and normal layers.
+fn write_outputs(
+    a: &RenderArgs,
+    scene: &Scene,
+    image: &Image,
+    own: &[(String, Image)],
+) -> Result<()> {
+    let mut layers: Vec<(&str, &Image)> = own.iter().map(|(n, i)| (n.as_str(), i)).collect();
+    let aovs;
+    if a.exr_layers {
+        let aov = |s: Settings| {
+            driver::render(
+                scene,
+                s.build().as_ref(),
+                a.seed,
+                Halt {
+                    iterations: Some(4),
+                    time: None,
+                },
+                |_, _| {},
+            )
+            .image()
+        };
+        aovs = [aov(Settings::Albedo {}), aov(Settings::Normals {})];
+        layers.push(("albedo", &aovs[0]));
+        layers.push(("normal", &aovs[1]));
+    }
+    if layers.is_empty() {
+        film::write_exr(&a.output, image)?;
+    } else {
+        film::write_exr_layers(&a.output, image, &layers)?;
+    }
+    eprintln!("wrote {}", a.output.display());
+    if let Some(p) = &a.png {
+        film::write_png(p, image, a.exposure)?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats, dropped: u64) {
+    let secs = elapsed.as_secs_f64().max(1e-9);
+    println!(
+        "{alg}: {iterations} iterations in {secs:.3} s ({:.2} ms/iteration), {:.3} M samples/s, {:.2} M rays/s ({} closest + {} shadow), {dropped} dropped samples",
+        secs * 1e3 / iterations.max(1) as f64,
+        s.samples as f64 / secs / 1e6,
+        (s.rays + s.shadow_rays) as f64 / secs / 1e6,
+        s.rays,
+        s.shadow_rays,
+    );
+    if s.light_vertices > 0 || s.merges > 0 || s.connections > 0 {
+        let n = iterations.max(1) as f64;
+        println!(
+            "  per iteration: {:.0} light vertices stored ({:.1} MiB of vertex storage), {:.0} connections, {:.0} merges; last merge radius {:.3e}",
+            s.light_vertices as f64 / n,
+            s.vertex_bytes as f64 / 1048576.0,
+            s.connections as f64 / n,
+            s.merges as f64 / n,
+            s.merge_radius,
+        );
+    }
+}
+
+pub fn diff(a: &Path, b: &Path, png: Option<&Path>) -> Result<()> {
+    let ia = film::read_image(a)?;
+    let ib = film::read_image(b)?;
+    let m = film::compare(&ia, &ib)?;
+    println!("rmse {:.6e}\nrel_mse {:.6e}", m.rmse, m.rel_mse);
+    let (ma, mb) = (ia.mean(), ib.mean());
+    println!(
+        "mean_a {:.6} {:.6} {:.6}\nmean_b {:.6} {:.6} {:.6}",
+        ma.x, ma.y, ma.z, mb.x, mb.y, mb.z
+    );
+    if let Some(p) = png {
+        let d = film::false_colour_diff(&ia, &ib)?;
+        film::write_png(p, &d, 0.0).with_context(|| format!("writing {}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
