@@ -4,6 +4,7 @@
 pub mod emit;
 pub mod mis;
 pub mod nee;
+pub mod params;
 pub mod streams;
 
 pub use mis::{emitted, escaped, Heuristic};

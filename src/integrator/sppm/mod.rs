@@ -44,6 +44,7 @@ use crate::geometry::{spawn_ray, Interaction};
 use crate::integrator::accel::HashGrid;
 use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::nee::{sample_light, Origin};
+use crate::integrator::common::params::{check_alpha, check_photon_params};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
@@ -88,29 +89,15 @@ impl Default for SppmSettings {
     }
 }
 
-/// Most photon paths per pass per pixel (memory stays bounded by waves, time does not).
-const MAX_LIGHT_PATHS: f32 = 1024.0;
-
 impl SppmSettings {
     pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        if !(self.light_paths > 0.0 && self.light_paths <= MAX_LIGHT_PATHS) {
-            return Err(format!("light_paths must be in (0, {MAX_LIGHT_PATHS}]"));
-        }
-        if let Some(r) = self.radius {
-            if !(r > 0.0 && r.is_finite()) {
-                return Err("radius must be positive and finite".into());
-            }
-        }
-        if !(self.radius_factor > 0.0 && self.radius_factor.is_finite()) {
-            return Err("radius_factor must be positive and finite".into());
-        }
-        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
-            return Err("alpha must be in (0, 1]".into());
-        }
-        Ok(())
+        check_photon_params(
+            self.max_depth,
+            self.light_paths,
+            self.radius,
+            self.radius_factor,
+        )?;
+        check_alpha(self.alpha)
     }
 
     /// Initial radius for `scene`.

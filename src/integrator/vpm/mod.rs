@@ -82,6 +82,7 @@
 mod photons;
 
 use super::accel::{HashGrid, PointBvh};
+use super::common::params::{check_alpha, check_photon_params};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -165,29 +166,16 @@ impl Default for VpmSettings {
     }
 }
 
-/// Most photon paths per iteration per pixel.
-const MAX_LIGHT_PATHS: f32 = 1024.0;
-
 impl VpmSettings {
     pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        if !(self.light_paths > 0.0 && self.light_paths <= MAX_LIGHT_PATHS) {
-            return Err(format!("light_paths must be in (0, {MAX_LIGHT_PATHS}]"));
-        }
-        if let Some(r) = self.radius {
-            if !(r > 0.0 && r.is_finite()) {
-                return Err("radius must be positive and finite".into());
-            }
-        }
-        if !(self.radius_factor > 0.0 && self.radius_factor.is_finite()) {
-            return Err("radius_factor must be positive and finite".into());
-        }
+        check_photon_params(
+            self.max_depth,
+            self.light_paths,
+            self.radius,
+            self.radius_factor,
+        )?;
         if let Some(a) = self.alpha {
-            if !(a > 0.0 && a <= 1.0) {
-                return Err("alpha must be in (0, 1]".into());
-            }
+            check_alpha(a)?;
         }
         if self.max_photon_mib == 0 {
             return Err("max_photon_mib must be at least 1".into());
