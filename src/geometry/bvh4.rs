@@ -26,12 +26,11 @@
 //!   spilled and reloaded on every node). The kernel is chosen once, when the tree is
 //!   built. Other targets use the portable lanes.
 
-use super::bvh::Hit;
 #[cfg(target_arch = "x86_64")]
 use super::lanes::F8;
 use super::lanes::{Lanes, F4};
 use super::primitive::Prim;
-use super::Ray;
+use super::{Hit, Ray};
 use crate::math::{Vec2, Vec3A};
 use obvhs::bvh2::Bvh2;
 use std::mem::MaybeUninit;
