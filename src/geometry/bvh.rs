@@ -6,20 +6,15 @@
 use super::bvh4::Bvh4;
 use super::primitive::{surface_point, Prim, PrimHit, PrimMeta};
 use super::{Interaction, Ray};
-use crate::math::{Vec2, Vec3A};
+use crate::math::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
-/// A closest hit: distance, primitive (index into [`Accel::prim`]) and its surface
-/// parameters.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit {
-    pub t: f32,
-    pub prim: u32,
-    pub uv: Vec2,
-}
+// `Hit` lives beside `Ray` in `geometry`, where `bvh4` takes it without depending on
+// this module; the old path stays.
+pub use super::Hit;
 
 /// The slower presets build trees that trace measurably faster; their build cost only
 /// shows on large meshes.

@@ -7,7 +7,7 @@ mod lanes;
 pub mod offset;
 pub mod primitive;
 
-pub use bvh::{Accel, Hit};
+pub use bvh::Accel;
 pub use offset::{offset_ray_origin, spawn_ray, spawn_ray_to};
 pub use primitive::{Prim, PrimMeta};
 
@@ -35,6 +35,15 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t
     }
+}
+
+/// A closest hit, as the BVH reports it: distance, primitive (index into
+/// [`Accel::prim`]) and its surface parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub uv: Vec2,
 }
 
 /// Where a ray met a surface, resolved from a [`Hit`].
