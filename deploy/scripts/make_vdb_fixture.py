@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the small OpenVDB files that src/medium/grid_io.rs tests read.
+"""Writes the small OpenVDB files that src/medium/grid_io/vdb.rs tests read.
 
 They are made here because neither the vdb-rs crate nor its repository ships sample
 files, and OpenVDB's published samples are large and cannot be fetched in the build.
