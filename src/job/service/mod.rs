@@ -1,6 +1,10 @@
 //! The transport-neutral service: every operation the REST and gRPC front ends offer,
 //! as plain methods that validate, act and return domain values or [`JobError`]s.
 
+mod metrics;
+mod outputs;
+mod recover;
+
 use super::disk::{self, Retention};
 use super::events::Event;
 use super::limits;
@@ -8,10 +12,11 @@ use super::run;
 use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Metrics, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
-use super::store::{read_log, Checkpoint, JobDir, LogRow};
+use super::store::{Checkpoint, JobDir};
 use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
+use recover::recover;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Condvar, Mutex};
@@ -540,62 +545,6 @@ impl Service {
         std::fs::remove_dir_all(&dir.root).map_err(|e| JobError::io(&dir.root, e))
     }
 
-    pub fn job_dir(&self, id: &str) -> Result<JobDir, JobError> {
-        self.get_job(id)?;
-        Ok(JobDir::new(&self.config.data_dir, id))
-    }
-
-    /// The job's current image file: `latest.*` while it renders, `final.*` once it
-    /// has completed (which replaces `latest.*`).
-    fn current_image(&self, id: &str, ext: &str) -> Result<std::path::PathBuf, JobError> {
-        let dir = self.job_dir(id)?;
-        let latest = dir.latest(ext);
-        let fin = dir.final_image(ext);
-        Ok(if !latest.exists() && fin.exists() {
-            fin
-        } else {
-            latest
-        })
-    }
-
-    /// Latest image as PNG, re-encoded when an exposure is asked for.
-    pub fn preview_png(&self, id: &str, exposure: Option<f32>) -> Result<Vec<u8>, JobError> {
-        match exposure {
-            None | Some(0.0) => read_file(&self.current_image(id, "png")?),
-            Some(e) if e.is_finite() && e.abs() <= 64.0 => {
-                let img = crate::film::read_exr(self.current_image(id, "exr")?)
-                    .map_err(|_| JobError::NotFound(format!("job {id} has no image yet")))?;
-                Ok(crate::film::encode_png(&img, e)?)
-            }
-            Some(_) => Err(bad("exposure must be a number of stops in [-64, 64]")),
-        }
-    }
-
-    pub fn image_exr(&self, id: &str) -> Result<Vec<u8>, JobError> {
-        read_file(&self.current_image(id, "exr")?)
-    }
-
-    pub fn snapshots(&self, id: &str) -> Result<Vec<u64>, JobError> {
-        Ok(self.job_dir(id)?.list_snapshots())
-    }
-
-    pub fn snapshot(&self, id: &str, iteration: u64, ext: &str) -> Result<Vec<u8>, JobError> {
-        if ext != "exr" && ext != "png" {
-            return Err(bad("snapshots are .exr or .png"));
-        }
-        read_file(&self.job_dir(id)?.snapshot(iteration, ext))
-    }
-
-    pub fn log(&self, id: &str) -> Result<Vec<LogRow>, JobError> {
-        Ok(read_log(&self.job_dir(id)?))
-    }
-
-    pub fn log_csv(&self, id: &str) -> Result<Vec<u8>, JobError> {
-        let dir = self.job_dir(id)?;
-        Ok(std::fs::read(dir.log_csv())
-            .unwrap_or_else(|_| format!("{}\n", super::store::LOG_HEADER).into_bytes()))
-    }
-
     // ---- sweeps -------------------------------------------------------------
 
     /// Expands a sweep into jobs and queues them all, or none: every job is
@@ -652,205 +601,5 @@ impl Service {
             .join(format!("{id}.json"));
         let bytes = std::fs::read(&path).map_err(|_| JobError::NotFound(format!("sweep {id}")))?;
         serde_json::from_slice(&bytes).map_err(|e| JobError::Internal(e.to_string()))
-    }
-
-    // ---- health and metrics ------------------------------------------------
-
-    /// Prometheus text exposition.
-    pub fn metrics(&self) -> String {
-        let t = self.shared.table.lock().expect("job table");
-        let mut by_state = std::collections::BTreeMap::new();
-        for e in t.jobs.values() {
-            *by_state.entry(e.status.state.as_str()).or_insert(0u64) += 1;
-        }
-        let held = t.jobs.values().filter(|e| e.holds_memory()).count() as u64;
-        let unsaved = t.jobs.values().filter(|e| e.unsaved).count() as u64;
-        drop(t);
-        let m = &self.shared.metrics;
-        let mut out = String::new();
-        out.push_str("# HELP caustic_jobs Jobs by state.\n# TYPE caustic_jobs gauge\n");
-        for st in JobState::ALL {
-            let n = by_state.get(st.as_str()).copied().unwrap_or(0);
-            out.push_str(&format!("caustic_jobs{{state=\"{}\"}} {n}\n", st.as_str()));
-        }
-        let queue = by_state.get("queued").copied().unwrap_or(0);
-        let counters = [
-            (
-                "caustic_queue_length",
-                "gauge",
-                "Jobs waiting to run.",
-                queue,
-            ),
-            (
-                "caustic_iterations_total",
-                "counter",
-                "Iterations rendered.",
-                m.iterations.load(Ordering::Relaxed),
-            ),
-            (
-                "caustic_samples_total",
-                "counter",
-                "Camera samples or light paths.",
-                m.samples.load(Ordering::Relaxed),
-            ),
-            (
-                "caustic_rays_total",
-                "counter",
-                "Rays traced.",
-                m.rays.load(Ordering::Relaxed),
-            ),
-            (
-                "caustic_dropped_samples_total",
-                "counter",
-                "Non-finite or negative samples dropped.",
-                m.dropped.load(Ordering::Relaxed),
-            ),
-            (
-                "caustic_scene_compilations_total",
-                "counter",
-                "Scenes compiled (BVH builds).",
-                self.shared.scenes.compilations(),
-            ),
-            (
-                "caustic_jobs_held",
-                "gauge",
-                "Jobs whose render state is in memory.",
-                held,
-            ),
-            (
-                "caustic_jobs_set_aside_total",
-                "counter",
-                "Jobs checkpointed and set aside for a job of higher priority.",
-                m.set_aside.load(Ordering::Relaxed),
-            ),
-            (
-                "caustic_jobs_unsaved",
-                "gauge",
-                "Jobs whose job.json could not be written yet (retried).",
-                unsaved,
-            ),
-        ];
-        for (name, kind, help, v) in counters {
-            out.push_str(&format!(
-                "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {v}\n"
-            ));
-        }
-        let secs = m.render_ns.load(Ordering::Relaxed) as f64 / 1e9;
-        out.push_str(&format!(
-            "# HELP caustic_render_seconds_total Time spent rendering.\n# TYPE caustic_render_seconds_total counter\ncaustic_render_seconds_total {secs:.3}\n"
-        ));
-        out
-    }
-}
-
-fn read_file(path: &Path) -> Result<Vec<u8>, JobError> {
-    std::fs::read(path).map_err(|_| {
-        JobError::NotFound(format!(
-            "{} (not written yet)",
-            path.file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        ))
-    })
-}
-
-/// Reads every job.json under `<data-dir>/jobs`. Jobs that were running go back to
-/// the queue and resume from their checkpoints; a job's iteration is its checkpoint's
-/// (what it resumes from), and a completed job's leftovers (a checkpoint it did not ask
-/// to keep, `latest.*`) are removed.
-fn recover(data_dir: &Path) -> Table {
-    let mut t = Table::default();
-    let entries = std::fs::read_dir(data_dir.join("jobs"))
-        .into_iter()
-        .flatten()
-        .flatten();
-    for e in entries {
-        let Some(id) = e.file_name().into_string().ok() else {
-            continue;
-        };
-        let dir = JobDir::new(data_dir, &id);
-        let mut status = match dir.read_status() {
-            Ok(s) => s,
-            Err(err) => {
-                tracing::warn!(job = %id, error = %err, "skipping unreadable job");
-                continue;
-            }
-        };
-        if status.state == JobState::Running {
-            status.state = JobState::Queued;
-        }
-        if status.state == JobState::Completed {
-            disk::tidy_finished(&dir, &status.spec);
-        } else {
-            let header = Checkpoint::read_header(&dir);
-            status.iteration = header.as_ref().map_or(0, |h| h.iteration);
-            status.elapsed_s = header.as_ref().map_or(0.0, |h| h.elapsed_s);
-        }
-        t.jobs.insert(id, Entry::new(status, 0));
-    }
-    t
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::film::Film;
-
-    fn status(id: &str, state: JobState, iteration: u64) -> JobStatus {
-        let spec: JobSpec = serde_json::from_value(serde_json::json!({
-            "scene": "cornell-box", "halt": {"spp": 100}
-        }))
-        .unwrap();
-        JobStatus {
-            id: id.into(),
-            spec,
-            settings: serde_json::json!({}),
-            state,
-            iteration,
-            elapsed_s: 9.0,
-            samples_per_s: 0.0,
-            last_rmse: None,
-            eta_s: None,
-            dropped: 0,
-            width: 2,
-            height: 2,
-            created_at: 0.0,
-            finished_at: None,
-            error: None,
-        }
-    }
-
-    /// job.json is written every batch, the checkpoint every snapshot: after a kill
-    /// the status is ahead, but the job resumes from the checkpoint, and says so.
-    #[test]
-    fn recovered_jobs_show_the_iteration_they_resume_from() {
-        let dir = tempfile::tempdir().unwrap();
-        let ahead = JobDir::new(dir.path(), "j1");
-        ahead.create().unwrap();
-        ahead
-            .write_status(&status("j1", JobState::Running, 37))
-            .unwrap();
-        Checkpoint {
-            iteration: 30,
-            elapsed_s: 3.0,
-            samples: 120,
-            film: Film::new(2, 2),
-            state: None,
-        }
-        .write(&ahead)
-        .unwrap();
-        let fresh = JobDir::new(dir.path(), "j2");
-        fresh.create().unwrap();
-        fresh
-            .write_status(&status("j2", JobState::Running, 5))
-            .unwrap();
-        let t = recover(dir.path());
-        let j1 = &t.jobs["j1"].status;
-        assert_eq!(
-            (j1.state, j1.iteration, j1.elapsed_s),
-            (JobState::Queued, 30, 3.0)
-        );
-        let j2 = &t.jobs["j2"].status;
-        assert_eq!((j2.state, j2.iteration), (JobState::Queued, 0));
     }
 }
