@@ -23,11 +23,7 @@ fn bench_settings(a: &BenchArgs, scene: &Scene) -> Result<Vec<Settings>> {
         .split(',')
         .map(str::trim)
         .filter(|s| !s.is_empty())
-        .map(|alg| {
-            let s = Settings::resolve(Some(alg), scene.integrator.as_ref(), &params)?;
-            s.check_scene(scene)?;
-            Ok(s)
-        })
+        .map(|alg| Ok(Settings::for_scene(Some(alg), scene, &params)?))
         .collect()
 }
 
@@ -125,8 +121,7 @@ pub fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
         (None, Some(spec)) => {
             let (alg, secs) = parse_reference_from(spec)?;
             let params = parse_params(&a.params)?;
-            let settings = Settings::resolve(Some(&alg), scene.integrator.as_ref(), &params)?;
-            settings.check_scene(&scene)?;
+            let settings = Settings::for_scene(Some(&alg), &scene, &params)?;
             let halt = Halt {
                 iterations: None,
                 time: Some(Duration::from_secs_f64(secs)),

@@ -38,12 +38,7 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
 
 pub fn render(a: &RenderArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
-    let settings = Settings::resolve(
-        a.algorithm.as_deref(),
-        scene.integrator.as_ref(),
-        &parse_params(&a.params)?,
-    )?;
-    settings.check_scene(&scene)?;
+    let settings = Settings::for_scene(a.algorithm.as_deref(), &scene, &parse_params(&a.params)?)?;
     let halt = match (a.spp, a.time) {
         (None, None) => Halt {
             iterations: Some(16),
@@ -115,12 +110,7 @@ pub fn render_with_progress(
 
 pub fn reference(a: &ReferenceArgs) -> Result<()> {
     let scene = load_scene(&a.scene)?;
-    let settings = Settings::resolve(
-        a.algorithm.as_deref(),
-        scene.integrator.as_ref(),
-        &parse_params(&a.params)?,
-    )?;
-    settings.check_scene(&scene)?;
+    let settings = Settings::for_scene(a.algorithm.as_deref(), &scene, &parse_params(&a.params)?)?;
     let halt = Halt {
         iterations: a.spp,
         time: a.time.map(Duration::from_secs_f64),

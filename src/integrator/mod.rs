@@ -172,6 +172,18 @@ impl Settings {
 
     /// Settings for `algorithm`: the scene's defaults when they name the same
     /// algorithm, then `overrides` (a JSON object of parameters) on top.
+    /// The settings a job on `scene` runs with: [`Settings::resolve`] with the scene's
+    /// defaults, then [`Settings::check_scene`].
+    pub fn for_scene(
+        algorithm: Option<&str>,
+        scene: &Scene,
+        overrides: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Settings, SettingsError> {
+        let s = Settings::resolve(algorithm, scene.integrator.as_ref(), overrides)?;
+        s.check_scene(scene)?;
+        Ok(s)
+    }
+
     pub fn resolve(
         algorithm: Option<&str>,
         scene_default: Option<&serde_json::Value>,

@@ -305,12 +305,7 @@ impl Service {
             }
         }
         run::load_reference(&self.shared, &spec, &scene)?;
-        let settings = Settings::resolve(
-            spec.algorithm.as_deref(),
-            scene.integrator.as_ref(),
-            &spec.params,
-        )?;
-        settings.check_scene(&scene)?;
+        let settings = Settings::for_scene(spec.algorithm.as_deref(), &scene, &spec.params)?;
         Ok(JobStatus {
             id: self.new_id(),
             settings: serde_json::to_value(&settings).expect("settings serialise"),
