@@ -11,6 +11,7 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
+use super::common::equiangular::EquiAngular;
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::render_pixels;
@@ -59,60 +60,6 @@ impl VolpathSettings {
             return Err("max_depth must be at least 1".into());
         }
         Ok(())
-    }
-}
-
-/// Equi-angular sampling of t on a segment [0, tmax] of a ray towards a point c: the
-/// density is proportional to 1 / |x(t) - c|^2 (Kulla and Fajardo, eq. 6-8).
-#[derive(Clone, Copy, Debug)]
-struct EquiAngular {
-    /// Distance along the ray to the point closest to c.
-    delta: f32,
-    /// Distance of c from the ray's line.
-    h: f32,
-    theta_a: f32,
-    theta_b: f32,
-    tmax: f32,
-}
-
-impl EquiAngular {
-    fn new(ray: &Ray, tmax: f32, c: Vec3) -> Option<Self> {
-        let oc = c - ray.o;
-        let delta = oc.dot(ray.d);
-        let h = (oc - ray.d * delta).length();
-        // On (or numerically on) the line the density degenerates to a spike.
-        if h.is_nan() || h <= 1e-6 * (1.0 + oc.length()) {
-            return None;
-        }
-        let theta_a = (-delta).atan2(h);
-        let theta_b = if tmax.is_finite() {
-            (tmax - delta).atan2(h)
-        } else {
-            std::f32::consts::FRAC_PI_2
-        };
-        (theta_b - theta_a > 1e-7).then_some(EquiAngular {
-            delta,
-            h,
-            theta_a,
-            theta_b,
-            tmax,
-        })
-    }
-
-    #[inline]
-    fn pdf(&self, t: f32) -> f32 {
-        if !(0.0..self.tmax).contains(&t) {
-            return 0.0;
-        }
-        let x = t - self.delta;
-        self.h / ((self.theta_b - self.theta_a) * (self.h * self.h + x * x))
-    }
-
-    #[inline]
-    fn sample(&self, u: f32) -> (f32, f32) {
-        let theta = self.theta_a + u * (self.theta_b - self.theta_a);
-        let t = (self.delta + self.h * theta.tan()).clamp(0.0, self.tmax);
-        (t, self.pdf(t))
     }
 }
 

@@ -2,6 +2,7 @@
 //! estimation, and the random streams.
 
 pub mod emit;
+pub mod equiangular;
 pub mod mis;
 pub mod nee;
 pub mod params;
