@@ -12,6 +12,7 @@
 //! same light. `pt` runs this integrator when the scene has media.
 
 use super::common::equiangular::EquiAngular;
+use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::render_pixels;
@@ -20,10 +21,10 @@ use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, Ray};
 use crate::light::Light;
-use crate::material::{Material, Mode};
+use crate::material::Mode;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
-use crate::medium::{Flight, Homogeneous};
-use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use crate::medium::Homogeneous;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// Volumetric path tracer parameters.
@@ -63,15 +64,32 @@ impl VolpathSettings {
     }
 }
 
-/// A homogeneous free-flight segment: the ray, its length, the throughput the flight
-/// was sampled with, and the distance sampled on it.
+/// A distance sampled by free flight on a homogeneous segment, for equi-angular MIS.
 #[derive(Clone, Copy)]
-struct Segment<'a> {
+struct FlightPoint<'a> {
     medium: &'a Homogeneous,
-    ray: Ray,
-    tmax: f32,
-    beta: Rgb,
+    seg: Segment,
     t: f32,
+}
+
+/// The walk's visitor on camera and bounce segments: equi-angular gathering from point
+/// and spot lights before each free flight, in homogeneous media.
+struct Gather<'a> {
+    vp: &'a VolPath,
+    scene: &'a Scene,
+    on: bool,
+    l: Rgb,
+}
+
+impl Segments for Gather<'_> {
+    #[inline(always)]
+    fn enter(&mut self, seg: &Segment, rng: &mut Rng, stats: &mut RenderStats) -> Cross {
+        let med = &self.scene.media[seg.medium as usize];
+        if let (true, Some(h)) = (self.on, med.as_homogeneous()) {
+            self.l += self.vp.equiangular(self.scene, h, seg, rng, stats);
+        }
+        Cross::Flight
+    }
 }
 
 pub struct VolPath {
@@ -104,7 +122,7 @@ impl VolPath {
         &self,
         scene: &Scene,
         at: &Origin,
-        seg: Option<&Segment>,
+        seg: Option<&FlightPoint>,
         medium: Option<u32>,
         rng: &mut Rng,
         stats: &mut RenderStats,
@@ -126,34 +144,31 @@ impl VolPath {
 
     /// MIS weight of a distance-sampled connection to a point or spot light against
     /// equi-angular sampling of the same segment (1 where that is not used).
-    fn equiangular_partner(&self, seg: Option<&Segment>, light: &Light) -> f32 {
-        let Some(seg) = seg else {
+    fn equiangular_partner(&self, fp: Option<&FlightPoint>, light: &Light) -> f32 {
+        let Some(fp) = fp else {
             return 1.0;
         };
         let Some(c) = Self::point_position(light) else {
             return 1.0;
         };
-        let Some(ea) = EquiAngular::new(&seg.ray, seg.tmax, c) else {
+        let Some(ea) = EquiAngular::new(&fp.seg.ray, fp.seg.tmax, c) else {
             return 1.0;
         };
-        self.mis(seg.medium.flight_pdf(seg.t, seg.beta), ea.pdf(seg.t))
+        self.mis(fp.medium.flight_pdf(fp.t, fp.seg.beta), ea.pdf(fp.t))
     }
 
     /// Single scattering towards a point or spot light at an equi-angular distance on
-    /// the segment [0, tmax) of `ray` in homogeneous `med` (beta: the throughput the
-    /// segment's free flight is sampled with). Returns the weighted contribution.
-    #[allow(clippy::too_many_arguments)]
+    /// `seg` in homogeneous `med` (its `beta`: the throughput the segment's free flight
+    /// is sampled with). Returns the weighted contribution.
     fn equiangular(
         &self,
         scene: &Scene,
         med: &Homogeneous,
-        medium: Option<u32>,
-        ray: &Ray,
-        tmax: f32,
-        beta: Rgb,
+        seg: &Segment,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
+        let (ray, tmax, beta) = (&seg.ray, seg.tmax, seg.beta);
         let (li, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
         let u = rng.next_f32();
         let light = &scene.lights[li];
@@ -182,7 +197,7 @@ impl VolPath {
             d: ls.p() - p,
             tmax: 1.0 - SHADOW_EPSILON,
         };
-        let tr = scene.transmittance(&shadow, medium, rng, &mut stats.shadow_rays);
+        let tr = scene.transmittance(&shadow, Some(seg.medium), rng, &mut stats.shadow_rays);
         let w = self.mis(pdf_t, med.flight_pdf(t, beta));
         beta * scatter * tr * ls.li() * (w / (sel_pdf * pdf_t))
     }
@@ -197,76 +212,61 @@ impl VolPath {
                 .iter()
                 .any(|l| Self::point_position(l).is_some());
         let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
+        let mut walk = MediumWalk {
+            beta: Rgb::ONE,
+            medium: scene.camera_medium,
+        };
         let mut depth = 0u32;
         let mut specular = true;
         let mut pdf_dir = 0.0f32;
         let mut prev_p = ray.o;
-        let mut medium = scene.camera_medium;
-        let mut crossings = 0u32;
         loop {
-            let hit = scene.hit(&ray);
-            if let Some(mi) = medium {
-                let med = &scene.media[mi as usize];
-                // Unit directions: the hit's t is the distance.
-                let tmax = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                let homog = med.as_homogeneous();
-                if let (true, Some(h)) = (equi && depth + 1 < self.s.max_depth, homog) {
-                    l += self.equiangular(scene, h, medium, &ray, tmax, beta, rng, stats);
-                }
-                let beta_flight = beta;
-                match med.sample_flight(ray.o, ray.d, tmax, beta, rng) {
-                    Flight::Scatter { t, weight } => {
-                        beta *= weight;
-                        if depth + 1 >= self.s.max_depth {
-                            break;
-                        }
-                        let p = ray.at(t);
-                        let seg = homog.filter(|_| equi).map(|h| Segment {
-                            medium: h,
-                            ray,
-                            tmax,
-                            beta: beta_flight,
-                            t,
-                        });
-                        let phase = med.phase();
-                        if !scene.lights.is_empty() {
-                            let at = Origin::Medium { p, d: ray.d, phase };
-                            l += beta * self.direct(scene, &at, seg.as_ref(), medium, rng, stats);
-                        }
-                        let (wi, pdf) = phase.sample(ray.d, rng.next_2d());
-                        specular = false;
-                        pdf_dir = pdf;
-                        prev_p = p;
-                        depth += 1;
-                        if !self.roulette(depth, &mut beta, rng) {
-                            break;
-                        }
-                        ray = Ray::new(p, wi);
-                        stats.rays += 1;
-                        crossings = 0;
-                        continue;
-                    }
-                    Flight::Pass { weight } => beta *= weight,
-                    Flight::Absorbed => break,
-                }
-            }
-            let Some(it) = hit.map(|h| scene.interaction(&ray, &h)) else {
-                l += beta * escaped(scene, ray.d, specular, pdf_dir, self.s.heuristic);
-                break;
+            let mut gather = Gather {
+                vp: self,
+                scene,
+                on: equi && depth + 1 < self.s.max_depth,
+                l: Rgb::ZERO,
             };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                crossings += 1;
-                if crossings > MAX_NULL_CROSSINGS {
+            let step = walk.next(scene, &mut ray, &mut gather, rng, stats);
+            l += gather.l;
+            let (it, m) = match step {
+                Step::Surface(it, m) => (it, m),
+                Step::Scatter { seg, t } => {
+                    if depth + 1 >= self.s.max_depth {
+                        break;
+                    }
+                    let p = seg.ray.at(t);
+                    let med = &scene.media[seg.medium as usize];
+                    let fp = med.as_homogeneous().filter(|_| equi).map(|h| FlightPoint {
+                        medium: h,
+                        seg,
+                        t,
+                    });
+                    let phase = med.phase();
+                    if !scene.lights.is_empty() {
+                        let at = Origin::Medium { p, d: ray.d, phase };
+                        let e = self.direct(scene, &at, fp.as_ref(), walk.medium, rng, stats);
+                        l += walk.beta * e;
+                    }
+                    let (wi, pdf) = phase.sample(ray.d, rng.next_2d());
+                    specular = false;
+                    pdf_dir = pdf;
+                    prev_p = p;
+                    depth += 1;
+                    if !self.roulette(depth, &mut walk.beta, rng) {
+                        break;
+                    }
+                    ray = Ray::new(p, wi);
+                    stats.rays += 1;
+                    continue;
+                }
+                Step::Escaped => {
+                    l += walk.beta * escaped(scene, ray.d, specular, pdf_dir, self.s.heuristic);
                     break;
                 }
-                medium = scene.medium_after(&it, ray.d, medium);
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                stats.rays += 1;
-                continue;
-            }
-            l += beta
+                Step::End => break,
+            };
+            l += walk.beta
                 * emitted(
                     scene,
                     &it,
@@ -288,7 +288,7 @@ impl VolPath {
                     wo,
                     m,
                 };
-                l += beta * self.direct(scene, &at, None, medium, rng, stats);
+                l += walk.beta * self.direct(scene, &at, None, walk.medium, rng, stats);
             }
             let u_lobe = rng.next_f32();
             let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
@@ -298,18 +298,17 @@ impl VolPath {
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 break;
             }
-            beta *= Rgb::from(s.weight);
+            walk.beta *= Rgb::from(s.weight);
             specular = s.delta;
             pdf_dir = s.pdf;
             prev_p = it.p;
             depth += 1;
-            if !self.roulette(depth, &mut beta, rng) {
+            if !self.roulette(depth, &mut walk.beta, rng) {
                 break;
             }
-            medium = scene.medium_after(&it, wi, medium);
+            walk.medium = scene.medium_after(&it, wi, walk.medium);
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
             stats.rays += 1;
-            crossings = 0;
         }
         l
     }

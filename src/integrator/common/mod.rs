@@ -3,6 +3,7 @@
 
 pub mod emit;
 pub mod equiangular;
+pub mod medium_walk;
 pub mod mis;
 pub mod nee;
 pub mod params;
