@@ -231,7 +231,7 @@ impl VolPath {
             l += gather.l;
             let (it, m) = match step {
                 Step::Surface(it, m) => (it, m),
-                Step::Scatter { seg, t } => {
+                Step::Scatter { seg, t, .. } => {
                     if depth + 1 >= self.s.max_depth {
                         break;
                     }

@@ -334,7 +334,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
     loop {
         chunk.stats.rays += 1;
         let (event, tr) = if M::ON {
-            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats.rays)
+            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats)
         } else {
             // Read in place, then cleared: `take` copied the whole lens connection.
             let shadow = lens.as_ref().map(|l| &l.ray);

@@ -10,11 +10,12 @@
 use super::mis;
 use super::vertex::Media;
 use super::walk::Walk;
-use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::geometry::{Interaction, Ray};
+use crate::integrator::common::medium_walk::{MediumWalk, Segment, Segments, Step};
+use crate::integrator::RenderStats;
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};
-use crate::medium::Flight;
-use crate::scene::{Scene, Surfacing, MAX_NULL_CROSSINGS};
+use crate::scene::{Scene, Surfacing};
 
 /// What a subpath meets next along its ray.
 pub(crate) enum Event<'a> {
@@ -31,63 +32,65 @@ pub(crate) enum Event<'a> {
 /// medium the walk is in (their weights go into `walk.throughput`, with the walk's
 /// throughput choosing channels as in `volpath`) and null boundaries switch
 /// `walk.medium`. Returns the event and the MIS transmittance of the segment traced
-/// (for an escaping ray, of its part inside the scene). `rays` counts extra rays.
+/// (for an escaping ray, of its part inside the scene). Extra rays count in `stats`.
 #[inline(always)]
 pub(crate) fn next_event<'a, M: Media>(
     scene: &'a Scene,
     ray: &mut Ray,
     walk: &mut Walk,
     rng: &mut Rng,
-    rays: &mut u64,
+    stats: &mut RenderStats,
 ) -> (Event<'a>, f32) {
     if !M::ON {
-        let e = match scene.next_scattering(ray, rays) {
+        let e = match scene.next_scattering(ray, &mut stats.rays) {
             Surfacing::Hit(it, m) => Event::Surface(it, m),
             Surfacing::Escaped => Event::Escaped,
             Surfacing::Lost => Event::End,
         };
         return (e, 1.0);
     }
-    let mut depth = 0.0f32;
-    for _ in 0..=MAX_NULL_CROSSINGS {
-        let hit = scene.intersect(ray);
-        if let Some(mi) = walk.medium {
-            let med = &scene.media[mi as usize];
-            let tmax = hit
-                .as_ref()
-                .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
-            let sigma = med.mis_sigma_t().unwrap_or(0.0);
-            match med.sample_flight(ray.o, ray.d, tmax, walk.throughput, rng) {
-                Flight::Scatter { t, weight } => {
-                    walk.throughput *= weight;
-                    if walk.throughput == Rgb::ZERO {
-                        return (Event::End, 1.0);
-                    }
-                    let tr = mis::transmittance(depth + sigma * t);
-                    return (Event::Medium(ray.at(t), mi), tr);
-                }
-                Flight::Pass { weight } => walk.throughput *= weight,
-                Flight::Absorbed => return (Event::End, 1.0),
-            }
+    let mut path = MediumWalk {
+        beta: walk.throughput,
+        medium: walk.medium,
+    };
+    let mut depth = MisDepth { scene, depth: 0.0 };
+    let step = path.next(scene, ray, &mut depth, rng, stats);
+    (walk.throughput, walk.medium) = (path.beta, path.medium);
+    match step {
+        Step::Scatter { seg, t, .. } => {
             if walk.throughput == Rgb::ZERO {
                 return (Event::End, 1.0);
             }
-            if sigma > 0.0 {
-                depth += sigma * tmax;
-            }
+            let sigma = mis_sigma(scene, seg.medium);
+            let tr = mis::transmittance(depth.depth + sigma * t);
+            (Event::Medium(seg.ray.at(t), seg.medium), tr)
         }
-        let Some(it) = hit else {
-            return (Event::Escaped, mis::transmittance(depth));
-        };
-        let m = scene.material(&it);
-        if !matches!(m, Material::Null) {
-            return (Event::Surface(it, m), mis::transmittance(depth));
-        }
-        walk.medium = scene.medium_after(&it, ray.d, walk.medium);
-        *ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-        *rays += 1;
+        Step::Surface(it, m) => (Event::Surface(it, m), mis::transmittance(depth.depth)),
+        Step::Escaped => (Event::Escaped, mis::transmittance(depth.depth)),
+        Step::End => (Event::End, 1.0),
     }
-    (Event::End, 1.0)
+}
+
+/// The grey optical depth MIS assigns the segments a walk passed (`Medium::mis_sigma_t`
+/// times their length; heterogeneous media count zero).
+struct MisDepth<'a> {
+    scene: &'a Scene,
+    depth: f32,
+}
+
+#[inline(always)]
+fn mis_sigma(scene: &Scene, medium: u32) -> f32 {
+    scene.media[medium as usize].mis_sigma_t().unwrap_or(0.0)
+}
+
+impl Segments for MisDepth<'_> {
+    #[inline(always)]
+    fn passed(&mut self, seg: &Segment) {
+        let sigma = mis_sigma(self.scene, seg.medium);
+        if sigma > 0.0 {
+            self.depth += sigma * seg.tmax;
+        }
+    }
 }
 
 /// [`next_event`] in a scene without media, with a pending shadow ray traced

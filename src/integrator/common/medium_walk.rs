@@ -37,8 +37,8 @@ pub enum Step<'a> {
     /// A surface that scatters (null boundaries are crossed, never returned).
     Surface(Interaction, &'a Material),
     /// A real scattering event at distance `t` on `seg`; the throughput already holds
-    /// the flight's weight.
-    Scatter { seg: Segment, t: f32 },
+    /// the flight's `weight` (sigma_s T / pdf).
+    Scatter { seg: Segment, t: f32, weight: Rgb },
     /// The ray left the scene.
     Escaped,
     /// Absorbed, out of throughput, taken over by the visitor, or lost between null
@@ -111,7 +111,7 @@ impl MediumWalk {
                         match med.sample_flight(ray.o, ray.d, tmax, self.beta, rng) {
                             Flight::Scatter { t, weight } => {
                                 self.beta *= weight;
-                                return Step::Scatter { seg, t };
+                                return Step::Scatter { seg, t, weight };
                             }
                             Flight::Pass { weight } => self.beta *= weight,
                             Flight::Absorbed => return Step::End,

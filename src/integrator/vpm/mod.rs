@@ -82,6 +82,7 @@
 mod photons;
 
 use super::accel::{HashGrid, PointBvh};
+use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use super::common::params::{check_alpha, check_photon_params};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
@@ -90,8 +91,7 @@ use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::common::nee::{sample_light, Origin};
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3, PI};
-use crate::medium::Flight;
-use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use crate::scene::Scene;
 use photons::{Chunk, Photon};
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
@@ -218,17 +218,6 @@ struct Workspace {
     bvh: PointBvh<Photon>,
 }
 
-/// A camera segment [0, tmax) of `ray` in `medium`, reached with throughput `beta`
-/// after `depth` surface events.
-#[derive(Clone, Copy)]
-struct Segment<'a> {
-    medium: u32,
-    ray: &'a Ray,
-    tmax: f32,
-    beta: Rgb,
-    depth: u32,
-}
-
 /// What the camera pass reads: this iteration's photons, indexed for the estimate.
 struct Gather<'a> {
     photons: &'a [Photon],
@@ -237,6 +226,35 @@ struct Gather<'a> {
     radius: f32,
     /// 1 / photon paths emitted this iteration.
     inv_paths: f32,
+}
+
+/// The camera walk's visitor: with the beam radiance estimate every medium segment is
+/// one query and the walk passes it with its transmittance; the point estimate lets the
+/// walk sample a flight (its query is made at the scattering point).
+struct BeamQueries<'a> {
+    vpm: &'a Vpm,
+    scene: &'a Scene,
+    g: &'a Gather<'a>,
+    /// Surface events before the segment.
+    depth: u32,
+    counts: bool,
+    l: Rgb,
+}
+
+impl Segments for BeamQueries<'_> {
+    fn enter(&mut self, seg: &Segment, rng: &mut Rng, stats: &mut RenderStats) -> Cross {
+        if self.vpm.s.estimate != Estimate::BeamRadiance {
+            return Cross::Flight;
+        }
+        if self.counts {
+            let e = self
+                .vpm
+                .beam(self.scene, self.g, seg, self.depth, rng, stats);
+            self.l += seg.beta * e;
+        }
+        let med = &self.scene.media[seg.medium as usize];
+        Cross::Pass(med.transmittance(seg.ray.o, seg.ray.d, seg.tmax, rng))
+    }
 }
 
 pub struct Vpm {
@@ -272,51 +290,52 @@ impl Vpm {
         stats: &mut RenderStats,
     ) -> Rgb {
         let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
+        let mut walk = MediumWalk {
+            beta: Rgb::ONE,
+            medium: scene.camera_medium,
+        };
         let mut depth = 0u32;
         let mut specular = true;
-        let mut medium = scene.camera_medium;
-        let mut crossings = 0u32;
         loop {
-            let hit = scene.intersect(&ray);
-            if let Some(mi) = medium {
-                let tmax = hit
-                    .as_ref()
-                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
-                let seg = Segment {
-                    medium: mi,
-                    ray: &ray,
-                    tmax,
-                    beta,
-                    depth,
-                };
-                let (lm, pass) = self.medium_segment(scene, g, &seg, rng, stats);
-                l += beta * lm;
-                match pass {
-                    Some(w) if w != Rgb::ZERO => beta *= w,
-                    _ => break,
-                }
-            }
-            let Some(it) = hit else {
-                if specular && !scene.env_lights.is_empty() {
-                    l += beta * scene.env_radiance(ray.d);
-                }
-                break;
+            // A photon stored after k events counts on a camera segment reached after
+            // j surface events when k + j + 2 <= max_depth (settings table).
+            let counts = depth + 2 <= self.s.max_depth;
+            let mut beams = BeamQueries {
+                vpm: self,
+                scene,
+                g,
+                depth,
+                counts,
+                l: Rgb::ZERO,
             };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                crossings += 1;
-                if crossings > MAX_NULL_CROSSINGS {
+            let step = walk.next(scene, &mut ray, &mut beams, rng, stats);
+            l += beams.l;
+            let (it, m) = match step {
+                Step::Surface(it, m) => (it, m),
+                // Only the point estimate samples flights: its query ends the path.
+                Step::Scatter { seg, t, weight } => {
+                    if counts {
+                        let x = seg.ray.at(t);
+                        // W / sigma_s(x) = T / pdf; a channel that does not scatter
+                        // adds nothing (and its W is 0 / 0).
+                        let ss = scene.media[seg.medium as usize].sigma_s_at(x);
+                        let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
+                        let e = self.point(scene, g, seg.medium, x, -ray.d, depth, stats);
+                        l += seg.beta * (w * e);
+                    }
                     break;
                 }
-                medium = scene.medium_after(&it, ray.d, medium);
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                stats.rays += 1;
-                continue;
-            }
+                Step::Escaped => {
+                    if specular && !scene.env_lights.is_empty() {
+                        l += walk.beta * scene.env_radiance(ray.d);
+                    }
+                    break;
+                }
+                Step::End => break,
+            };
             if specular {
                 if let Some((_, area)) = scene.area_light(&it) {
-                    l += beta * area.le(it.ng, -ray.d);
+                    l += walk.beta * area.le(it.ng, -ray.d);
                 }
             }
             if depth + 1 >= self.s.max_depth {
@@ -325,7 +344,7 @@ impl Vpm {
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() {
-                l += beta * direct(scene, &it, &frame, wo, m, medium, rng, stats);
+                l += walk.beta * direct(scene, &it, &frame, wo, m, walk.medium, rng, stats);
             }
             let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
                 break;
@@ -334,64 +353,17 @@ impl Vpm {
             if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
                 break;
             }
-            beta *= Rgb::from(s.weight);
+            walk.beta *= Rgb::from(s.weight);
             specular = s.delta;
             depth += 1;
-            if !self.camera_roulette(depth, &mut beta, rng) {
+            if !self.camera_roulette(depth, &mut walk.beta, rng) {
                 break;
             }
-            medium = scene.medium_after(&it, wi, medium);
+            walk.medium = scene.medium_after(&it, wi, walk.medium);
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
             stats.rays += 1;
-            crossings = 0;
         }
         l
-    }
-
-    /// A camera segment in a medium: the radiance it adds (throughput not applied) and
-    /// the weight with which the path goes on to the segment's end (None: it ends).
-    fn medium_segment(
-        &self,
-        scene: &Scene,
-        g: &Gather,
-        seg: &Segment,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> (Rgb, Option<Rgb>) {
-        let Segment {
-            medium: mi,
-            ray,
-            tmax,
-            beta,
-            depth,
-        } = *seg;
-        let med = &scene.media[mi as usize];
-        let counts = depth + 2 <= self.s.max_depth;
-        match self.s.estimate {
-            Estimate::BeamRadiance => {
-                let l = if counts {
-                    self.beam(scene, g, mi, ray, tmax, depth, rng, stats)
-                } else {
-                    Rgb::ZERO
-                };
-                (l, Some(med.transmittance(ray.o, ray.d, tmax, rng)))
-            }
-            Estimate::Point => match med.sample_flight(ray.o, ray.d, tmax, beta, rng) {
-                Flight::Scatter { t, weight } => {
-                    if !counts {
-                        return (Rgb::ZERO, None);
-                    }
-                    let x = ray.at(t);
-                    // W / sigma_s(x) = T / pdf; a channel that does not scatter adds
-                    // nothing (and its W is 0 / 0).
-                    let ss = med.sigma_s_at(x);
-                    let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
-                    (w * self.point(scene, g, mi, x, -ray.d, depth, stats), None)
-                }
-                Flight::Pass { weight } => (Rgb::ZERO, Some(weight)),
-                Flight::Absorbed => (Rgb::ZERO, None),
-            },
-        }
     }
 
     /// Point query: (1 / (N (4/3) pi r^3)) sum_{|x_p - x| < r} f_p(d_p, wo) beta_p, the
@@ -421,21 +393,19 @@ impl Vpm {
         sum * (g.inv_paths / (4.0 / 3.0 * PI * r * r * r))
     }
 
-    /// Beam radiance estimate over the segment [0, tmax) of `ray`:
+    /// Beam radiance estimate over the camera segment `seg` (ray o + t d, t in [0, tmax)):
     /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
     /// within r of the segment [Jarosz et al. 2008, constant 2D kernel].
-    #[allow(clippy::too_many_arguments)]
     fn beam(
         &self,
         scene: &Scene,
         g: &Gather,
-        mi: u32,
-        ray: &Ray,
-        tmax: f32,
+        seg: &Segment,
         cam_depth: u32,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
+        let (mi, ray, tmax) = (seg.medium, &seg.ray, seg.tmax);
         let med = &scene.media[mi as usize];
         let phase = med.phase();
         let homogeneous = med.as_homogeneous();

@@ -7,12 +7,12 @@ use crate::film::is_valid_sample;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::accel::Point;
 use crate::integrator::common::emit::sample_emission;
+use crate::integrator::common::medium_walk::{MediumWalk, Segment, Step};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
-use crate::medium::Flight;
-use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use crate::scene::Scene;
 use rayon::prelude::*;
 
 /// A photon stored at a scattering event in a medium.
@@ -88,90 +88,67 @@ impl Vpm {
     /// One photon path: free flights through media, photons stored where they scatter
     /// in one, BSDF sampling at surfaces.
     fn trace_photon(&self, scene: &Scene, rng: &mut Rng, out: &mut Chunk, budget: usize) {
-        let Some((mut ray, beta, mut medium)) = emit(scene, rng) else {
+        let Some((mut ray, beta, medium)) = emit(scene, rng) else {
             return;
         };
-        let mut walk = PhotonWalk { beta, depth: 0 };
-        let mut crossings = 0u32;
+        let mut walk = PhotonWalk {
+            path: MediumWalk { beta, medium },
+            depth: 0,
+        };
         loop {
             out.stats.rays += 1;
-            let hit = scene.intersect(&ray);
-            if let Some(mi) = medium {
-                let tmax = hit
-                    .as_ref()
-                    .map_or(f32::INFINITY, |h| (h.p - ray.o).length());
-                match self.photon_flight(scene, mi, &ray, tmax, &mut walk, rng, out, budget) {
-                    Flown::Scattered(next) => {
-                        ray = next;
-                        crossings = 0;
-                        continue;
+            match walk
+                .path
+                .next(scene, &mut ray, &mut (), rng, &mut out.stats)
+            {
+                Step::Scatter { seg, t, .. } => {
+                    let Some(next) = self.store(scene, &seg, t, &mut walk, rng, out, budget) else {
+                        return;
+                    };
+                    ray = next;
+                }
+                Step::Surface(it, m) => {
+                    // Photons stored after this bounce have k >= depth + 1.
+                    if walk.depth + 3 > self.s.max_depth {
+                        return;
                     }
-                    Flown::Passed => {}
-                    Flown::Ended => return,
+                    let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
+                        return;
+                    };
+                    if !walk.scatter(weight, rng) {
+                        return;
+                    }
+                    walk.path.medium = scene.medium_after(&it, wi, walk.path.medium);
+                    ray = spawn_ray(it.p, it.p_err, it.ng, wi);
                 }
+                Step::Escaped | Step::End => return,
             }
-            let Some(it) = hit else {
-                return;
-            };
-            let m = scene.material(&it);
-            if matches!(m, Material::Null) {
-                crossings += 1;
-                if crossings > MAX_NULL_CROSSINGS {
-                    return;
-                }
-                medium = scene.medium_after(&it, ray.d, medium);
-                ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
-                continue;
-            }
-            // Photons stored after this bounce have k >= depth + 1.
-            if walk.depth + 3 > self.s.max_depth {
-                return;
-            }
-            let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
-                return;
-            };
-            if !walk.scatter(weight, rng) {
-                return;
-            }
-            medium = scene.medium_after(&it, wi, medium);
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            crossings = 0;
         }
     }
 
-    /// A photon's free flight over [0, tmax) of `ray` in medium `mi`; stores a photon
-    /// where it scatters.
+    /// A photon's scattering event at distance `t` on `seg`: stores the photon (its
+    /// power already holds the flight's weight), then samples the phase function; the
+    /// ray the path goes on along, or None.
     #[allow(clippy::too_many_arguments)]
-    fn photon_flight(
+    fn store(
         &self,
         scene: &Scene,
-        mi: u32,
-        ray: &Ray,
-        tmax: f32,
+        seg: &Segment,
+        t: f32,
         walk: &mut PhotonWalk,
         rng: &mut Rng,
         out: &mut Chunk,
         budget: usize,
-    ) -> Flown {
-        let med = &scene.media[mi as usize];
-        let (t, weight) = match med.sample_flight(ray.o, ray.d, tmax, walk.beta, rng) {
-            Flight::Scatter { t, weight } => (t, weight),
-            Flight::Pass { weight } => {
-                walk.beta *= weight;
-                return Flown::Passed;
-            }
-            Flight::Absorbed => return Flown::Ended,
-        };
-        let p = ray.at(t);
-        let stored = walk.beta * weight;
+    ) -> Option<Ray> {
+        let p = seg.ray.at(t);
         // A camera segment reached directly (j = 0) needs k + 2 <= max_depth.
         if walk.depth + 2 <= self.s.max_depth {
             if out.photons.len() < budget {
                 out.photons.push(Photon {
                     p,
-                    d: ray.d,
-                    beta: stored,
-                    medium: mi,
+                    d: seg.ray.d,
+                    beta: walk.path.beta,
+                    medium: seg.medium,
                     depth: walk.depth,
                 });
             } else {
@@ -179,14 +156,13 @@ impl Vpm {
             }
         }
         if walk.depth + 3 > self.s.max_depth {
-            return Flown::Ended;
+            return None;
         }
-        let (wi, _) = med.phase().sample(ray.d, rng.next_2d());
-        // The phase function is sampled exactly: its weight is 1.
-        if !walk.scatter(weight, rng) {
-            return Flown::Ended;
-        }
-        Flown::Scattered(Ray::new(p, wi))
+        let phase = scene.media[seg.medium as usize].phase();
+        let (wi, _) = phase.sample(seg.ray.d, rng.next_2d());
+        // The phase function is sampled exactly: its weight is 1, and the flight's
+        // weight is in the power since the walk returned.
+        walk.roulette(seg.beta, rng).then(|| Ray::new(p, wi))
     }
 }
 
@@ -222,35 +198,35 @@ pub(super) fn photon_bounce(
     corr.is_finite().then_some((wi, Rgb::from(s.weight) * corr))
 }
 
-/// How a photon's free flight through a medium ended.
-pub(super) enum Flown {
-    /// It scattered (a photon was stored) and goes on along this ray.
-    Scattered(Ray),
-    /// It reached the end of the segment (the next surface, or nothing).
-    Passed,
-    /// It was absorbed, rouletted away or reached the depth limit.
-    Ended,
-}
-
-/// A photon path between events: its power and the scattering events so far.
+/// A photon path between events: its power and medium, and the scattering events so
+/// far.
 pub(super) struct PhotonWalk {
-    pub(super) beta: Rgb,
+    pub(super) path: MediumWalk,
     pub(super) depth: u32,
 }
 
 impl PhotonWalk {
-    /// A scattering event multiplies the power by `weight`, then Russian roulette with
-    /// survival (new power) / (old power) lets survivors keep about the power they had
-    /// (the best case for a density estimate); false ends the path.
+    /// A surface event multiplies the power by `weight`, then rouletted as below; false
+    /// ends the path.
     #[inline]
     pub(super) fn scatter(&mut self, weight: Rgb, rng: &mut Rng) -> bool {
-        let new = self.beta * weight;
+        let old = self.path.beta;
+        self.path.beta *= weight;
+        self.roulette(old, rng)
+    }
+
+    /// One more scattering event, the power having gone from `old` to its value now:
+    /// Russian roulette with survival (new power) / (old power) lets survivors keep
+    /// about the power they had (the best case for a density estimate).
+    #[inline]
+    pub(super) fn roulette(&mut self, old: Rgb, rng: &mut Rng) -> bool {
+        let new = self.path.beta;
         self.depth += 1;
-        let q = (max_component(new) / max_component(self.beta)).min(1.0);
+        let q = (max_component(new) / max_component(old)).min(1.0);
         if q.is_nan() || rng.next_f32() >= q {
             return false;
         }
-        self.beta = new / q;
-        self.beta != Rgb::ZERO && self.beta.is_finite()
+        self.path.beta = new / q;
+        self.path.beta != Rgb::ZERO && self.path.beta.is_finite()
     }
 }
