@@ -2,6 +2,7 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
+use super::common::camera::sample_bsdf;
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::{render_paths, PathKernel};
@@ -9,7 +10,7 @@ use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::material::{Material, Mode};
+use crate::material::Material;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};
 use serde::{Deserialize, Serialize};
@@ -268,14 +269,9 @@ impl PtPass<'_> {
     #[inline(always)]
     fn scatter(&self, p: &mut Path, v: &Vertex, survival: f32, rng: &mut Rng) -> bool {
         let &Vertex { it, frame, wo, m } = v;
-        let u_lobe = rng.next_f32();
-        let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+        let Some((wi, s)) = sample_bsdf(it, frame, wo, m, rng) else {
             return false;
         };
-        let wi = frame.to_world(s.wi.into());
-        if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-            return false;
-        }
         p.beta *= Rgb::from(s.weight);
         p.specular = s.delta;
         p.pdf_bsdf = s.pdf * survival;

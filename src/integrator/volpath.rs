@@ -11,6 +11,7 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
+use super::common::camera::{roulette, sample_bsdf};
 use super::common::equiangular::EquiAngular;
 use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use super::common::nee::{sample_light, Origin};
@@ -21,8 +22,7 @@ use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, Ray};
 use crate::light::Light;
-use crate::material::Mode;
-use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
+use crate::math::{Frame, Rgb, Rng, Vec3};
 use crate::medium::Homogeneous;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -253,7 +253,7 @@ impl VolPath {
                     pdf_dir = pdf;
                     prev_p = p;
                     depth += 1;
-                    if !self.roulette(depth, &mut walk.beta, rng) {
+                    if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
                         break;
                     }
                     ray = Ray::new(p, wi);
@@ -290,20 +290,15 @@ impl VolPath {
                 };
                 l += walk.beta * self.direct(scene, &at, None, walk.medium, rng, stats);
             }
-            let u_lobe = rng.next_f32();
-            let Some(s) = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance) else {
+            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
                 break;
             };
-            let wi = frame.to_world(s.wi.into());
-            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-                break;
-            }
             walk.beta *= Rgb::from(s.weight);
             specular = s.delta;
             pdf_dir = s.pdf;
             prev_p = it.p;
             depth += 1;
-            if !self.roulette(depth, &mut walk.beta, rng) {
+            if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
                 break;
             }
             walk.medium = scene.medium_after(&it, wi, walk.medium);
@@ -311,19 +306,6 @@ impl VolPath {
             stats.rays += 1;
         }
         l
-    }
-
-    /// Russian roulette on the throughput after `rr_depth` events; false ends the path.
-    #[inline]
-    fn roulette(&self, depth: u32, beta: &mut Rgb, rng: &mut Rng) -> bool {
-        if depth >= self.s.rr_depth {
-            let q = max_component(*beta).min(0.95);
-            if rng.next_f32() >= q {
-                return false;
-            }
-            *beta /= q;
-        }
-        *beta != Rgb::ZERO
     }
 }
 

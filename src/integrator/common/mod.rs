@@ -1,6 +1,7 @@
 //! What every tracer shares: MIS between unidirectional strategies, next-event
 //! estimation, and the random streams.
 
+pub mod camera;
 pub mod emit;
 pub mod equiangular;
 pub mod medium_walk;

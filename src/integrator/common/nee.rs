@@ -153,3 +153,23 @@ impl LightLink {
         self.f * self.li / self.pdf_light
     }
 }
+
+/// Light sampling alone from `at`, through media and null boundaries (`medium`: the
+/// one the path travels in there): f T Li / p_light, counted as a connection. For the
+/// photon methods, whose camera paths count emitters only after specular events, so
+/// that no scattering sample competes.
+#[inline(always)]
+pub fn direct_unweighted(
+    scene: &Scene,
+    at: &Origin,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let Some(link) = sample_light(scene, at, rng, stats) else {
+        return Rgb::ZERO;
+    };
+    stats.connections += 1;
+    let tr = link.transmittance(scene, at, medium, rng, stats);
+    link.f * tr * link.li / link.pdf_light
+}

@@ -40,14 +40,15 @@ mod state;
 
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
-use crate::geometry::{spawn_ray, Interaction};
+use crate::geometry::spawn_ray;
 use crate::integrator::accel::HashGrid;
+use crate::integrator::common::camera::sample_bsdf;
 use crate::integrator::common::emit::sample_emission;
-use crate::integrator::common::nee::{sample_light, Origin};
+use crate::integrator::common::nee::{direct_unweighted, Origin};
 use crate::integrator::common::params::{check_alpha, check_photon_params};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
-use crate::material::{Material, Mode};
-use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
+use crate::material::Mode;
+use crate::math::{max_component, Frame, Rgb, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -247,7 +248,15 @@ impl PhotonMapper {
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() {
                 let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
-                l += beta * direct(scene, &it, &frame, wo, m, &mut nee_rng, stats);
+                // Light sampling alone: the camera path stops here, so no BSDF
+                // sample can find the light. No media (Settings::check_scene).
+                let at = Origin::Surface {
+                    it: &it,
+                    frame: &frame,
+                    wo,
+                    m,
+                };
+                l += beta * direct_unweighted(scene, &at, None, &mut nee_rng, stats);
                 let vp = VisiblePoint {
                     p: it.p,
                     ng: it.ng,
@@ -259,13 +268,9 @@ impl PhotonMapper {
                 };
                 return (l, Some(vp));
             }
-            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
+            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, &mut rng) else {
                 return (l, None);
             };
-            let wi = frame.to_world(s.wi.into());
-            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-                return (l, None);
-            }
             beta *= Rgb::from(s.weight);
             depth += 1;
             if beta == Rgb::ZERO {
@@ -415,28 +420,6 @@ impl PhotonMapper {
         let phi = vp.beta * phi;
         acc.phi = std::array::from_fn(|c| acc.phi[c] + phi[c] as f64);
     }
-}
-
-/// Next-event estimation at a visible point: one light, one shadow ray. Light sampling
-/// alone (no MIS): the camera path stops here, so no BSDF sample can find the light.
-fn direct(
-    scene: &Scene,
-    it: &Interaction,
-    frame: &Frame,
-    wo: Vec3,
-    m: &Material,
-    rng: &mut Rng,
-    stats: &mut RenderStats,
-) -> Rgb {
-    let at = Origin::Surface { it, frame, wo, m };
-    let Some(link) = sample_light(scene, &at, rng, stats) else {
-        return Rgb::ZERO;
-    };
-    stats.connections += 1;
-    if !scene.visible(&link.ray) {
-        return Rgb::ZERO;
-    }
-    link.unweighted()
 }
 
 impl Integrator for PhotonMapper {

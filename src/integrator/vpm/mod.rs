@@ -82,15 +82,15 @@
 mod photons;
 
 use super::accel::{HashGrid, PointBvh};
+use super::common::camera::{roulette, sample_bsdf};
 use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use super::common::params::{check_alpha, check_photon_params};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
-use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::integrator::common::nee::{sample_light, Origin};
-use crate::material::{Material, Mode};
-use crate::math::{max_component, Frame, Rgb, Rng, Vec3, PI};
+use crate::geometry::{spawn_ray, Ray};
+use crate::integrator::common::nee::{direct_unweighted, Origin};
+use crate::math::{Frame, Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;
 use photons::{Chunk, Photon};
 use serde::{Deserialize, Serialize};
@@ -344,19 +344,21 @@ impl Vpm {
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() {
-                l += walk.beta * direct(scene, &it, &frame, wo, m, walk.medium, rng, stats);
+                let at = Origin::Surface {
+                    it: &it,
+                    frame: &frame,
+                    wo,
+                    m,
+                };
+                l += walk.beta * direct_unweighted(scene, &at, walk.medium, rng, stats);
             }
-            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance) else {
+            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
                 break;
             };
-            let wi = frame.to_world(s.wi.into());
-            if (wi.dot(it.ng) > 0.0) != (s.wi.z > 0.0) {
-                break;
-            }
             walk.beta *= Rgb::from(s.weight);
             specular = s.delta;
             depth += 1;
-            if !self.camera_roulette(depth, &mut walk.beta, rng) {
+            if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
                 break;
             }
             walk.medium = scene.medium_after(&it, wi, walk.medium);
@@ -426,41 +428,6 @@ impl Vpm {
         let r = g.radius;
         sum * (g.inv_paths / (PI * r * r))
     }
-
-    /// Russian roulette on the camera throughput after `rr_depth` events, as volpath.
-    #[inline]
-    fn camera_roulette(&self, depth: u32, beta: &mut Rgb, rng: &mut Rng) -> bool {
-        if depth >= self.s.rr_depth {
-            let q = max_component(*beta).min(0.95);
-            if rng.next_f32() >= q {
-                return false;
-            }
-            *beta /= q;
-        }
-        *beta != Rgb::ZERO
-    }
-}
-
-/// Next-event estimation at a surface: one light, one shadow ray through media. Light
-/// sampling alone: the camera path counts emitters only after specular events.
-#[allow(clippy::too_many_arguments)]
-fn direct(
-    scene: &Scene,
-    it: &Interaction,
-    frame: &Frame,
-    wo: Vec3,
-    m: &Material,
-    medium: Option<u32>,
-    rng: &mut Rng,
-    stats: &mut RenderStats,
-) -> Rgb {
-    let at = Origin::Surface { it, frame, wo, m };
-    let Some(link) = sample_light(scene, &at, rng, stats) else {
-        return Rgb::ZERO;
-    };
-    stats.connections += 1;
-    let tr = link.transmittance(scene, &at, medium, rng, stats);
-    link.f * tr * link.li / link.pdf_light
 }
 
 impl Integrator for Vpm {
