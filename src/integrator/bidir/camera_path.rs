@@ -137,7 +137,7 @@ impl<M: Media> CameraPass<'_, M> {
         let layers = self.slots(*pixel);
         let light_layer = |len: u32| pass.layers.connection(1, len + 1);
         let (event, tr) = if M::ON {
-            next_event::<M>(scene, ray, walk, rng, stats)
+            next_event::<M>(scene, ray, walk, rng, stats, None)
         } else {
             let shadow = pending.as_ref().map(|p| &p.0);
             let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays);

@@ -4,6 +4,7 @@
 
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::Partial;
+use super::segments::{LightSegment, SegmentSink};
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::walk::{Eval, Surface, Walk};
 use super::{Pass, Splat, Workspace};
@@ -97,12 +98,22 @@ impl From<&LightVertex> for MergeVertex {
     }
 }
 
+/// How many vertices and segments one chunk may store (`max_vertex_mib` each).
+#[derive(Clone, Copy)]
+struct Budget {
+    vertices: usize,
+    segments: usize,
+}
+
 /// One chunk's output, kept between iterations to reuse its buffers.
 #[derive(Default)]
 pub(crate) struct Chunk {
     vertices: Vec<LightVertex>,
     /// Per light path of the chunk, the end of its vertices within `vertices`.
     ends: Vec<u32>,
+    /// Segments through media, when the pass keeps them, and per light path their end.
+    pub(super) segments: Vec<LightSegment>,
+    pub(super) segment_ends: Vec<u32>,
     pub splats: Vec<Splat>,
     stats: RenderStats,
     /// A vertex was not stored because the budget was spent.
@@ -119,20 +130,28 @@ pub(super) fn trace_light_paths(
     let chunks = n.div_ceil(PATHS_PER_TASK);
     ws.chunks.resize_with(chunks, Chunk::default);
     ws.chunks.truncate(chunks);
-    let budget = (pass.s.max_vertex_mib as f64 * 1048576.0
-        / std::mem::size_of::<LightVertex>() as f64
-        / chunks as f64) as usize;
+    let per_chunk = |size: usize| {
+        (pass.s.max_vertex_mib as f64 * 1048576.0 / size as f64 / chunks as f64) as usize
+    };
+    let budget = Budget {
+        vertices: per_chunk(std::mem::size_of::<LightVertex>()),
+        segments: per_chunk(std::mem::size_of::<LightSegment>()),
+    };
     ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
         if chunk.ends.capacity() == 0 {
             // The first iteration: room for a typical chunk (light paths store two or
             // three vertices in closed scenes), rather than growth by doubling, each
             // step a copy into freshly faulted pages. Later iterations reuse it all.
-            chunk.vertices.reserve((PATHS_PER_TASK * 3).min(budget));
+            chunk
+                .vertices
+                .reserve((PATHS_PER_TASK * 3).min(budget.vertices));
             chunk.ends.reserve(PATHS_PER_TASK);
             chunk.splats.reserve(PATHS_PER_TASK * 2);
         }
         chunk.vertices.clear();
         chunk.ends.clear();
+        chunk.segments.clear();
+        chunk.segment_ends.clear();
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
         chunk.over_budget = false;
@@ -150,7 +169,7 @@ pub(super) fn trace_light_paths(
     }
     if ws.chunks.iter().any(|c| c.over_budget) {
         tracing::warn!(
-            "light vertices beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
+            "light vertices or segments beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
             pass.s.max_vertex_mib
         );
     }
@@ -190,12 +209,16 @@ impl Workspace {
         }
     }
 
-    /// Bytes held for light vertices (the chunks' stores and the grid's positions).
+    /// Bytes held for light vertices and segments (the chunks' stores and the grid's
+    /// positions).
     pub(super) fn vertex_store_bytes(&self) -> usize {
         let stores: usize = self
             .chunks
             .iter()
-            .map(|c| c.vertices.capacity() * std::mem::size_of::<LightVertex>())
+            .map(|c| {
+                c.vertices.capacity() * std::mem::size_of::<LightVertex>()
+                    + c.segments.capacity() * std::mem::size_of::<LightSegment>()
+            })
             .sum();
         stores + self.positions.capacity() * std::mem::size_of::<Vec3>()
     }
@@ -209,7 +232,7 @@ fn trace_chunk(
     iteration: u64,
     paths: std::ops::Range<usize>,
     chunk: &mut Chunk,
-    budget: usize,
+    budget: Budget,
 ) {
     #[cfg(target_arch = "x86_64")]
     {
@@ -229,7 +252,7 @@ unsafe fn trace_chunk_avx2(
     iteration: u64,
     paths: std::ops::Range<usize>,
     chunk: &mut Chunk,
-    budget: usize,
+    budget: Budget,
 ) {
     trace_chunk_body(pass, seed, iteration, paths, chunk, budget)
 }
@@ -241,7 +264,7 @@ fn trace_chunk_body(
     iteration: u64,
     paths: std::ops::Range<usize>,
     chunk: &mut Chunk,
-    budget: usize,
+    budget: Budget,
 ) {
     for i in paths {
         let mut rng = Stream::LightSubpaths.rng(seed, iteration, i as u64);
@@ -251,6 +274,9 @@ fn trace_chunk_body(
             trace_one::<NoMedia>(pass, &mut rng, chunk, budget);
         }
         chunk.ends.push(chunk.vertices.len() as u32);
+        if pass.keep_segments {
+            chunk.segment_ends.push(chunk.segments.len() as u32);
+        }
     }
 }
 
@@ -307,7 +333,7 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
 
 /// One light subpath; `M` (whether the scene has media) is decided once per path.
 #[inline(always)]
-fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: usize) {
+fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Budget) {
     let scene = pass.scene;
     let Some((st, ls)) = start(pass, rng) else {
         return;
@@ -334,7 +360,20 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
     loop {
         chunk.stats.rays += 1;
         let (event, tr) = if M::ON {
-            next_event::<M>(scene, &mut ray, &mut walk, rng, &mut chunk.stats)
+            let Chunk {
+                segments,
+                over_budget,
+                stats,
+                ..
+            } = chunk;
+            let mut sink = SegmentSink {
+                out: segments,
+                budget: budget.segments,
+                over_budget,
+                len: walk.len,
+            };
+            let keep = pass.keep_segments.then_some(&mut sink);
+            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep)
         } else {
             // Read in place, then cleared: `take` copied the whole lens connection.
             let shadow = lens.as_ref().map(|l| &l.ray);
@@ -370,7 +409,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: us
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         walk.q = pass.mis.on_hit(walk.q, d2 / tr, v.d_in());
         if !v.skips_connections() {
-            if store && chunk.vertices.len() >= budget {
+            if store && chunk.vertices.len() >= budget.vertices {
                 chunk.over_budget = true;
             } else if store {
                 chunk.vertices.push(stored(v, &walk, ray.d, scene));

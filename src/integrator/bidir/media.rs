@@ -8,6 +8,7 @@
 //! test, exactly the surface-only code, with MIS transmittance 1.
 
 use super::mis;
+use super::segments::SegmentSink;
 use super::vertex::Media;
 use super::walk::Walk;
 use crate::geometry::{Interaction, Ray};
@@ -40,6 +41,7 @@ pub(crate) fn next_event<'a, M: Media>(
     walk: &mut Walk,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    keep: Option<&mut SegmentSink>,
 ) -> (Event<'a>, f32) {
     if !M::ON {
         let e = match scene.next_scattering(ray, &mut stats.rays) {
@@ -53,11 +55,18 @@ pub(crate) fn next_event<'a, M: Media>(
         beta: walk.throughput,
         medium: walk.medium,
     };
-    let mut depth = MisDepth { scene, depth: 0.0 };
+    let mut depth = MisDepth {
+        scene,
+        depth: 0.0,
+        keep,
+    };
     let step = path.next(scene, ray, &mut depth, rng, stats);
     (walk.throughput, walk.medium) = (path.beta, path.medium);
     match step {
         Step::Scatter { seg, t, .. } => {
+            if let Some(keep) = depth.keep {
+                keep.push(&seg, t);
+            }
             if walk.throughput == Rgb::ZERO {
                 return (Event::End, 1.0);
             }
@@ -72,10 +81,12 @@ pub(crate) fn next_event<'a, M: Media>(
 }
 
 /// The grey optical depth MIS assigns the segments a walk passed (`Medium::mis_sigma_t`
-/// times their length; heterogeneous media count zero).
-struct MisDepth<'a> {
+/// times their length; heterogeneous media count zero), and where a light subpath
+/// keeps its segments.
+struct MisDepth<'a, 'k, 's> {
     scene: &'a Scene,
     depth: f32,
+    keep: Option<&'k mut SegmentSink<'s>>,
 }
 
 #[inline(always)]
@@ -83,9 +94,12 @@ fn mis_sigma(scene: &Scene, medium: u32) -> f32 {
     scene.media[medium as usize].mis_sigma_t().unwrap_or(0.0)
 }
 
-impl Segments for MisDepth<'_> {
+impl Segments for MisDepth<'_, '_, '_> {
     #[inline(always)]
     fn passed(&mut self, seg: &Segment) {
+        if let Some(keep) = self.keep.as_deref_mut() {
+            keep.push(seg, seg.tmax);
+        }
         let sigma = mis_sigma(self.scene, seg.medium);
         if sigma > 0.0 {
             self.depth += sigma * seg.tmax;

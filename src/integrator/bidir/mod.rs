@@ -18,6 +18,7 @@ mod camera_path;
 mod light_path;
 mod media;
 pub mod mis;
+mod segments;
 mod vertex;
 mod walk;
 
@@ -221,6 +222,9 @@ pub(crate) struct Pass<'a> {
     pub vm_norm: f32,
     pub light_paths: usize,
     pub layers: &'a Layers,
+    /// Light subpaths keep their segments through media (`segments`), for the
+    /// estimators made of them.
+    pub keep_segments: bool,
 }
 
 impl Pass<'_> {
@@ -263,6 +267,7 @@ pub struct Bidir {
     s: BidirSettings,
     technique: Technique,
     layers: Layers,
+    keep_segments: bool,
     ws: Mutex<Workspace>,
 }
 
@@ -272,8 +277,16 @@ impl Bidir {
             layers: Layers::new(&s),
             s,
             technique,
+            keep_segments: false,
             ws: Mutex::new(Workspace::default()),
         }
+    }
+
+    /// The same, with light subpaths keeping their segments through media.
+    #[allow(dead_code)] // for the ray-light and photon-beam estimators and the tests
+    pub(crate) fn keeping_segments(mut self) -> Self {
+        self.keep_segments = true;
+        self
     }
 
     fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
@@ -305,6 +318,7 @@ impl Bidir {
             vm_norm: 1.0 / (crate::math::PI * radius * radius * light_paths as f32),
             light_paths,
             layers: &self.layers,
+            keep_segments: self.keep_segments,
         }
     }
 }

@@ -1,0 +1,174 @@
+//! The light subpaths' segments through media, kept beside their vertices when an
+//! estimator asks for them (`Pass::keep_segments`): ray lights and photon beams are
+//! made of these. A segment is the part of a light subpath's ray inside one medium,
+//! from its origin (a vertex, or a null boundary it crossed) to where the free flight
+//! ended (`t`: the scattering point, or the segment's end when the flight passed it),
+//! with the distance to the next surface along the ray (`tmax`), so that an estimator
+//! can use the short form (to the flight's end) or the long one (to the surface,
+//! weighted by transmittance). Kept in path order per chunk, like the vertices, so the
+//! store never depends on the thread count.
+
+use super::light_path::Chunk;
+use super::Workspace;
+use crate::integrator::common::medium_walk::Segment;
+use crate::integrator::common::PATHS_PER_TASK;
+use crate::math::{Rgb, Vec3};
+
+/// One light-subpath segment in a medium.
+#[derive(Clone, Copy, Debug)]
+#[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
+pub(crate) struct LightSegment {
+    pub o: Vec3,
+    /// Unit direction.
+    pub d: Vec3,
+    /// To the end of the free flight (the scattering point, or `tmax` when it passed).
+    pub t: f32,
+    /// To the next surface or null boundary; infinite when the ray leaves the scene.
+    pub tmax: f32,
+    pub medium: u32,
+    /// The subpath's throughput at `o`, before the flight's weight: the power the
+    /// light carries into the segment.
+    pub beta: Rgb,
+    /// Segments from the light to the vertex the ray leads to (this one included).
+    pub len: u32,
+}
+
+impl LightSegment {
+    #[inline(always)]
+    pub fn new(seg: &Segment, t: f32, len: u32) -> Self {
+        LightSegment {
+            o: seg.ray.o,
+            d: seg.ray.d,
+            t,
+            tmax: seg.tmax,
+            medium: seg.medium,
+            beta: seg.beta,
+            len,
+        }
+    }
+
+    /// The end of the free flight.
+    #[allow(dead_code)]
+    #[inline]
+    pub fn end(&self) -> Vec3 {
+        self.o + self.d * self.t
+    }
+}
+
+/// Where a light subpath's walk puts its segments, and how many it may still add.
+pub(crate) struct SegmentSink<'a> {
+    pub out: &'a mut Vec<LightSegment>,
+    pub budget: usize,
+    pub over_budget: &'a mut bool,
+    pub len: u32,
+}
+
+impl SegmentSink<'_> {
+    #[inline(always)]
+    pub fn push(&mut self, seg: &Segment, t: f32) {
+        if self.out.len() < self.budget {
+            self.out.push(LightSegment::new(seg, t, self.len));
+        } else {
+            *self.over_budget = true;
+        }
+    }
+}
+
+impl Workspace {
+    /// The segments light path `path` kept, in the order it traced them (empty unless
+    /// the pass keeps segments).
+    #[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
+    pub(super) fn light_segments(&self, path: usize) -> &[LightSegment] {
+        let chunk: &Chunk = &self.chunks[path / PATHS_PER_TASK];
+        let i = path % PATHS_PER_TASK;
+        if chunk.segment_ends.is_empty() {
+            return &[];
+        }
+        let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
+        &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::light_path::trace_light_paths;
+    use super::super::{Bidir, BidirSettings, Technique};
+    use crate::math::PI;
+    use crate::scene::Scene;
+
+    /// A point light of intensity I in an infinite grey medium around the camera.
+    fn fog(sigma_t: f32) -> Scene {
+        let text = format!(
+            r#"{{"format": 1,
+            "camera": {{"look_at": {{"origin": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0]}},
+                       "fov": 40, "medium": "fog"}},
+            "film": {{"width": 64, "height": 64}},
+            "media": {{"fog": {{"type": "homogeneous", "sigma_t": [{sigma_t}, {sigma_t}, {sigma_t}],
+                               "albedo": [0.6, 0.6, 0.6]}}}},
+            "lights": [{{"type": "point", "position": [0.5, 0, 2], "intensity": [3, 3, 3]}}]}}"#
+        );
+        crate::scene::load::parse_scene(&text)
+            .and_then(|f| Scene::compile(&f, None))
+            .unwrap()
+    }
+
+    #[test]
+    fn light_subpaths_keep_their_segments_through_media_on_request() {
+        let sigma_t = 2.0f32;
+        let scene = fog(sigma_t);
+        let s = BidirSettings {
+            light_paths: 4.0,
+            ..Default::default()
+        };
+        let bidir = Bidir::new(Technique::Bpt, s.clone()).keeping_segments();
+        let pass = bidir.pass(&scene, 0);
+        let mut ws = bidir.ws.lock().unwrap();
+        trace_light_paths(&pass, 5, 0, &mut ws);
+        let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0usize);
+        let power = 4.0 * PI * 3.0;
+        for path in 0..ws.paths {
+            let segs = ws.light_segments(path);
+            assert!(
+                !segs.is_empty(),
+                "path {path}: no segment in an infinite medium"
+            );
+            let first = &segs[0];
+            assert!((first.o - glam::Vec3::new(0.5, 0.0, 2.0)).length() < 1e-6);
+            assert!(
+                (first.beta.x - power).abs() < 1e-5 * power,
+                "{:?}",
+                first.beta
+            );
+            assert_eq!(first.len, 1);
+            for (a, b) in segs.iter().zip(&segs[1..]) {
+                // Each segment starts where the previous flight scattered.
+                let gap = (b.o - a.end()).length();
+                assert!(gap <= 1e-5 * (1.0 + a.end().length()), "gap {gap}");
+                assert_eq!(b.len, a.len + 1);
+            }
+            for seg in segs {
+                assert!(seg.tmax.is_infinite() && seg.t.is_finite() && seg.t >= 0.0);
+                assert!((seg.d.length() - 1.0).abs() < 1e-5);
+            }
+            let t = first.t as f64;
+            sum += t;
+            sum2 += t * t;
+            n += 1;
+        }
+        // The first flight from the light is exponential with rate sigma_t.
+        let mean = sum / n as f64;
+        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        let expect = 1.0 / sigma_t as f64;
+        assert!(
+            (mean - expect).abs() < 4.0 * se,
+            "mean first segment {mean} +- {se}, expected {expect}"
+        );
+        drop(ws);
+        // Without the request nothing is kept.
+        let plain = Bidir::new(Technique::Bpt, s);
+        let pass = plain.pass(&scene, 0);
+        let mut ws = plain.ws.lock().unwrap();
+        trace_light_paths(&pass, 5, 0, &mut ws);
+        assert!((0..ws.paths).all(|p| ws.light_segments(p).is_empty()));
+    }
+}
