@@ -10,12 +10,12 @@
 
 use super::disk;
 use super::failpoint;
-use super::scheduler::Shared;
+use super::scheduler::{JobSettings, Shared};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::JobError;
 use crate::film::{self, Film, Image};
-use crate::integrator::{Integrator, RenderStats, Settings};
+use crate::integrator::{Integrator, RenderStats};
 use crate::scene::Scene;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -58,11 +58,18 @@ pub struct StepResult {
     pub saved: bool,
 }
 
+/// What a step goes on from: the job's runtime, when it is held in memory, or else
+/// the settings to build one from.
+pub enum Held {
+    Runtime(Box<Runtime>),
+    Settings(JobSettings),
+}
+
 /// Runs the next batch of `status`'s job, building its runtime first if needed.
-pub fn step(shared: &Shared, runtime: Option<Box<Runtime>>, mut status: JobStatus) -> StepResult {
-    let mut rt = match runtime {
-        Some(rt) => rt,
-        None => match start(shared, &mut status) {
+pub fn step(shared: &Shared, held: Held, mut status: JobStatus) -> StepResult {
+    let mut rt = match held {
+        Held::Runtime(rt) => rt,
+        Held::Settings(settings) => match start(shared, settings, &mut status) {
             Ok(rt) => rt,
             Err(e) => return fail(shared, status, e),
         },
@@ -127,10 +134,13 @@ fn halt_reached(status: &JobStatus) -> bool {
 }
 
 /// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if any.
-fn start(shared: &Shared, status: &mut JobStatus) -> Result<Box<Runtime>, JobError> {
+fn start(
+    shared: &Shared,
+    settings: JobSettings,
+    status: &mut JobStatus,
+) -> Result<Box<Runtime>, JobError> {
+    let settings = settings.map_err(JobError::BadRequest)?;
     let scene = shared.scenes.compiled(&status.spec.scene)?;
-    let settings: Settings = serde_json::from_value(status.settings.clone())
-        .map_err(|e| JobError::Internal(format!("stored settings: {e}")))?;
     let dir = shared.job_dir(&status.id);
     let reference = load_reference(shared, &status.spec, &scene)?;
     let integrator = settings.build();

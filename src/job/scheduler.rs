@@ -8,10 +8,11 @@
 
 use super::disk::{self, Finished, Retention};
 use super::events::{Event, Sender};
-use super::run::{self, Runtime, StepResult};
+use super::run::{self, Held, Runtime, StepResult};
 use super::scenes::SceneStore;
 use super::spec::{unix_now, JobState, JobStatus};
 use super::store::JobDir;
+use crate::integrator::Settings;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -33,8 +34,16 @@ pub enum Control {
     Cancel,
 }
 
+/// A job's settings, parsed once: at submit, or from job.json when the server starts.
+/// The error says, in words for the client, why stored settings do not parse in this
+/// build; such a job fails whenever it would start.
+pub type JobSettings = Result<Settings, String>;
+
 pub struct Entry {
     pub status: JobStatus,
+    /// What the job's runtime is built from, each time it starts or resumes;
+    /// `status.settings` holds them as JSON, as clients and job.json see them.
+    pub settings: JobSettings,
     pub control: Control,
     /// Scheduler tick when the job last ran.
     pub served: u64,
@@ -46,9 +55,10 @@ pub struct Entry {
 }
 
 impl Entry {
-    pub fn new(status: JobStatus, served: u64) -> Entry {
+    pub fn new(status: JobStatus, settings: JobSettings, served: u64) -> Entry {
         Entry {
             status,
+            settings,
             control: Control::None,
             served,
             active: false,
@@ -159,7 +169,7 @@ pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
             return;
         }
         housekeeping.run(&shared);
-        let (id, runtime, status) = {
+        let (id, held, status) = {
             let mut t = shared.table.lock().expect("job table");
             let victim = (Instant::now() >= evictions_from)
                 .then(|| to_evict(&t, shared.max_active))
@@ -177,9 +187,13 @@ pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
             };
             let e = t.jobs.get_mut(&id).expect("picked job");
             e.active = true;
-            (id, e.runtime.take(), e.status.clone())
+            let held = match e.runtime.take() {
+                Some(rt) => Held::Runtime(rt),
+                None => Held::Settings(e.settings.clone()),
+            };
+            (id, held, e.status.clone())
         };
-        let result = pool.install(|| run::step(&shared, runtime, status));
+        let result = pool.install(|| run::step(&shared, held, status));
         finish_step(&shared, &id, result);
     }
 }

@@ -241,14 +241,14 @@ impl Service {
                 "sweep is set by the server for the jobs of a sweep (POST /v1/sweeps)",
             ));
         }
-        let status = self.prepare(spec)?;
-        self.queue(status)
+        let (status, settings) = self.prepare(spec)?;
+        self.queue(status, settings)
     }
 
     /// Stores a prepared job and queues it.
-    fn queue(&self, status: JobStatus) -> Result<JobStatus, JobError> {
+    fn queue(&self, status: JobStatus, settings: Settings) -> Result<JobStatus, JobError> {
         self.store_new(&status)?;
-        self.enqueue(vec![status.clone()]);
+        self.enqueue(vec![(status.clone(), settings)]);
         Ok(status)
     }
 
@@ -264,12 +264,13 @@ impl Service {
     }
 
     /// Puts stored jobs in the table, all at once, and wakes the scheduler.
-    fn enqueue(&self, jobs: Vec<JobStatus>) {
+    fn enqueue(&self, jobs: Vec<(JobStatus, Settings)>) {
         let mut t = self.shared.table.lock().expect("job table");
         let tick = t.tick;
-        let ids: Vec<String> = jobs.iter().map(|s| s.id.clone()).collect();
-        for status in jobs {
-            t.jobs.insert(status.id.clone(), Entry::new(status, tick));
+        let ids: Vec<String> = jobs.iter().map(|(s, _)| s.id.clone()).collect();
+        for (status, settings) in jobs {
+            t.jobs
+                .insert(status.id.clone(), Entry::new(status, Ok(settings), tick));
         }
         drop(t);
         self.shared.wake.notify_all();
@@ -281,7 +282,9 @@ impl Service {
         }
     }
 
-    fn prepare(&self, spec: JobSpec) -> Result<JobStatus, JobError> {
+    /// A validated job, with the settings it runs with: typed for the scheduler, and
+    /// as JSON in the status that clients and job.json see.
+    fn prepare(&self, spec: JobSpec) -> Result<(JobStatus, Settings), JobError> {
         limits::check_spec(&spec)?;
         let scenes = &self.shared.scenes;
         if !scenes.exists(&spec.scene) {
@@ -306,7 +309,7 @@ impl Service {
         }
         run::load_reference(&self.shared, &spec, &scene)?;
         let settings = Settings::for_scene(spec.algorithm.as_deref(), &scene, &spec.params)?;
-        Ok(JobStatus {
+        let status = JobStatus {
             id: self.new_id(),
             settings: serde_json::to_value(&settings).expect("settings serialise"),
             state: JobState::Queued,
@@ -322,7 +325,8 @@ impl Service {
             finished_at: None,
             error: None,
             spec,
-        })
+        };
+        Ok((status, settings))
     }
 
     pub fn get_job(&self, id: &str) -> Result<JobStatus, JobError> {
@@ -561,7 +565,7 @@ impl Service {
             spec,
             jobs: prepared
                 .iter()
-                .map(|(point, status)| (point.clone(), status.id.clone()))
+                .map(|(point, (status, _))| (point.clone(), status.id.clone()))
                 .collect(),
         };
         let path = self
@@ -570,16 +574,16 @@ impl Service {
             .join("sweeps")
             .join(format!("{}.json", sweep.id));
         crate::film::write_bytes_atomic(&path, &serde_json::to_vec_pretty(&sweep).expect("sweep"))?;
-        let mut stored: Vec<JobStatus> = Vec::with_capacity(prepared.len());
-        for (_, status) in prepared {
-            if let Err(e) = self.store_new(&status) {
-                for s in &stored {
+        let mut stored: Vec<(JobStatus, Settings)> = Vec::with_capacity(prepared.len());
+        for (_, job) in prepared {
+            if let Err(e) = self.store_new(&job.0) {
+                for (s, _) in &stored {
                     let _ = std::fs::remove_dir_all(self.job_dir_of(&s.id).root);
                 }
                 let _ = std::fs::remove_file(&path);
                 return Err(e);
             }
-            stored.push(status);
+            stored.push(job);
         }
         self.enqueue(stored);
         Ok(sweep)

@@ -1,15 +1,18 @@
 //! Recovery at start: the job table rebuilt from the job directories on disk.
 
+use crate::integrator::Settings;
 use crate::job::disk;
-use crate::job::scheduler::{Entry, Table};
-use crate::job::spec::JobState;
+use crate::job::scheduler::{Entry, JobSettings, Table};
+use crate::job::spec::{unix_now, JobState, JobStatus};
 use crate::job::store::{Checkpoint, JobDir};
+use serde::Deserialize;
 use std::path::Path;
 
 /// Reads every job.json under `<data-dir>/jobs`. Jobs that were running go back to
 /// the queue and resume from their checkpoints; a job's iteration is its checkpoint's
 /// (what it resumes from), and a completed job's leftovers (a checkpoint it did not ask
-/// to keep, `latest.*`) are removed.
+/// to keep, `latest.*`) are removed. Settings are parsed here, once per job: see
+/// [`fail_unreadable`] for those that no longer parse.
 pub(super) fn recover(data_dir: &Path) -> Table {
     let mut t = Table::default();
     let entries = std::fs::read_dir(data_dir.join("jobs"))
@@ -38,16 +41,56 @@ pub(super) fn recover(data_dir: &Path) -> Table {
             status.iteration = header.as_ref().map_or(0, |h| h.iteration);
             status.elapsed_s = header.as_ref().map_or(0.0, |h| h.elapsed_s);
         }
-        t.jobs.insert(id, Entry::new(status, 0));
+        let settings = parse_settings(&status.settings);
+        let unsaved = match &settings {
+            Ok(_) => false,
+            Err(why) => fail_unreadable(&dir, &mut status, why),
+        };
+        let mut entry = Entry::new(status, settings, 0);
+        entry.unsaved = unsaved;
+        t.jobs.insert(id, entry);
     }
     t
+}
+
+/// The stored settings as the scheduler holds them. serde's message names the field
+/// at fault and no server path (the value is parsed, not the file).
+fn parse_settings(stored: &serde_json::Value) -> JobSettings {
+    Settings::deserialize(stored).map_err(|e| {
+        format!(
+            "the job's stored settings do not parse in this version of caustic ({e}); \
+             submit the job again"
+        )
+    })
+}
+
+/// A job whose settings no longer parse (a field that a newer build removed or
+/// renamed) cannot run, but its directory, its checkpoint and its settings as written
+/// stay: another build may still run it (`retry`). One that would still run is marked
+/// failed, saying why, and that is stored as any failure is, so that the API and
+/// job.json agree; a finished one keeps its state, since it needs no settings any
+/// more. Returns whether job.json is left behind the status (a write failed).
+fn fail_unreadable(dir: &JobDir, status: &mut JobStatus, why: &str) -> bool {
+    tracing::warn!(job = %status.id, error = why, "stored settings do not parse");
+    if status.state.is_terminal() {
+        return false;
+    }
+    status.state = JobState::Failed;
+    status.error = Some(why.to_string());
+    status.finished_at = Some(unix_now());
+    status.eta_s = None;
+    let written = dir.write_status(status);
+    if let Err(e) = &written {
+        tracing::warn!(job = %status.id, error = %e, "job.json not written");
+    }
+    written.is_err()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::film::Film;
-    use crate::job::spec::{JobSpec, JobStatus};
+    use crate::job::spec::JobSpec;
 
     fn status(id: &str, state: JobState, iteration: u64) -> JobStatus {
         let spec: JobSpec = serde_json::from_value(serde_json::json!({
@@ -57,7 +100,7 @@ mod tests {
         JobStatus {
             id: id.into(),
             spec,
-            settings: serde_json::json!({}),
+            settings: serde_json::json!({"algorithm": "pt"}),
             state,
             iteration,
             elapsed_s: 9.0,
@@ -105,5 +148,70 @@ mod tests {
         );
         let j2 = &t.jobs["j2"].status;
         assert_eq!((j2.state, j2.iteration), (JobState::Queued, 0));
+    }
+
+    /// A field the settings no longer have (here `legacy_knob`) fails the job that
+    /// would run, with a message naming it, and keeps its directory and its settings
+    /// as written; a finished job keeps its state, and the other jobs load as before.
+    #[test]
+    fn jobs_whose_settings_no_longer_parse_fail_and_the_rest_load() {
+        use crate::job::service::{JobFilter, Service, ServiceConfig};
+        let dir = tempfile::tempdir().unwrap();
+        let stale = serde_json::json!({"algorithm": "pt", "max_depth": 4, "legacy_knob": 3});
+        let write = |id: &str, state: JobState, settings: &serde_json::Value| {
+            let jd = JobDir::new(dir.path(), id);
+            jd.create().unwrap();
+            let mut s = status(id, state, 0);
+            s.settings = settings.clone();
+            jd.write_status(&s).unwrap();
+        };
+        write("j1", JobState::Running, &stale);
+        write(
+            "j2",
+            JobState::Paused,
+            &serde_json::json!({"algorithm": "pt"}),
+        );
+        let mut done = status("j3", JobState::Completed, 100);
+        done.settings = stale.clone();
+        JobDir::new(dir.path(), "j3").create().unwrap();
+        JobDir::new(dir.path(), "j3").write_status(&done).unwrap();
+
+        let svc = Service::start(ServiceConfig::for_tests(dir.path())).unwrap();
+        let jobs = svc.list_jobs(&JobFilter::default());
+        let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+        assert_eq!(ids, ["j1", "j2", "j3"]);
+        let j1 = &jobs[0];
+        assert_eq!(j1.state, JobState::Failed);
+        let why = j1.error.clone().unwrap();
+        assert!(why.contains("legacy_knob"), "{why}");
+        assert!(!why.contains(&*dir.path().to_string_lossy()), "{why}");
+        assert_eq!(
+            j1.settings, stale,
+            "the settings are kept as they were written"
+        );
+        let on_disk = JobDir::new(dir.path(), "j1").read_status().unwrap();
+        assert_eq!(
+            (on_disk.state, &on_disk.settings),
+            (JobState::Failed, &stale)
+        );
+        assert_eq!((jobs[1].state, &jobs[1].error), (JobState::Paused, &None));
+        assert_eq!(
+            (jobs[2].state, &jobs[2].error),
+            (JobState::Completed, &None)
+        );
+
+        // A retry runs into the same settings, and fails with the same message.
+        assert_eq!(svc.retry("j1").unwrap().state, JobState::Queued);
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+        let again = loop {
+            let j = svc.get_job("j1").unwrap();
+            if j.state != JobState::Queued && j.state != JobState::Running {
+                break j;
+            }
+            assert!(std::time::Instant::now() < deadline, "retry never ran");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        assert_eq!((again.state, again.error), (JobState::Failed, Some(why)));
+        svc.shutdown();
     }
 }
