@@ -3,10 +3,12 @@
 
 use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
+use super::mis::Site;
 use super::vertex::{Media, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
+use crate::integrator::common::nee::pick_light;
 use crate::integrator::pixels::PathKernel;
 use crate::integrator::RenderStats;
 use crate::light::Light;
@@ -301,15 +303,10 @@ fn light_sample<M: Media>(
 ) -> (Rgb, Option<Ray>) {
     let scene = pass.scene;
     let none = (Rgb::ZERO, None);
-    if scene.lights.is_empty() {
-        return none;
-    }
-    let (li, pick, _) = scene.light_sampler.sample(rng.next_f32());
-    let u = rng.next_2d();
-    let light = &scene.lights[li];
-    let Some(ls) = light.sample_li(v.p(), u) else {
+    let Some((li, pick, ls)) = pick_light(scene, v.p(), rng) else {
         return none;
     };
+    let light = &scene.lights[li];
     let Some(e) = v.eval(ls.wi(), Mode::Radiance) else {
         return none;
     };
@@ -345,6 +342,7 @@ fn light_sample<M: Media>(
     };
     let w = pass.mis.weight_light_sample(
         walk.q,
+        v.site(),
         walk.len,
         pick,
         direct / tr_mis,
@@ -400,8 +398,8 @@ fn connect<M: Media>(
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
         let w = pass.mis.weight_connection(
-            y.q,
-            walk.q,
+            (y.q, y.site()),
+            (walk.q, v.site()),
             walk.len,
             ec.pdf_dir * cont * el.cos / seg,
             el.pdf_dir * y_cont * ec.cos / seg,
@@ -442,9 +440,8 @@ fn merge(
             if e.cos < MIN_COS {
                 return;
             }
-            let w =
-                pass.mis
-                    .weight_merge(y.q, walk.q, e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
+            let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
+            let w = pass.mis.weight_merge(y.q, walk.q, Site::Surface, dir, rev);
             merges += 1;
             // The photon's flux already holds the cosine at its surface: f without it.
             sum += y.throughput * e.f * (w / e.cos);

@@ -3,7 +3,7 @@
 //! camera (splats).
 
 use super::media::{next_event, next_event_with, shadow, Event};
-use super::mis::Partial;
+use super::mis::{Partial, Site};
 use super::segments::{LightSegment, SegmentSink};
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::walk::{Eval, Surface, Walk};
@@ -59,6 +59,16 @@ pub(crate) struct MergeVertex {
 }
 
 impl LightVertex {
+    /// Where a merge at the vertex would sit.
+    #[inline(always)]
+    pub fn site(&self) -> Site {
+        if self.material == MEDIUM_VERTEX {
+            Site::Medium
+        } else {
+            Site::Surface
+        }
+    }
+
     /// What scatters at the vertex, for connections (only surfaces without media).
     #[inline(always)]
     pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
@@ -503,13 +513,13 @@ fn connect_to_camera<M: Media>(
         return Some(LensShadow {
             ray,
             raster,
-            value: lens_value(pass, walk, &e, v.cont(), link, Rgb::ONE, 1.0),
+            value: lens_value(pass, walk, (&e, v.site()), v.cont(), link, Rgb::ONE, 1.0),
             layer,
         });
     }
     let rays = &mut chunk.stats.shadow_rays;
     let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
-    let value = lens_value(pass, walk, &e, v.cont(), link, tr, tr_mis);
+    let value = lens_value(pass, walk, (&e, v.site()), v.cont(), link, tr, tr_mis);
     push_splat(pass, chunk, raster, value, layer);
     None
 }
@@ -521,7 +531,7 @@ fn connect_to_camera<M: Media>(
 fn lens_value(
     pass: &Pass,
     walk: &Walk,
-    e: &Eval,
+    (e, site): (&Eval, Site),
     cont: f32,
     (camera_pdf, dist2): (f32, f32),
     tr: Rgb,
@@ -532,7 +542,7 @@ fn lens_value(
         1.0
     } else {
         pass.mis
-            .weight_camera_connection(walk.q, camera_a, e.pdf_rev * cont)
+            .weight_camera_connection((walk.q, site), camera_a, e.pdf_rev * cont)
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.

@@ -44,14 +44,57 @@
 
 use crate::integrator::common::Heuristic;
 
+/// Where a merge estimator can sit. Each site has its own kernel, whose normalisation
+/// eta (the kernel's support times the number of light subpaths) ranks merging there
+/// against connecting: [TR] eq. 20 has one, eta_VCM = pi r^2 N, for surfaces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Site {
+    Surface = 0,
+    Medium = 1,
+}
+
+impl Site {
+    pub const COUNT: usize = 2;
+}
+
+/// The merge estimators of a technique set: eta by site, None where nothing merges
+/// (media today: a volume point kernel, 4/3 pi r^3 N, joins with merging in media).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Merges {
+    pub eta: [Option<f64>; Site::COUNT],
+}
+
+impl Merges {
+    /// Surface merging with radius r over N light subpaths ([TR] eq. 20).
+    pub fn surface(radius: f32, light_paths: f32) -> Self {
+        let eta = std::f64::consts::PI * (radius as f64).powi(2) * light_paths as f64;
+        let mut m = Merges::default();
+        m.eta[Site::Surface as usize] = Some(eta);
+        m
+    }
+
+    /// The kernel's normalisation 1 / eta at `site`, which scales the estimate (0
+    /// where nothing merges).
+    pub fn norm(&self, site: Site) -> f32 {
+        self.eta[site as usize].map_or(0.0, |eta| (1.0 / eta) as f32)
+    }
+}
+
 /// Per-iteration MIS constants.
+///
+/// With one eta, [TR] keeps dVM relative to the merge density, eta included. With an
+/// eta per site the site of the eventual merge is unknown while the subpath is
+/// traced, so `Partial::dvm` here is [TR]'s dVM times Mis(eta) of the merging vertex:
+/// the recursion's constant 1 becomes Mis(eta_x) of the vertex x it stands for, its
+/// Mis(1 / eta) becomes [connections in use], and the merge weight divides by
+/// Mis(eta) of its own vertex. With one site this is [TR]'s algebra exactly.
 #[derive(Clone, Copy, Debug)]
 pub struct Mis {
     pub heuristic: Heuristic,
-    /// Mis(eta_VCM) when merging is used, else 0 ([TR] eq. 20, n_VC = 1).
-    pub vm: f64,
-    /// Mis(1 / eta_VCM) when connections are used, else 0.
-    pub vc: f64,
+    /// Mis(eta) of the merge estimator by site, 0 where none is used.
+    merge: [f64; Site::COUNT],
+    /// 1 when connections are used, else 0.
+    vc: f64,
     /// Light subpaths per iteration (the light-tracing technique's sample count).
     pub light_paths: f64,
     /// Merging at the first camera vertex is a technique; when false it is removed
@@ -82,22 +125,15 @@ pub struct Partial {
 }
 
 impl Mis {
-    /// eta_VCM = pi r^2 N ([TR] eq. 20).
-    pub fn new(heuristic: Heuristic, radius: f32, light_paths: f32, vc: bool, vm: bool) -> Self {
+    pub fn new(heuristic: Heuristic, light_paths: f32, vc: bool, merges: Merges) -> Self {
         let mut m = Mis {
             heuristic,
-            vm: 0.0,
-            vc: 0.0,
+            merge: [0.0; Site::COUNT],
+            vc: if vc { 1.0 } else { 0.0 },
             light_paths: light_paths as f64,
             merge_first: true,
         };
-        let eta = std::f64::consts::PI * (radius as f64).powi(2) * light_paths as f64;
-        if vm {
-            m.vm = m.f(eta);
-        }
-        if vc {
-            m.vc = m.f(1.0 / eta);
-        }
+        m.merge = merges.eta.map(|eta| eta.map_or(0.0, |eta| m.f(eta)));
         m
     }
 
@@ -111,14 +147,14 @@ impl Mis {
         }
     }
 
-    /// The merge technique's weight factor at a camera vertex `len` segments from the
-    /// camera (zero at the first vertex when merging there is off).
+    /// Mis(eta) of merging at a vertex at `site`, `camera_len` segments from the
+    /// camera on camera subpaths (0 where that merge is no technique).
     #[inline]
-    fn vm_at(&self, camera_len: Option<u32>) -> (f64, f64) {
+    fn merge_at(&self, site: Site, camera_len: Option<u32>) -> f64 {
         if camera_len == Some(1) && !self.merge_first {
-            (0.0, 0.0)
+            0.0
         } else {
-            (self.vm, 1.0)
+            self.merge[site as usize]
         }
     }
 
@@ -172,13 +208,15 @@ impl Mis {
         }
     }
 
-    /// Scattering at a vertex ([TR] eqs. 34-36; specular 53-55). `pdf_dir` and `pdf_rev`
-    /// are the sampled direction's density and the reverse one, with continuation
-    /// probabilities; `camera_len` is Some(segments) on camera subpaths.
+    /// Scattering at a vertex at `site` ([TR] eqs. 34-36; specular 53-55). `pdf_dir`
+    /// and `pdf_rev` are the sampled direction's density and the reverse one, with
+    /// continuation probabilities; `camera_len` is Some(segments) on camera subpaths.
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn on_scatter(
         &self,
         q: Partial,
+        site: Site,
         cos_out: f32,
         pdf_dir: f32,
         pdf_rev: f32,
@@ -194,11 +232,11 @@ impl Mis {
                 dvm: q.dvm * g * r,
             };
         }
-        let (vm, one) = self.vm_at(camera_len);
+        let vm = self.merge_at(site, camera_len);
         let r = self.f(pdf_rev);
         Partial {
             dvc: g * (q.dvc * r + q.dvcm + vm),
-            dvm: g * (q.dvm * r + q.dvcm * self.vc + one),
+            dvm: g * (q.dvm * r + q.dvcm * self.vc + vm),
             dvcm: self.f(1.0 / pdf_dir as f64),
         }
     }
@@ -222,6 +260,7 @@ impl Mis {
     pub fn weight_light_sample(
         &self,
         camera: Partial,
+        site: Site,
         camera_len: u32,
         pick: f32,
         direct: f32,
@@ -231,7 +270,7 @@ impl Mis {
         bsdf_dir: f32,
         bsdf_rev: f32,
     ) -> f32 {
-        let (vm, _) = self.vm_at(Some(camera_len));
+        let vm = self.merge_at(site, Some(camera_len));
         let (direct, cos_at_light) = (direct as f64, cos_at_light as f64);
         let w_light = self.f(bsdf_dir as f64 / (pick as f64 * direct));
         let w_camera = self.f(emission as f64 * cos_at_vertex as f64 / (direct * cos_at_light))
@@ -247,19 +286,21 @@ impl Mis {
     #[inline]
     pub fn weight_connection(
         &self,
-        light: Partial,
-        camera: Partial,
+        light: (Partial, Site),
+        camera: (Partial, Site),
         camera_len: u32,
         camera_to_light_a: f32,
         light_to_camera_a: f32,
         light_rev: f32,
         camera_rev: f32,
     ) -> f32 {
-        let (vm_cam, _) = self.vm_at(Some(camera_len));
+        let ((light, light_site), (camera, camera_site)) = (light, camera);
+        let vm_light = self.merge_at(light_site, None);
+        let vm_camera = self.merge_at(camera_site, Some(camera_len));
         let w_light =
-            self.f(camera_to_light_a) * (self.vm + light.dvcm + light.dvc * self.f(light_rev));
+            self.f(camera_to_light_a) * (vm_light + light.dvcm + light.dvc * self.f(light_rev));
         let w_camera =
-            self.f(light_to_camera_a) * (vm_cam + camera.dvcm + camera.dvc * self.f(camera_rev));
+            self.f(light_to_camera_a) * (vm_camera + camera.dvcm + camera.dvc * self.f(camera_rev));
         (1.0 / (w_light + 1.0 + w_camera)) as f32
     }
 
@@ -268,8 +309,14 @@ impl Mis {
     /// the vertex's density of sampling its predecessor. The vertex sits where a
     /// camera path would have its first vertex.
     #[inline]
-    pub fn weight_camera_connection(&self, light: Partial, camera_a: f32, light_rev: f32) -> f32 {
-        let (vm, _) = self.vm_at(Some(1));
+    pub fn weight_camera_connection(
+        &self,
+        light: (Partial, Site),
+        camera_a: f32,
+        light_rev: f32,
+    ) -> f32 {
+        let (light, site) = light;
+        let vm = self.merge_at(site, Some(1));
         let w_light = self.f(camera_a as f64 / self.light_paths)
             * (vm + light.dvcm + light.dvc * self.f(light_rev));
         (1.0 / (w_light + 1.0)) as f32
@@ -277,18 +324,21 @@ impl Mis {
 
     /// Merging a light vertex at a camera vertex ([TR] eqs. 38-39). `camera_dir` is the
     /// camera BSDF's density of the light vertex's incoming direction, `camera_rev` the
-    /// reverse one (with the light vertex's continuation probability).
+    /// reverse one (with the light vertex's continuation probability); both vertices
+    /// sit at `site`, whose estimator must be in use.
     #[inline]
     pub fn weight_merge(
         &self,
         light: Partial,
         camera: Partial,
+        site: Site,
         camera_dir: f32,
         camera_rev: f32,
     ) -> f32 {
         let w_light = light.dvcm * self.vc + light.dvm * self.f(camera_dir);
         let w_camera = camera.dvcm * self.vc + camera.dvm * self.f(camera_rev);
-        (1.0 / (w_light + 1.0 + w_camera)) as f32
+        let own = self.merge[site as usize];
+        (own / (w_light + own + w_camera)) as f32
     }
 }
 
@@ -316,6 +366,7 @@ mod tests {
         /// Solid-angle densities at scattering vertex i of sampling x_{i+1} (light
         /// direction) and x_{i-1} (camera direction).
         pl: Vec<f32>,
+        site: Vec<Site>,
         pc: Vec<f32>,
         pick: f32,
         /// x0 is a direction (environment light): positions come from a disk and
@@ -341,6 +392,7 @@ mod tests {
             cb: (0..=n).map(|_| r(0.05, 1.0)).collect(),
             pl: (0..=n).map(|_| r(0.05, 3.0)).collect(),
             pc: (0..=n).map(|_| r(0.05, 3.0)).collect(),
+            site: vec![Site::Surface; n + 1],
             pick: r(0.2, 1.0),
             infinite,
             a_direct: r(0.5, 4.0),
@@ -354,6 +406,7 @@ mod tests {
                     let sigma = r(0.05, 5.0);
                     p.cf[i] = sigma;
                     p.cb[i] = sigma;
+                    p.site[i] = Site::Medium;
                 }
             }
         }
@@ -392,8 +445,9 @@ mod tests {
             }
         }
 
-        /// The technique's density times its sample count.
-        fn density(&self, t: Tech, eta: f32, light_paths: f32) -> f32 {
+        /// The technique's density times its sample count (merges at a vertex whose
+        /// site has no estimator have none).
+        fn density(&self, t: Tech, merges: &Merges, light_paths: f32) -> f64 {
             let n = self.n;
             let both = |s: usize| -> f32 {
                 (0..s).map(|i| self.fwd(i)).product::<f32>()
@@ -401,11 +455,15 @@ mod tests {
             };
             match t {
                 Tech::Vc(1) => {
-                    self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>()
+                    (self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>())
+                        as f64
                 }
-                Tech::Vc(s) if s == n => light_paths * both(n),
-                Tech::Vc(s) => both(s),
-                Tech::Vm(j) => eta * both(j) * self.fwd(j),
+                Tech::Vc(s) if s == n => (light_paths * both(n)) as f64,
+                Tech::Vc(s) => both(s) as f64,
+                Tech::Vm(j) => {
+                    let eta = merges.eta[self.site[j] as usize].unwrap_or(0.0);
+                    eta * (both(j) * self.fwd(j)) as f64
+                }
             }
         }
 
@@ -428,7 +486,15 @@ mod tests {
             let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
             q = m.on_hit(q, self.seg(0), self.cb[1]);
             for i in 1..k {
-                q = m.on_scatter(q, self.cf[i], self.pl[i], self.pc[i], false, None);
+                q = m.on_scatter(
+                    q,
+                    self.site[i],
+                    self.cf[i],
+                    self.pl[i],
+                    self.pc[i],
+                    false,
+                    None,
+                );
                 q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
             }
             q
@@ -442,7 +508,8 @@ mod tests {
             q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
             let mut len = 1;
             for i in (k + 1..n).rev() {
-                q = m.on_scatter(q, self.cb[i], self.pc[i], self.pl[i], false, Some(len));
+                let (site, cos, pdf, rev) = (self.site[i], self.cb[i], self.pc[i], self.pl[i]);
+                q = m.on_scatter(q, site, cos, pdf, rev, false, Some(len));
                 // An escaping ray: no cosine at infinity, only the 1 / T of its
                 // segment (as the camera subpath applies on escape).
                 let cos = if i == 1 && self.infinite {
@@ -474,6 +541,7 @@ mod tests {
                     };
                     m.weight_light_sample(
                         q,
+                        self.site[1],
                         len,
                         self.pick,
                         direct_w / self.tr[0],
@@ -487,15 +555,15 @@ mod tests {
                 Tech::Vc(s) if s == n => {
                     let q = self.light_q(m, n - 1);
                     let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
-                    m.weight_camera_connection(q, camera_a, self.pc[n - 1])
+                    m.weight_camera_connection((q, self.site[n - 1]), camera_a, self.pc[n - 1])
                 }
                 Tech::Vc(s) => {
                     let ql = self.light_q(m, s - 1);
                     let (qc, len) = self.camera_q(m, s);
                     let seg = self.seg(s - 1);
                     m.weight_connection(
-                        ql,
-                        qc,
+                        (ql, self.site[s - 1]),
+                        (qc, self.site[s]),
                         len,
                         self.pc[s] * self.cf[s - 1] / seg,
                         self.pl[s - 1] * self.cb[s] / seg,
@@ -506,17 +574,32 @@ mod tests {
                 Tech::Vm(j) => {
                     let ql = self.light_q(m, j);
                     let (qc, _) = self.camera_q(m, j);
-                    m.weight_merge(ql, qc, self.pc[j], self.pl[j])
+                    m.weight_merge(ql, qc, self.site[j], self.pc[j], self.pl[j])
                 }
             }
         }
     }
 
-    fn check(heuristic: Heuristic, vc: bool, vm: bool, merge_first: bool, media: bool) {
-        let mut rng = Rng::new(3, 1, 4);
+    /// Merge estimators of the tests: none, surfaces only ([TR]), or surfaces and
+    /// media with a different eta (as a volume kernel would have).
+    fn merges(vm: bool, volume: bool) -> Merges {
         let (radius, light_paths) = (0.01f32, 1000.0f32);
-        let eta = crate::math::PI * radius * radius * light_paths;
-        let mut m = Mis::new(heuristic, radius, light_paths, vc, vm);
+        let mut m = if vm {
+            Merges::surface(radius, light_paths)
+        } else {
+            Merges::default()
+        };
+        if vm && volume {
+            m.eta[Site::Medium as usize] =
+                Some(4.0 / 3.0 * std::f64::consts::PI * 0.05f64.powi(3) * 1000.0);
+        }
+        m
+    }
+
+    fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, media: bool) {
+        let mut rng = Rng::new(3, 1, 4);
+        let light_paths = 1000.0f32;
+        let mut m = Mis::new(heuristic, light_paths, vc, merges);
         m.merge_first = merge_first;
         for n in 2..7 {
             for k in 0..40 {
@@ -526,11 +609,13 @@ mod tests {
                 if vc {
                     techs.extend((0..=n).map(Tech::Vc));
                 }
-                if vm {
-                    let last = if merge_first { n } else { n - 1 };
-                    techs.extend((1..last).map(Tech::Vm));
+                let last = if merge_first { n } else { n - 1 };
+                let merges_at = |j: usize| merges.eta[path.site[j] as usize].is_some();
+                techs.extend((1..last).filter(|&j| merges_at(j)).map(Tech::Vm));
+                let p = |t: Tech| m.f(path.density(t, &merges, light_paths));
+                if techs.is_empty() {
+                    continue; // bpm on a path whose inner vertices are all in media
                 }
-                let p = |t: Tech| m.f(path.density(t, eta, light_paths));
                 let total: f64 = techs.iter().map(|&t| p(t)).sum();
                 let mut sum = 0.0;
                 for &t in &techs {
@@ -538,7 +623,7 @@ mod tests {
                     let got = path.recursive_weight(&m, t);
                     assert!(
                         (got - expect).abs() <= 1e-4 * expect.max(1e-3),
-                        "{heuristic:?} vc={vc} vm={vm} merge_first={merge_first} media={media} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
+                        "{heuristic:?} vc={vc} {merges:?} merge_first={merge_first} media={media} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
                     );
                     sum += got;
                 }
@@ -550,28 +635,31 @@ mod tests {
     #[test]
     fn vcm_weights_match_explicit_heuristics_and_sum_to_one() {
         for h in [Heuristic::Balance, Heuristic::Power] {
-            check(h, true, true, true, false);
-            check(h, true, true, false, false);
+            check(h, true, merges(true, false), true, false);
+            check(h, true, merges(true, false), false, false);
         }
     }
 
     #[test]
     fn bpt_and_bpm_weights_sum_to_one() {
         for h in [Heuristic::Balance, Heuristic::Power] {
-            check(h, true, false, true, false);
-            check(h, false, true, true, false);
+            check(h, true, merges(false, false), true, false);
+            check(h, false, merges(true, false), true, false);
         }
     }
 
     /// Medium vertices and transmittances in the densities: the recursive weights with
-    /// d^2 / T and D in place of d^2 and the cosine are still the explicit heuristics.
-    /// (Merging in media is not offered, but the weights are exact for it too.)
+    /// d^2 / T and D in place of d^2 and the cosine are still the explicit heuristics,
+    /// with merging at surfaces only or with a second estimator of its own eta in media.
     #[test]
     fn weights_with_medium_vertices_match_explicit_heuristics_and_sum_to_one() {
         for h in [Heuristic::Balance, Heuristic::Power] {
-            check(h, true, false, true, true);
-            check(h, true, true, true, true);
-            check(h, true, true, false, true);
+            check(h, true, merges(false, false), true, true);
+            for volume in [false, true] {
+                check(h, true, merges(true, volume), true, true);
+                check(h, true, merges(true, volume), false, true);
+                check(h, false, merges(true, volume), true, true);
+            }
         }
     }
 

@@ -32,7 +32,7 @@ use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
 use camera_path::CameraPass;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
-use mis::Mis;
+use mis::{Merges, Mis, Site};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -301,13 +301,13 @@ impl Bidir {
         let radius =
             (r0 / ((iteration + 1) as f32).powf(0.5 * (1.0 - self.s.alpha))).max(1e-7 * r0);
         let t = self.technique;
-        let mut mis = Mis::new(
-            self.s.heuristic,
-            radius,
-            light_paths as f32,
-            t.connects(),
-            t.merges(),
-        );
+        let surface = Merges::surface(radius, light_paths as f32);
+        let merges = if t.merges() {
+            surface
+        } else {
+            Merges::default()
+        };
+        let mut mis = Mis::new(self.s.heuristic, light_paths as f32, t.connects(), merges);
         mis.merge_first = self.s.merge_first;
         Pass {
             scene,
@@ -315,7 +315,7 @@ impl Bidir {
             technique: t,
             mis,
             radius,
-            vm_norm: 1.0 / (crate::math::PI * radius * radius * light_paths as f32),
+            vm_norm: surface.norm(Site::Surface),
             light_paths,
             layers: &self.layers,
             keep_segments: self.keep_segments,

@@ -9,6 +9,7 @@
 //! in registers and never tests for, and the surface-only code costs what it did
 //! before media existed.
 
+use super::mis::Site;
 use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
@@ -189,6 +190,15 @@ impl<'a, M: Media> Vertex<'a, M> {
         }
     }
 
+    /// Where a merge at this vertex would sit.
+    #[inline(always)]
+    pub fn site(&self) -> Site {
+        match self {
+            Vertex::Surface { .. } => Site::Surface,
+            Vertex::Medium { .. } => Site::Medium,
+        }
+    }
+
     /// The MIS factor D towards the previous vertex.
     #[inline(always)]
     pub fn d_in(&self) -> f32 {
@@ -315,9 +325,15 @@ fn scatter_medium(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    walk.q = pass
-        .mis
-        .on_scatter(walk.q, m.sigma, pdf_dir, pdf_dir, false, camera_len);
+    walk.q = pass.mis.on_scatter(
+        walk.q,
+        Site::Medium,
+        m.sigma,
+        pdf_dir,
+        pdf_dir,
+        false,
+        camera_len,
+    );
     walk.specular = false;
     walk.throughput /= m.cont;
     walk.origin = p;

@@ -1,7 +1,7 @@
 //! The state a subpath carries between vertices and the scattering move both subpaths
 //! make at surfaces: what the light and camera walks of the bidirectional core share.
 
-use super::mis::Partial;
+use super::mis::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::material::{Material, Mode};
@@ -98,9 +98,15 @@ pub(crate) fn scatter(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    walk.q = pass
-        .mis
-        .on_scatter(walk.q, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta, camera_len);
+    walk.q = pass.mis.on_scatter(
+        walk.q,
+        Site::Surface,
+        s.wi.z.abs(),
+        pdf_dir,
+        pdf_rev,
+        s.delta,
+        camera_len,
+    );
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
     if walk.throughput == Rgb::ZERO {

@@ -8,6 +8,7 @@
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::integrator::RenderStats;
+use crate::light::LightSample;
 use crate::material::{Material, Mode};
 use crate::math::{Frame, Rgb, Rng, Vec3};
 use crate::medium::Phase;
@@ -60,6 +61,20 @@ pub struct LightLink {
     pub delta: bool,
 }
 
+/// The first move of every next-event estimator, shared with the bidirectional
+/// camera walk: a light by the scene's light sampler and a point on it seen from `p`.
+/// Returns the light's index, its selection probability and the sample; None when
+/// the scene has no light or the sample has no density.
+#[inline(always)]
+pub fn pick_light(scene: &Scene, p: Vec3, rng: &mut Rng) -> Option<(usize, f32, LightSample)> {
+    if scene.lights.is_empty() {
+        return None;
+    }
+    let (light, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
+    let ls = scene.lights[light].sample_li(p, rng.next_2d())?;
+    (ls.pdf > 0.0 && sel_pdf > 0.0).then_some((light, sel_pdf, ls))
+}
+
 /// Samples a light from `at` (None when the scene has no light, the sample has no
 /// density, arrives through the geometric surface, or the origin does not scatter
 /// towards it). Counts the shadow ray it returns in `stats`.
@@ -70,14 +85,7 @@ pub fn sample_light(
     rng: &mut Rng,
     stats: &mut RenderStats,
 ) -> Option<LightLink> {
-    if scene.lights.is_empty() {
-        return None;
-    }
-    let (light, sel_pdf, _) = scene.light_sampler.sample(rng.next_f32());
-    let ls = scene.lights[light].sample_li(at.p(), rng.next_2d())?;
-    if !(ls.pdf > 0.0 && sel_pdf > 0.0) {
-        return None;
-    }
+    let (light, sel_pdf, ls) = pick_light(scene, at.p(), rng)?;
     let (f, pdf_scatter, ray) = match *at {
         Origin::Surface { it, frame, wo, m } => {
             let wi = frame.to_local(ls.wi());
