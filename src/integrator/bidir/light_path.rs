@@ -204,6 +204,19 @@ impl Workspace {
         &chunk.vertices[begin as usize..chunk.ends[i] as usize]
     }
 
+    /// The segments light path `path` kept, in the order it traced them (empty unless
+    /// the pass keeps segments).
+    #[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
+    pub(super) fn light_segments(&self, path: usize) -> &[LightSegment] {
+        let chunk = &self.chunks[path / PATHS_PER_TASK];
+        let i = path % PATHS_PER_TASK;
+        if chunk.segment_ends.is_empty() {
+            return &[];
+        }
+        let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
+        &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
+    }
+
     /// The merging copy of every vertex, in the hash grid's storage order. The store
     /// is read in order and the copies written where the grid ranks them: scattered
     /// writes overlap their cache misses, where gathering reads would wait on each.

@@ -8,10 +8,7 @@
 //! weighted by transmittance). Kept in path order per chunk, like the vertices, so the
 //! store never depends on the thread count.
 
-use super::light_path::Chunk;
-use super::Workspace;
 use crate::integrator::common::medium_walk::Segment;
-use crate::integrator::common::PATHS_PER_TASK;
 use crate::math::{Rgb, Vec3};
 
 /// One light-subpath segment in a medium.
@@ -71,21 +68,6 @@ impl SegmentSink<'_> {
         } else {
             *self.over_budget = true;
         }
-    }
-}
-
-impl Workspace {
-    /// The segments light path `path` kept, in the order it traced them (empty unless
-    /// the pass keeps segments).
-    #[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
-    pub(super) fn light_segments(&self, path: usize) -> &[LightSegment] {
-        let chunk: &Chunk = &self.chunks[path / PATHS_PER_TASK];
-        let i = path % PATHS_PER_TASK;
-        if chunk.segment_ends.is_empty() {
-            return &[];
-        }
-        let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
-        &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
     }
 }
 
