@@ -4,7 +4,7 @@
 
 use super::spec::{JobSpec, KeepSnapshots};
 use super::store::JobDir;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Keeps at most the spec's number of snapshots. The first and the latest always
 /// stay; otherwise the snapshot whose removal leaves the smallest gap on a log scale
@@ -83,6 +83,23 @@ fn is_our_tmp(name: &str) -> bool {
     digits(pid) && digits(n)
 }
 
+/// Where removed job folders wait to be deleted: outside `jobs/`, so that recovery
+/// never sees them, and on the same file system, so that moving one there is atomic.
+pub fn trash_dir(data_dir: &Path) -> PathBuf {
+    data_dir.join("trash")
+}
+
+/// Moves a job folder out of `jobs/` at once (a job that has left the table must not
+/// leave a folder behind for a client to find) and deletes it. Runs of deletion that
+/// a crash interrupts are finished by [`clean_leftovers`].
+pub fn remove_job_dir(data_dir: &Path, root: &Path, id: &str) -> std::io::Result<PathBuf> {
+    let trash = trash_dir(data_dir);
+    std::fs::create_dir_all(&trash)?;
+    let to = trash.join(id);
+    std::fs::rename(root, &to)?;
+    Ok(to)
+}
+
 /// Removes what a killed server left half-written: temporary files in the job,
 /// reference and sweep folders, and unfinished scene uploads. Uploaded scene bundles
 /// themselves are never looked into (their files are the user's).
@@ -90,6 +107,11 @@ pub fn clean_leftovers(data_dir: &Path) -> usize {
     let mut removed = 0;
     for sub in ["jobs", "references", "sweeps"] {
         removed += remove_tmp_files(&data_dir.join(sub), 3);
+    }
+    let trash = trash_dir(data_dir);
+    let moved = std::fs::read_dir(&trash).map_or(0, |d| d.count());
+    if moved > 0 && std::fs::remove_dir_all(&trash).is_ok() {
+        removed += moved;
     }
     let uploads = std::fs::read_dir(data_dir.join("scenes"))
         .into_iter()
@@ -197,6 +219,21 @@ mod tests {
         assert_eq!(few, vec![9]);
         let mut none = vec![3, 9, 27];
         assert_eq!(to_drop(&mut none, 0).len(), 3);
+    }
+
+    #[test]
+    fn a_removed_job_leaves_jobs_at_once_and_its_trash_is_cleared_at_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("jobs").join("j1");
+        std::fs::create_dir_all(root.join("snapshots")).unwrap();
+        std::fs::write(root.join("job.json"), b"{}").unwrap();
+        let trash = remove_job_dir(dir.path(), &root, "j1").unwrap();
+        assert!(!root.exists());
+        assert!(trash.join("job.json").exists());
+        assert!(!trash.starts_with(dir.path().join("jobs")));
+        // A crash before the deletion: the next start removes it.
+        assert_eq!(clean_leftovers(dir.path()), 1);
+        assert!(!trash_dir(dir.path()).exists());
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! runs progressive iterations on the worker pool, and the transport-neutral service
 //! that the HTTP and gRPC front ends call.
 
+pub mod context;
 pub mod disk;
 pub mod events;
 pub mod failpoint;

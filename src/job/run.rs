@@ -8,9 +8,9 @@
 //! without rendering, and the log is cut back to the checkpoint, so a kill at any
 //! write leaves a job that finishes as if it never happened.
 
+use super::context::{Context, JobSettings};
 use super::disk;
 use super::failpoint;
-use super::scheduler::{JobSettings, Shared};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::JobError;
@@ -66,12 +66,12 @@ pub enum Held {
 }
 
 /// Runs the next batch of `status`'s job, building its runtime first if needed.
-pub fn step(shared: &Shared, held: Held, mut status: JobStatus) -> StepResult {
+pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
     let mut rt = match held {
         Held::Runtime(rt) => rt,
-        Held::Settings(settings) => match start(shared, settings, &mut status) {
+        Held::Settings(settings) => match start(ctx, settings, &mut status) {
             Ok(rt) => rt,
-            Err(e) => return fail(shared, status, e),
+            Err(e) => return fail(ctx, status, e),
         },
     };
     // The state event goes out from `finish_step`, which sees the change.
@@ -81,9 +81,9 @@ pub fn step(shared: &Shared, held: Held, mut status: JobStatus) -> StepResult {
     let result = if status.iteration > 0 && halt_reached(&status) {
         // Resumed from a checkpoint written by the job's last snapshot: what is left
         // is to finish, not to render one more iteration.
-        complete(shared, &mut status, &rt).map(|()| true)
+        complete(ctx, &mut status, &rt).map(|()| true)
     } else {
-        run_batch(shared, &mut status, &mut rt)
+        run_batch(ctx, &mut status, &mut rt)
     };
     match result {
         Ok(done) => StepResult {
@@ -91,19 +91,19 @@ pub fn step(shared: &Shared, held: Held, mut status: JobStatus) -> StepResult {
             runtime: (!done).then_some(rt),
             saved: true,
         },
-        Err(e) => fail(shared, status, e),
+        Err(e) => fail(ctx, status, e),
     }
 }
 
 /// Marks the job failed and tries to store that; the error the client sees is the
 /// one it can act on (no server paths).
-pub fn fail(shared: &Shared, mut status: JobStatus, err: JobError) -> StepResult {
+pub fn fail(ctx: &Context, mut status: JobStatus, err: JobError) -> StepResult {
     tracing::warn!(job = %status.id, error = %err, "job failed");
     status.state = JobState::Failed;
     status.error = Some(err.client_message());
     status.finished_at = Some(unix_now());
     status.eta_s = None;
-    let saved = write_status(shared, &status).is_ok();
+    let saved = write_status(ctx, &status).is_ok();
     StepResult {
         status,
         runtime: None,
@@ -112,9 +112,9 @@ pub fn fail(shared: &Shared, mut status: JobStatus, err: JobError) -> StepResult
 }
 
 /// Writes job.json, logging a failure (the caller decides what it means).
-pub fn write_status(shared: &Shared, status: &JobStatus) -> Result<(), JobError> {
+pub fn write_status(ctx: &Context, status: &JobStatus) -> Result<(), JobError> {
     failpoint::hit("status", status.iteration);
-    let r = shared.job_dir(&status.id).write_status(status);
+    let r = ctx.job_dir(&status.id).write_status(status);
     if let Err(e) = &r {
         tracing::warn!(job = %status.id, error = %e, "job.json not written");
     }
@@ -135,14 +135,14 @@ fn halt_reached(status: &JobStatus) -> bool {
 
 /// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if any.
 fn start(
-    shared: &Shared,
+    ctx: &Context,
     settings: JobSettings,
     status: &mut JobStatus,
 ) -> Result<Box<Runtime>, JobError> {
     let settings = settings.map_err(JobError::BadRequest)?;
-    let scene = shared.scenes.compiled(&status.spec.scene)?;
-    let dir = shared.job_dir(&status.id);
-    let reference = load_reference(shared, &status.spec, &scene)?;
+    let scene = ctx.scenes.compiled(&status.spec.scene)?;
+    let dir = ctx.job_dir(&status.id);
+    let reference = load_reference(ctx, &status.spec, &scene)?;
     let integrator = settings.build();
     let checkpoint = Checkpoint::read(&dir)
         .filter(|c| c.film.width() == scene.width() && c.film.height() == scene.height());
@@ -182,21 +182,21 @@ fn start(
 }
 
 pub fn load_reference(
-    shared: &Shared,
+    ctx: &Context,
     spec: &JobSpec,
     scene: &Scene,
 ) -> Result<Option<Image>, JobError> {
     let (path, what) = match &spec.reference {
         None => return Ok(None),
         Some(ReferenceSpec::Upload(rid)) => {
-            let path = reference_path(&shared.data_dir, rid)?;
+            let path = reference_path(&ctx.data_dir, rid)?;
             if !path.exists() {
                 return Err(JobError::NotFound(format!("reference upload {rid}")));
             }
             (path, format!("reference upload {rid}"))
         }
         Some(ReferenceSpec::Job(jid)) => (
-            shared.job_dir(jid).final_image("exr"),
+            ctx.job_dir(jid).final_image("exr"),
             format!("the final image of reference job {jid}"),
         ),
     };
@@ -243,7 +243,7 @@ fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64) -> u64 {
 }
 
 /// Runs one batch, writes snapshots that fall due, and reports whether the job is done.
-fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
+fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
     let spec = status.spec.clone();
     let n = batch_len(&spec, status.iteration, rt.per_iter);
     let start = Instant::now();
@@ -265,10 +265,10 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     status.samples_per_s = stats.samples as f64 / secs.max(1e-9);
     let new_drops = rt.film.dropped() - status.dropped;
     status.dropped = rt.film.dropped();
-    count(shared, &stats, n, secs, new_drops);
+    count(ctx, &stats, n, secs, new_drops);
     status.eta_s = eta(status, rt.per_iter);
     let figures = batch_figures(&stats, n, secs, rt.film.sums().len());
-    shared.emit(super::events::Event::Progress {
+    ctx.emit(super::events::Event::Progress {
         job: status.id.clone(),
         iteration: status.iteration,
         elapsed_s: status.elapsed_s,
@@ -282,20 +282,20 @@ fn run_batch(shared: &Shared, status: &mut JobStatus, rt: &mut Runtime) -> Resul
     };
     let mut done = halt_reached(status);
     if due || done {
-        snapshot(shared, status, rt, &figures)?;
+        snapshot(ctx, status, rt, &figures)?;
         done = halt_reached(status);
     }
     if done {
-        complete(shared, status, rt)?;
+        complete(ctx, status, rt)?;
     } else {
-        write_status(shared, status)?;
+        write_status(ctx, status)?;
     }
     Ok(done)
 }
 
 /// Adds a batch to the server's counters.
-fn count(shared: &Shared, stats: &RenderStats, n: u64, secs: f64, new_drops: u64) {
-    let m = &shared.metrics;
+fn count(ctx: &Context, stats: &RenderStats, n: u64, secs: f64, new_drops: u64) {
+    let m = &ctx.metrics;
     m.iterations.fetch_add(n, Ordering::Relaxed);
     m.samples.fetch_add(stats.samples, Ordering::Relaxed);
     m.rays
@@ -307,8 +307,8 @@ fn count(shared: &Shared, stats: &RenderStats, n: u64, secs: f64, new_drops: u64
 
 /// Writes the final images and the completed status, then drops what a finished job
 /// no longer needs (the checkpoint unless kept, `latest.*`, which `final.*` replaces).
-fn complete(shared: &Shared, status: &mut JobStatus, rt: &Runtime) -> Result<(), JobError> {
-    let dir = shared.job_dir(&status.id);
+fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), JobError> {
+    let dir = ctx.job_dir(&status.id);
     let img = rt.film.to_image(1.0 / status.iteration.max(1) as f64);
     let layers = rt.film.layer_images();
     let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
@@ -319,7 +319,7 @@ fn complete(shared: &Shared, status: &mut JobStatus, rt: &Runtime) -> Result<(),
     status.state = JobState::Completed;
     status.finished_at = Some(unix_now());
     status.eta_s = Some(0.0);
-    write_status(shared, status)?;
+    write_status(ctx, status)?;
     disk::tidy_finished(&dir, &status.spec);
     Ok(())
 }
@@ -359,12 +359,12 @@ fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
 /// Snapshot EXR + PNG, latest.*, a log row with the error against the reference (and
 /// the batch's `figures`), and the checkpoint, in that order (see the module notes).
 fn snapshot(
-    shared: &Shared,
+    ctx: &Context,
     status: &mut JobStatus,
     rt: &mut Runtime,
     figures: &LogRow,
 ) -> Result<(), JobError> {
-    let dir = shared.job_dir(&status.id);
+    let dir = ctx.job_dir(&status.id);
     let it = status.iteration;
     let img = rt.film.to_image(1.0 / it.max(1) as f64);
     failpoint::hit("snapshot-exr", it);
@@ -398,7 +398,7 @@ fn snapshot(
     rt.checkpoint(status).write(&dir)?;
     rt.last_snapshot = (it, status.elapsed_s);
     disk::thin_snapshots(&dir, &status.spec);
-    shared.emit(super::events::Event::Snapshot {
+    ctx.emit(super::events::Event::Snapshot {
         job: status.id.clone(),
         iteration: it,
         rmse: metrics.map(|m| m.rmse),

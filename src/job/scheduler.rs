@@ -6,16 +6,13 @@
 //! waits ([`AGING`] batches are worth one priority level), so higher priorities go
 //! first and nothing starves; equal priorities take turns.
 
+use super::context::{Context, JobSettings};
 use super::disk::{self, Finished, Retention};
-use super::events::{Event, Sender};
+use super::events::Event;
 use super::run::{self, Held, Runtime, StepResult};
-use super::scenes::SceneStore;
 use super::spec::{unix_now, JobState, JobStatus};
-use super::store::JobDir;
-use crate::integrator::Settings;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
@@ -33,11 +30,6 @@ pub enum Control {
     Pause,
     Cancel,
 }
-
-/// A job's settings, parsed once: at submit, or from job.json when the server starts.
-/// The error says, in words for the client, why stored settings do not parse in this
-/// build; such a job fails whenever it would start.
-pub type JobSettings = Result<Settings, String>;
 
 pub struct Entry {
     pub status: JobStatus,
@@ -80,25 +72,10 @@ pub struct Table {
     pub tick: u64,
 }
 
-/// Counters for /metrics.
-#[derive(Default)]
-pub struct Metrics {
-    pub iterations: AtomicU64,
-    pub samples: AtomicU64,
-    pub rays: AtomicU64,
-    pub dropped: AtomicU64,
-    pub render_ns: AtomicU64,
-    /// Jobs set aside (checkpointed, memory freed) for a job of higher priority.
-    pub set_aside: AtomicU64,
-}
-
 pub struct Shared {
+    pub ctx: Context,
     pub table: Mutex<Table>,
     pub wake: Condvar,
-    pub events: Sender,
-    pub scenes: Arc<SceneStore>,
-    pub data_dir: PathBuf,
-    pub metrics: Metrics,
     pub shutdown: std::sync::atomic::AtomicBool,
     /// Jobs whose render state may be held in memory at once; the others wait with
     /// their checkpoints on disk.
@@ -106,17 +83,6 @@ pub struct Shared {
     pub retention: Retention,
     /// Signalled after every step, for callers waiting on a transition.
     pub stepped: Condvar,
-}
-
-impl Shared {
-    pub fn emit(&self, e: Event) {
-        // No receivers is fine: nobody is watching.
-        let _ = self.events.send(e);
-    }
-
-    pub fn job_dir(&self, id: &str) -> JobDir {
-        JobDir::new(&self.data_dir, id)
-    }
 }
 
 /// Effective priority: the job's own, plus one level per [`AGING`] batches waited.
@@ -193,7 +159,7 @@ pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
             };
             (id, held, e.status.clone())
         };
-        let result = pool.install(|| run::step(&shared, held, status));
+        let result = pool.install(|| run::step(&shared.ctx, held, status));
         finish_step(&shared, &id, result);
     }
 }
@@ -205,7 +171,7 @@ fn evict(shared: &Shared, id: &str) -> bool {
     let Some((rt, status)) = take_runtime(shared, id) else {
         return true;
     };
-    let written = rt.checkpoint(&status).write(&shared.job_dir(id));
+    let written = rt.checkpoint(&status).write(&shared.ctx.job_dir(id));
     let mut t = shared.table.lock().expect("job table");
     let Some(e) = t.jobs.get_mut(id) else {
         return true;
@@ -214,7 +180,7 @@ fn evict(shared: &Shared, id: &str) -> bool {
     match written {
         Ok(()) => {
             tracing::info!(job = id, "set aside for a job of higher priority");
-            shared.metrics.set_aside.fetch_add(1, Ordering::Relaxed);
+            shared.ctx.metrics.set_aside.fetch_add(1, Ordering::Relaxed);
             true
         }
         Err(err) => {
@@ -273,7 +239,12 @@ pub fn retry_unsaved(shared: &Shared) {
             .collect()
     };
     for status in pending {
-        if shared.job_dir(&status.id).write_status(&status).is_err() {
+        if shared
+            .ctx
+            .job_dir(&status.id)
+            .write_status(&status)
+            .is_err()
+        {
             continue;
         }
         let mut t = shared.table.lock().expect("job table");
@@ -304,12 +275,12 @@ fn apply_retention(shared: &Shared) {
     let finished: Vec<Finished> = finished
         .into_iter()
         .map(|(id, finished_at)| Finished {
-            bytes: disk::dir_size(&shared.job_dir(&id).root),
+            bytes: disk::dir_size(&shared.ctx.job_dir(&id).root),
             id,
             finished_at,
         })
         .collect();
-    let total = disk::dir_size(&shared.data_dir.join("jobs"));
+    let total = disk::dir_size(&shared.ctx.data_dir.join("jobs"));
     for id in shared.retention.expired(finished, total, unix_now()) {
         let mut t = shared.table.lock().expect("job table");
         let still_finished = t
@@ -319,10 +290,17 @@ fn apply_retention(shared: &Shared) {
         if !still_finished {
             continue;
         }
+        // The folder leaves jobs/ while the table is locked: once the job is gone
+        // from the API its files are too, and deleting them waits for no request.
+        let root = shared.ctx.job_dir(&id).root;
+        let moved = disk::remove_job_dir(&shared.ctx.data_dir, &root, &id);
         t.jobs.remove(&id);
         drop(t);
         tracing::info!(job = %id, "removed by the retention policy");
-        let _ = std::fs::remove_dir_all(shared.job_dir(&id).root);
+        match moved {
+            Ok(trash) => drop(std::fs::remove_dir_all(trash)),
+            Err(_) => drop(std::fs::remove_dir_all(root)),
+        }
     }
 }
 
@@ -338,7 +316,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
     e.active = false;
     let control = std::mem::replace(&mut e.control, Control::None);
     if !r.status.state.is_terminal() && control != Control::None {
-        let dir = shared.job_dir(id);
+        let dir = shared.ctx.job_dir(id);
         if let Some(rt) = &r.runtime {
             // Keep the exact state so a resume (even after a restart) loses nothing.
             if let Err(err) = rt.checkpoint(&r.status).write(&dir) {
@@ -352,7 +330,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
             JobState::Cancelled
         };
         r.runtime = None;
-        r.saved = run::write_status(shared, &r.status).is_ok();
+        r.saved = run::write_status(&shared.ctx, &r.status).is_ok();
     }
     let state = r.status.state;
     let changed = state != e.status.state;
@@ -363,13 +341,13 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
     drop(t);
     shared.stepped.notify_all();
     if changed || state.is_terminal() {
-        shared.emit(Event::State {
+        shared.ctx.emit(Event::State {
             job: id.to_string(),
             state,
         });
     }
     if state.is_terminal() {
-        shared.emit(Event::Done {
+        shared.ctx.emit(Event::Done {
             job: id.to_string(),
             status: Box::new(status),
         });
@@ -382,7 +360,7 @@ pub fn checkpoint_all(shared: &Shared) {
     let t = shared.table.lock().expect("job table");
     for (id, e) in &t.jobs {
         if let Some(rt) = &e.runtime {
-            if let Err(err) = rt.checkpoint(&e.status).write(&shared.job_dir(id)) {
+            if let Err(err) = rt.checkpoint(&e.status).write(&shared.ctx.job_dir(id)) {
                 tracing::warn!(job = %id, error = %err, "checkpoint at shutdown not written");
             }
         }

@@ -226,7 +226,7 @@ mod tests {
         };
         assert_eq!(cancelled.state, JobState::Cancelled);
         for i in 0..4 * 1024 {
-            svc.shared().emit(other_job_progress(i));
+            svc.shared().ctx.emit(other_job_progress(i));
         }
         let mut seen = Vec::new();
         let drained = tokio::time::timeout(Duration::from_secs(30), async {

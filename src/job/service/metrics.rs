@@ -15,7 +15,7 @@ impl Service {
         let held = t.jobs.values().filter(|e| e.holds_memory()).count() as u64;
         let unsaved = t.jobs.values().filter(|e| e.unsaved).count() as u64;
         drop(t);
-        let m = &self.shared.metrics;
+        let m = &self.shared.ctx.metrics;
         let mut out = String::new();
         out.push_str("# HELP caustic_jobs Jobs by state.\n# TYPE caustic_jobs gauge\n");
         for st in JobState::ALL {
@@ -58,7 +58,7 @@ impl Service {
                 "caustic_scene_compilations_total",
                 "counter",
                 "Scenes compiled (BVH builds).",
-                self.shared.scenes.compilations(),
+                self.shared.ctx.scenes.compilations(),
             ),
             (
                 "caustic_jobs_held",

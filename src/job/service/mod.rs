@@ -5,12 +5,13 @@ mod metrics;
 mod outputs;
 mod recover;
 
+use super::context::{Context, Metrics};
 use super::disk::{self, Retention};
 use super::events::Event;
 use super::limits;
 use super::run;
 use super::scenes::{SceneInfo, SceneStore};
-use super::scheduler::{self, Control, Entry, Metrics, Shared, Table};
+use super::scheduler::{self, Control, Entry, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
 use super::store::{Checkpoint, JobDir};
 use super::sweep::{Sweep, SweepSpec};
@@ -107,12 +108,14 @@ impl Service {
         }
         let (events, _) = tokio::sync::broadcast::channel(1024);
         let shared = Arc::new(Shared {
+            ctx: Context {
+                events,
+                scenes,
+                data_dir: dir.clone(),
+                metrics: Metrics::default(),
+            },
             table: Mutex::new(recover(dir)),
             wake: Condvar::new(),
-            events,
-            scenes,
-            data_dir: dir.clone(),
-            metrics: Metrics::default(),
             shutdown: Default::default(),
             max_active: config.max_active_jobs.max(1),
             retention: config.retention,
@@ -163,7 +166,7 @@ impl Service {
     }
 
     pub fn subscribe(&self) -> tokio::sync::broadcast::Receiver<Event> {
-        self.shared.events.subscribe()
+        self.shared.ctx.events.subscribe()
     }
 
     pub(super) fn shared(&self) -> &Arc<Shared> {
@@ -178,16 +181,16 @@ impl Service {
     // ---- scenes -------------------------------------------------------------
 
     pub fn upload_scene(&self, bytes: &[u8]) -> Result<SceneInfo, JobError> {
-        let id = self.shared.scenes.upload(bytes)?;
-        self.shared.scenes.info(&id)
+        let id = self.shared.ctx.scenes.upload(bytes)?;
+        self.shared.ctx.scenes.info(&id)
     }
 
     pub fn list_scenes(&self) -> Vec<SceneInfo> {
-        self.shared.scenes.list()
+        self.shared.ctx.scenes.list()
     }
 
     pub fn get_scene(&self, id: &str) -> Result<SceneInfo, JobError> {
-        self.shared.scenes.info(id)
+        self.shared.ctx.scenes.info(id)
     }
 
     pub fn delete_scene(&self, id: &str) -> Result<(), JobError> {
@@ -201,7 +204,7 @@ impl Service {
                 "scene {id} is used by job {jid}"
             )));
         }
-        self.shared.scenes.delete(id)
+        self.shared.ctx.scenes.delete(id)
     }
 
     pub fn upload_reference(&self, bytes: &[u8]) -> Result<String, JobError> {
@@ -275,7 +278,7 @@ impl Service {
         drop(t);
         self.shared.wake.notify_all();
         for id in ids {
-            self.shared.emit(Event::State {
+            self.shared.ctx.emit(Event::State {
                 job: id,
                 state: JobState::Queued,
             });
@@ -286,7 +289,7 @@ impl Service {
     /// as JSON in the status that clients and job.json see.
     fn prepare(&self, spec: JobSpec) -> Result<(JobStatus, Settings), JobError> {
         limits::check_spec(&spec)?;
-        let scenes = &self.shared.scenes;
+        let scenes = &self.shared.ctx.scenes;
         if !scenes.exists(&spec.scene) {
             return Err(JobError::NotFound(format!("scene {}", spec.scene)));
         }
@@ -307,7 +310,7 @@ impl Service {
                 )));
             }
         }
-        run::load_reference(&self.shared, &spec, &scene)?;
+        run::load_reference(&self.shared.ctx, &spec, &scene)?;
         let settings = Settings::for_scene(spec.algorithm.as_deref(), &scene, &spec.params)?;
         let status = JobStatus {
             id: self.new_id(),
@@ -460,12 +463,12 @@ impl Service {
         if status.state == JobState::Queued {
             self.shared.wake.notify_all();
         }
-        self.shared.emit(Event::State {
+        self.shared.ctx.emit(Event::State {
             job: id.clone(),
             state: status.state,
         });
         if status.state.is_terminal() {
-            self.shared.emit(Event::Done {
+            self.shared.ctx.emit(Event::Done {
                 job: id,
                 status: Box::new(status.clone()),
             });

@@ -1,8 +1,9 @@
 //! Recovery at start: the job table rebuilt from the job directories on disk.
 
 use crate::integrator::Settings;
+use crate::job::context::JobSettings;
 use crate::job::disk;
-use crate::job::scheduler::{Entry, JobSettings, Table};
+use crate::job::scheduler::{Entry, Table};
 use crate::job::spec::{unix_now, JobState, JobStatus};
 use crate::job::store::{Checkpoint, JobDir};
 use serde::Deserialize;
