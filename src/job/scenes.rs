@@ -30,6 +30,42 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "smallvcm-gbs_b",
         include_str!("../../scenes/smallvcm/gbs_b.json"),
     ),
+    (
+        "vrl-cornell-gm09",
+        include_str!("../../scenes/media/vrl-cornell-gm09.json"),
+    ),
+    (
+        "vrl-cornell-g0",
+        include_str!("../../scenes/media/vrl-cornell-g0.json"),
+    ),
+    (
+        "vrl-cornell-g09",
+        include_str!("../../scenes/media/vrl-cornell-g09.json"),
+    ),
+    (
+        "vrl-cornell-dense-gm09",
+        include_str!("../../scenes/media/vrl-cornell-dense-gm09.json"),
+    ),
+    (
+        "vrl-cornell-dense-g0",
+        include_str!("../../scenes/media/vrl-cornell-dense-g0.json"),
+    ),
+    (
+        "vrl-cornell-dense-g09",
+        include_str!("../../scenes/media/vrl-cornell-dense-g09.json"),
+    ),
+    (
+        "vrl-point-gm09",
+        include_str!("../../scenes/media/vrl-point-gm09.json"),
+    ),
+    (
+        "vrl-point-g0",
+        include_str!("../../scenes/media/vrl-point-g0.json"),
+    ),
+    (
+        "vrl-point-g09",
+        include_str!("../../scenes/media/vrl-point-g09.json"),
+    ),
 ];
 
 /// What the API shows about a scene.
