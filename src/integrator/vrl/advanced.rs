@@ -110,6 +110,19 @@ impl Advanced {
     }
 }
 
+#[cfg(test)]
+impl Advanced {
+    /// The points of the camera segment where the fit has its nodes (its kinks), and
+    /// the foot of the perpendicular, for the tests' quadrature.
+    pub(super) fn kinks(&self) -> Vec<f64> {
+        let mut k: Vec<f64> = (0..self.nodes)
+            .map(|i| self.ea.t_of(self.ea.theta_a + self.step * i as f64))
+            .collect();
+        k.push(self.ea.delta);
+        k
+    }
+}
+
 impl Distance for Advanced {
     fn sample(&self, xi: f64) -> (f64, f64) {
         let r = xi * self.total();

@@ -30,6 +30,8 @@ mod distance;
 mod marginal;
 mod pair;
 mod samplers;
+#[cfg(test)]
+mod tests;
 
 pub use advanced::{Phases, MAX_NODES};
 pub use contribution::{
