@@ -15,6 +15,7 @@ pub mod pt;
 pub mod sppm;
 pub mod volpath;
 pub mod vpm;
+pub mod vrl;
 
 use crate::film::Film;
 use crate::scene::Scene;
