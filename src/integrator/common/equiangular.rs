@@ -7,6 +7,11 @@
 use crate::geometry::Ray;
 use crate::math::Vec3;
 
+/// The largest f32 below pi / 2, the angle of a ray's far end at infinity. The f32
+/// nearest pi / 2 lies above it, where tan turns negative: a sample near the end of
+/// an unbounded segment would land at t = 0 with the density of another point.
+const BELOW_HALF_PI: f32 = 1.570_796_2;
+
 /// Equi-angular sampling of t on a segment [0, tmax] of a ray towards a point c: the
 /// density is proportional to 1 / |x(t) - c|^2 (Kulla and Fajardo, eq. 6-8).
 #[derive(Clone, Copy, Debug)]
@@ -33,7 +38,7 @@ impl EquiAngular {
         let theta_b = if tmax.is_finite() {
             (tmax - delta).atan2(h)
         } else {
-            std::f32::consts::FRAC_PI_2
+            BELOW_HALF_PI
         };
         (theta_b - theta_a > 1e-7).then_some(EquiAngular {
             delta,
@@ -58,5 +63,33 @@ impl EquiAngular {
         let theta = self.theta_a + u * (self.theta_b - self.theta_a);
         let t = (self.delta + self.h * theta.tan()).clamp(0.0, self.tmax);
         (t, self.pdf(t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The last floats below 1 map beyond the closest approach, on every geometry
+    /// (with the f32 nearest pi / 2 some of them wrapped round to t = 0).
+    #[test]
+    fn the_far_end_of_an_unbounded_segment_stays_far() {
+        assert!((BELOW_HALF_PI as f64) < std::f64::consts::FRAC_PI_2);
+        assert!(f32::from_bits(BELOW_HALF_PI.to_bits() + 1) as f64 > std::f64::consts::FRAC_PI_2);
+        let ray = Ray::new(Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0));
+        for i in 0..2000 {
+            let h = 0.01 + i as f32 * 0.37 % 5.0;
+            let delta = (i as f32 * 0.731) % 20.0 - 10.0;
+            let ea = EquiAngular::new(&ray, f32::INFINITY, Vec3::new(h, 0.0, delta)).unwrap();
+            for k in 1..8 {
+                let u = f32::from_bits(1.0f32.to_bits() - k);
+                let (t, pdf) = ea.sample(u);
+                assert!(
+                    t.is_finite() && t > delta.max(0.0),
+                    "h {h} delta {delta} u {u}: t {t}"
+                );
+                assert!(pdf > 0.0 && pdf.is_finite(), "u {u}: pdf {pdf}");
+            }
+        }
     }
 }
