@@ -89,14 +89,15 @@ pub fn trash_dir(data_dir: &Path) -> PathBuf {
     data_dir.join("trash")
 }
 
-/// Moves a job folder out of `jobs/` at once (a job that has left the table must not
-/// leave a folder behind for a client to find) and deletes it. Runs of deletion that
-/// a crash interrupts are finished by [`clean_leftovers`].
-pub fn remove_job_dir(data_dir: &Path, root: &Path, id: &str) -> std::io::Result<PathBuf> {
+/// Moves job `id`'s folder out of `jobs/` in one step (a job that has left the table
+/// must not leave a folder behind for a client to find) and returns where it went,
+/// for the caller to delete; a deletion that a crash interrupts is finished by
+/// [`clean_leftovers`].
+pub fn move_job_to_trash(data_dir: &Path, id: &str) -> std::io::Result<PathBuf> {
     let trash = trash_dir(data_dir);
     std::fs::create_dir_all(&trash)?;
     let to = trash.join(id);
-    std::fs::rename(root, &to)?;
+    std::fs::rename(JobDir::new(data_dir, id).root, &to)?;
     Ok(to)
 }
 
@@ -227,7 +228,7 @@ mod tests {
         let root = dir.path().join("jobs").join("j1");
         std::fs::create_dir_all(root.join("snapshots")).unwrap();
         std::fs::write(root.join("job.json"), b"{}").unwrap();
-        let trash = remove_job_dir(dir.path(), &root, "j1").unwrap();
+        let trash = move_job_to_trash(dir.path(), "j1").unwrap();
         assert!(!root.exists());
         assert!(trash.join("job.json").exists());
         assert!(!trash.starts_with(dir.path().join("jobs")));

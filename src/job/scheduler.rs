@@ -293,7 +293,7 @@ fn apply_retention(shared: &Shared) {
         // The folder leaves jobs/ while the table is locked: once the job is gone
         // from the API its files are too, and deleting them waits for no request.
         let root = shared.ctx.job_dir(&id).root;
-        let moved = disk::remove_job_dir(&shared.ctx.data_dir, &root, &id);
+        let moved = disk::move_job_to_trash(&shared.ctx.data_dir, &id);
         t.jobs.remove(&id);
         drop(t);
         tracing::info!(job = %id, "removed by the retention policy");
