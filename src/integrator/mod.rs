@@ -10,6 +10,7 @@ pub mod bidir;
 pub mod common;
 mod debug;
 pub mod driver;
+pub mod many;
 mod pixels;
 pub mod pt;
 pub mod sppm;
@@ -130,6 +131,10 @@ pub enum Settings {
     Sppm(sppm::SppmSettings),
     /// Volumetric photon mapping, progressive (point query or beam radiance estimate).
     Vpm(vpm::VpmSettings),
+    /// Virtual point lights, with optional clamping and bias compensation.
+    Vpl(many::VplSettings),
+    /// Virtual ray lights in media, virtual point lights on surfaces.
+    Vrl(many::VrlSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -139,7 +144,8 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "normals", "albedo",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "vpl", "vrl", "normals",
+    "albedo",
 ];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
@@ -166,6 +172,8 @@ impl Settings {
             Settings::Ppm(_) => "ppm",
             Settings::Sppm(_) => "sppm",
             Settings::Vpm(_) => "vpm",
+            Settings::Vpl(_) => "vpl",
+            Settings::Vrl(_) => "vrl",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -252,6 +260,8 @@ impl Settings {
             Settings::Pt(_)
                 | Settings::Volpath(_)
                 | Settings::Vpm(_)
+                | Settings::Vpl(_)
+                | Settings::Vrl(_)
                 | Settings::Lt(_)
                 | Settings::Bpt(_)
                 | Settings::Normals {}
@@ -266,7 +276,7 @@ impl Settings {
         }
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt or vpm)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, vpl or vrl)",
                 self.name()
             )));
         }
@@ -291,6 +301,8 @@ impl Settings {
                 .map_err(SettingsError::Invalid),
             Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vpm(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Vpl(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Vrl(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -306,6 +318,8 @@ impl Settings {
             Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
             Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
             Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),
+            Settings::Vpl(s) => Box::new(many::ManyLights::vpl(s.clone())),
+            Settings::Vrl(s) => Box::new(many::ManyLights::vrl(s.clone())),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

@@ -79,6 +79,12 @@ impl Heterogeneous {
         })
     }
 
+    /// The far end of o + t d (unit d), t in [0, tmax], inside the field's box (0 when
+    /// the ray misses it).
+    pub fn support_end(&self, o: Vec3, d: Vec3, tmax: f32) -> f32 {
+        self.clip(o, d, tmax).map_or(0.0, |l| l.t1)
+    }
+
     /// Extinction and scattering coefficients at a local point.
     #[inline]
     fn coefficients(&self, p: Vec3, cap: f32) -> (Rgb, Rgb) {

@@ -99,6 +99,28 @@ impl Medium {
         }
     }
 
+    /// Where the medium can last interact along o + t d (unit d) within [0, tmax]: a
+    /// heterogeneous medium has no density outside its field's box, so an unbounded ray
+    /// ends there for every estimator; a homogeneous one fills the whole segment.
+    #[inline]
+    pub fn support_end(&self, o: Vec3, d: Vec3, tmax: f32) -> f32 {
+        match self {
+            Medium::Homogeneous(_) => tmax,
+            Medium::Heterogeneous(m) => m.support_end(o, d, tmax),
+        }
+    }
+
+    /// A grey extinction coefficient for drawing distances (estimators divide by the
+    /// density they used, so any positive value is unbiased): the channel mean when
+    /// homogeneous, the largest extinction (the global majorant) otherwise.
+    #[inline]
+    pub fn sampling_sigma_t(&self) -> f32 {
+        match self {
+            Medium::Homogeneous(m) => m.sigma_t.element_sum() / 3.0,
+            Medium::Heterogeneous(m) => m.max_sigma_t(),
+        }
+    }
+
     #[inline(always)]
     pub fn as_homogeneous(&self) -> Option<&Homogeneous> {
         match self {

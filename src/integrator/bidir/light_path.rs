@@ -47,6 +47,20 @@ pub(crate) struct LightVertex {
     pub q: Partial,
 }
 
+impl LightVertex {
+    /// The medium of a medium vertex (None at a surface).
+    #[inline]
+    pub fn scattering_medium(&self) -> Option<u32> {
+        (self.material == MEDIUM_VERTEX).then_some(self.medium)
+    }
+
+    /// The medium the light arrived in (None: vacuum).
+    #[inline]
+    pub fn arrival_medium(&self) -> Option<u32> {
+        (self.medium != NO_MEDIUM).then_some(self.medium)
+    }
+}
+
 /// The part of a light vertex that merging reads, stored in hash-grid order: a range
 /// query then reads memory in runs instead of jumping across the path-ordered store.
 #[derive(Clone, Copy, Debug, Default)]
@@ -118,7 +132,7 @@ struct Budget {
 /// One chunk's output, kept between iterations to reuse its buffers.
 #[derive(Default)]
 pub(crate) struct Chunk {
-    vertices: Vec<LightVertex>,
+    pub(super) vertices: Vec<LightVertex>,
     /// Per light path of the chunk, the end of its vertices within `vertices`.
     ends: Vec<u32>,
     /// Segments through media, when the pass keeps them, and per light path their end.
@@ -375,7 +389,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     if M::ON {
         walk.medium = ls.medium;
     }
-    let store = pass.technique.connects() || pass.technique.merges();
+    let store = pass.technique.stores();
     let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
     // The last vertex's connection to the lens, whose shadow ray (without media) is
     // traced together with the ray that continues the path.

@@ -31,8 +31,10 @@ use crate::material::Material;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
 use camera_path::CameraPass;
+pub(crate) use light_path::LightVertex;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::{Merges, Mis, Site};
+pub(crate) use segments::LightSegment;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -49,6 +51,9 @@ pub enum Technique {
     Bpm,
     /// Connections and merging, all weighted together.
     Vcm,
+    /// The light pass alone, for estimators outside this family (virtual point and ray
+    /// lights): vertices (and segments, when kept) stored, nothing connected.
+    Store,
 }
 
 impl Technique {
@@ -58,6 +63,11 @@ impl Technique {
 
     fn merges(self) -> bool {
         matches!(self, Technique::Bpm | Technique::Vcm)
+    }
+
+    /// Light vertices are kept after the light pass.
+    fn stores(self) -> bool {
+        self != Technique::Lt
     }
 }
 
@@ -268,6 +278,8 @@ pub struct Bidir {
     technique: Technique,
     layers: Layers,
     keep_segments: bool,
+    /// Light paths per iteration, when given as a count rather than by `light_paths`.
+    path_count: Option<usize>,
     ws: Mutex<Workspace>,
 }
 
@@ -278,20 +290,45 @@ impl Bidir {
             s,
             technique,
             keep_segments: false,
+            path_count: None,
             ws: Mutex::new(Workspace::default()),
         }
     }
 
     /// The same, with light subpaths keeping their segments through media.
-    #[allow(dead_code)] // for the ray-light and photon-beam estimators and the tests
     pub(crate) fn keeping_segments(mut self) -> Self {
         self.keep_segments = true;
         self
     }
 
+    /// The same, tracing `n` light paths per iteration whatever the image size.
+    pub(crate) fn with_path_count(mut self, n: usize) -> Self {
+        self.path_count = Some(n.max(1));
+        self
+    }
+
+    /// The light pass of `iteration` alone ([`Technique::Store`]): hands the stored
+    /// vertices and segments to `f` while the store is held.
+    pub(crate) fn light_pass<R>(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        f: impl FnOnce(&LightStore) -> R,
+    ) -> (R, RenderStats) {
+        debug_assert_eq!(self.technique, Technique::Store);
+        let pass = self.pass(scene, iteration);
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let mut stats = trace_light_paths(&pass, seed, iteration, &mut guard);
+        stats.vertex_bytes = guard.vertex_store_bytes() as u64;
+        (f(&LightStore { ws: &guard }), stats)
+    }
+
     fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
         let pixels = scene.width() as usize * scene.height() as usize;
-        let light_paths = ((pixels as f64 * self.s.light_paths as f64).round() as usize).max(1);
+        let light_paths = self.path_count.unwrap_or_else(|| {
+            ((pixels as f64 * self.s.light_paths as f64).round() as usize).max(1)
+        });
         let r0 = self
             .s
             .radius
@@ -380,6 +417,28 @@ impl Integrator for Bidir {
             }
         }
         stats
+    }
+}
+
+/// An iteration's light subpaths as a light pass stored them ([`Bidir::light_pass`]).
+pub(crate) struct LightStore<'a> {
+    ws: &'a Workspace,
+}
+
+impl LightStore<'_> {
+    /// Light paths traced (including those that stored nothing).
+    pub fn paths(&self) -> usize {
+        self.ws.paths
+    }
+
+    /// Every stored vertex, path after path, each path's in order of length.
+    pub fn vertices(&self) -> impl Iterator<Item = &LightVertex> {
+        self.ws.chunks.iter().flat_map(|c| c.vertices.iter())
+    }
+
+    /// Every kept segment through a medium, in the same order.
+    pub fn segments(&self) -> impl Iterator<Item = &LightSegment> {
+        self.ws.chunks.iter().flat_map(|c| c.segments.iter())
     }
 }
 

@@ -27,6 +27,9 @@ pub enum Stream {
     SppmPhotons,
     /// vpm's photon paths.
     VpmPhotons,
+    /// The many-light methods' per-light draws (truncation of unbounded ray lights,
+    /// beam offsets), one sequence per virtual light.
+    VirtualLights,
 }
 
 impl Stream {
@@ -40,6 +43,7 @@ impl Stream {
             Stream::SppmDirect => mix64(seed ^ 0x5350_504D_4E45_4531),
             Stream::SppmPhotons => mix64(seed ^ 0x5350_504D_5048_4F31),
             Stream::VpmPhotons => mix64(seed ^ 0x5650_4D50_484F_5431),
+            Stream::VirtualLights => mix64(seed ^ 0x5649_5254_4C49_4731),
         }
     }
 
@@ -63,6 +67,7 @@ mod tests {
             Stream::SppmDirect,
             Stream::SppmPhotons,
             Stream::VpmPhotons,
+            Stream::VirtualLights,
         ];
         for seed in [0u64, 1, 11, u64::MAX] {
             let mut seeds: Vec<u64> = all.iter().map(|s| s.seed(seed)).collect();

@@ -1,0 +1,201 @@
+//! The virtual lights of one iteration, made from the light pass's store: virtual
+//! point lights at light-subpath vertices, ray lights along their segments through
+//! media, and the distributions gathers draw them from.
+
+use crate::integrator::bidir::{LightSegment, LightStore, LightVertex};
+use crate::integrator::common::Stream;
+use crate::integrator::vrl::Segment;
+use crate::light::Distribution1D;
+use crate::math::{max_component, Rgb, Vec3};
+use crate::medium::Medium;
+use crate::scene::Scene;
+
+/// A virtual point light: a stored light-subpath vertex, its power already divided by
+/// the number of light paths of the iteration.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Vpl {
+    pub p: Vec3,
+    pub p_err: Vec3,
+    pub ng: Vec3,
+    pub ns: Vec3,
+    /// Towards where the light came from.
+    pub wo: Vec3,
+    pub beta: Rgb,
+    /// The surface's material; None at a scattering point in a medium.
+    pub material: Option<u32>,
+    /// The medium a medium vertex scatters in, or at a surface the one on `wo`'s side.
+    pub medium: Option<u32>,
+    /// Segments from the light to the vertex.
+    pub len: u32,
+}
+
+impl Vpl {
+    fn new(v: &LightVertex, inv_paths: f32) -> Self {
+        let scatters = v.scattering_medium();
+        Vpl {
+            p: v.p,
+            p_err: v.p_err,
+            ng: v.ng,
+            ns: v.ns,
+            wo: v.wo,
+            beta: v.throughput * inv_paths,
+            material: scatters.is_none().then_some(v.material),
+            medium: scatters.or(v.arrival_medium()),
+            len: v.len,
+        }
+    }
+}
+
+/// A ray light: a light-subpath segment through one medium, every point of which
+/// scatters the power that reaches it.
+///
+/// A segment that ends at a surface (or where a heterogeneous medium's field ends) is
+/// used whole, from its origin to that end, with the transmittance from the origin to
+/// each point (the long form). An unbounded segment in a homogeneous medium is cut at
+/// a distance drawn from exp(-sigma u) (sigma: the smallest non-zero extinction of its
+/// channels); dividing by the probability exp(-sigma u) that the cut lies beyond u
+/// keeps every point's expected weight T(u) (the short form of photon beams, Jarosz et
+/// al. 2011, sec. 5.1), and the weight T(u) / exp(-sigma u) <= 1.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RayLight {
+    pub seg: Segment,
+    /// Power entering the segment, divided by the number of light paths.
+    pub beta: Rgb,
+    pub medium: u32,
+    /// Segments from the light to the end of this one.
+    pub len: u32,
+    /// Rate of the cut (0: not cut).
+    pub cut: f32,
+}
+
+/// The cut of an unbounded homogeneous segment: the smallest extinction that removes
+/// light (a channel without extinction does not scatter either: sigma_s <= sigma_t).
+pub(super) fn cut_rate(m: &Medium) -> f32 {
+    let Some(h) = m.as_homogeneous() else {
+        return 0.0;
+    };
+    let s = h.sigma_t;
+    [s.x, s.y, s.z]
+        .into_iter()
+        .filter(|&v| v > 0.0)
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// Where a segment of a medium ends for the estimators, and the rate of its cut: the
+/// first surface (or the field's end), or, when unbounded, a distance drawn from
+/// exp(-rate u) with the uniform number `xi`. None when nothing can scatter on it.
+pub(super) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option<(f32, f32)> {
+    let end = m.support_end(o, d, tmax);
+    if end.is_finite() {
+        return (end > 0.0).then_some((end, 0.0));
+    }
+    let rate = cut_rate(m);
+    if !rate.is_finite() {
+        return None;
+    }
+    let len = -(1.0 - xi).ln() / rate;
+    (len > 0.0 && len.is_finite()).then_some((len, rate))
+}
+
+/// Draws among virtual lights in proportion to their power; the gather divides by the
+/// probability.
+#[derive(Default)]
+pub(super) struct Picker {
+    dist: Option<Distribution1D>,
+}
+
+impl Picker {
+    fn build(&mut self, power: impl Iterator<Item = f32>) {
+        let w: Vec<f32> = power.collect();
+        self.dist = w.iter().any(|&p| p > 0.0).then(|| Distribution1D::new(&w));
+    }
+
+    /// An index and its probability, for the uniform number `u`.
+    #[inline]
+    pub fn pick(&self, u: f32) -> Option<(usize, f32)> {
+        let (i, pmf, _) = self.dist.as_ref()?.sample_discrete(u);
+        (pmf > 0.0).then_some((i, pmf))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.dist.is_none()
+    }
+}
+
+/// What an iteration's gathers draw from.
+#[derive(Default)]
+pub(super) struct Lights {
+    pub vpls: Vec<Vpl>,
+    pub rays: Vec<RayLight>,
+    pub vpl_pick: Picker,
+    pub ray_pick: Picker,
+}
+
+/// Which virtual lights a method makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Kinds {
+    /// Medium vertices become VPLs too (`vpl`); otherwise only surface vertices do and
+    /// media light by ray lights.
+    pub medium_vpls: bool,
+    pub ray_lights: bool,
+}
+
+impl Lights {
+    /// Rebuilds from the light pass of `iteration`.
+    pub fn build(
+        &mut self,
+        scene: &Scene,
+        store: &LightStore,
+        kinds: Kinds,
+        seed: u64,
+        iteration: u64,
+    ) {
+        let inv_paths = 1.0 / store.paths().max(1) as f32;
+        self.vpls.clear();
+        self.vpls.extend(
+            store
+                .vertices()
+                .filter(|v| kinds.medium_vpls || v.scattering_medium().is_none())
+                .map(|v| Vpl::new(v, inv_paths)),
+        );
+        self.vpl_pick
+            .build(self.vpls.iter().map(|v| max_component(v.beta)));
+        self.rays.clear();
+        if kinds.ray_lights {
+            for (i, s) in store.segments().enumerate() {
+                let mut rng = Stream::VirtualLights.rng(seed, iteration, i as u64);
+                if let Some(r) = ray_light(scene, s, inv_paths, rng.next_f32()) {
+                    self.rays.push(r);
+                }
+            }
+        }
+        self.ray_pick
+            .build(self.rays.iter().map(|r| ray_power(scene, r)));
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.vpls.capacity() * std::mem::size_of::<Vpl>()
+            + self.rays.capacity() * std::mem::size_of::<RayLight>()
+    }
+}
+
+fn ray_light(scene: &Scene, s: &LightSegment, inv_paths: f32, xi: f32) -> Option<RayLight> {
+    let m = &scene.media[s.medium as usize];
+    let (len, cut) = extent(m, s.o, s.d, s.tmax, xi)?;
+    Some(RayLight {
+        seg: Segment::new(s.o, s.d, len),
+        beta: s.beta * inv_paths,
+        medium: s.medium,
+        len: s.len,
+        cut,
+    })
+}
+
+/// The selection weight of a ray light: its power times the fraction a grey medium of
+/// the sampling extinction would scatter over its length, times the largest albedo.
+fn ray_power(scene: &Scene, r: &RayLight) -> f32 {
+    let m = &scene.media[r.medium as usize];
+    let sigma = m.sampling_sigma_t();
+    let scattered = -(-sigma * r.seg.tmax).exp_m1();
+    max_component(r.beta) * scattered * max_component(m.albedo_at(r.seg.o)).max(1e-3)
+}

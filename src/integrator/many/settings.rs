@@ -1,0 +1,253 @@
+//! Parameters of the many-light integrators `vpl`, `vrl` and `vbl`. Each struct's doc
+//! comment is its parameter table (the README repeats it).
+
+use crate::integrator::common::params::check_alpha;
+use crate::integrator::vrl::Sampler;
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// Light subpaths per iteration: a multiple of the pixel count (a number, as for every
+/// other algorithm) or an absolute count (`{"count": N}`), which suits these methods:
+/// their cost per camera sample does not grow with the number of virtual lights.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged, deny_unknown_fields)]
+pub enum LightPaths {
+    Multiple(f32),
+    Count { count: u32 },
+}
+
+impl LightPaths {
+    /// Paths for an image of `pixels` pixels (at least one).
+    pub fn count(self, pixels: usize) -> usize {
+        match self {
+            LightPaths::Multiple(m) => ((pixels as f64 * m as f64).round() as usize).max(1),
+            LightPaths::Count { count } => count.max(1) as usize,
+        }
+    }
+
+    fn check(self) -> Result<(), String> {
+        match self {
+            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(format!(
+                "light_paths as a multiple of the pixel count must be in (0, 64], got {m}"
+            )),
+            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => Err(format!(
+                "light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Most light paths a count may ask for per iteration.
+pub const MAX_PATH_COUNT: u32 = 1 << 24;
+/// Most virtual lights drawn per query.
+pub const MAX_VL_SAMPLES: u32 = 4096;
+
+/// How `vpl` bounds the singularity of a connection's geometry term
+/// G = |cos_x| |cos_y| / d^2 (cosines are 1 at medium points).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Clamp {
+    /// Unbiased; close virtual lights make bright splotches.
+    #[default]
+    None,
+    /// G capped at `clamp_limit`: biased, the image darker near corners and in media.
+    Clamp,
+    /// The cap, plus the energy it removed re-estimated by continuing the camera path
+    /// (Kollig and Keller 2004): unbiased.
+    Compensate,
+}
+
+/// `vpl`: virtual point lights.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in segments (Mitsuba's meaning), over the camera path, the connection and the light path together |
+/// | `light_paths` | `{"count": 1024}` | light subpaths per iteration: a number is a multiple of the pixel count, `{"count": N}` an absolute count (at most 2^24) |
+/// | `vl_samples` | 8 | virtual lights drawn per gather point and per camera segment in a medium, by a cheap bound on their contribution (the estimate divides by the probability); 0 gathers every one |
+/// | `clamp` | `none` | `none` (unbiased), `clamp` (G capped at `clamp_limit`, biased), `compensate` (capped, plus Kollig and Keller's compensation: unbiased) |
+/// | `clamp_limit` | none | the cap on G in 1 / (scene unit)^2; none: 1 / (0.1 R)^2 with R the scene's bounding-sphere radius |
+/// | `max_vertex_mib` | 512 | budget for the light vertices stored per iteration |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VplSettings {
+    pub max_depth: u32,
+    pub light_paths: LightPaths,
+    pub vl_samples: u32,
+    pub clamp: Clamp,
+    pub clamp_limit: Option<f32>,
+    pub max_vertex_mib: f32,
+}
+
+impl Default for VplSettings {
+    fn default() -> Self {
+        VplSettings {
+            max_depth: 64,
+            light_paths: DEFAULT_PATHS,
+            vl_samples: 8,
+            clamp: Clamp::None,
+            clamp_limit: None,
+            max_vertex_mib: 512.0,
+        }
+    }
+}
+
+const DEFAULT_PATHS: LightPaths = LightPaths::Count { count: 1024 };
+
+/// `vrl`: virtual ray lights.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | as `vpl` |
+/// | `light_paths` | `{"count": 1024}` | as `vpl` |
+/// | `vl_samples` | 8 | ray lights (and surface VPLs) drawn per camera segment and per gather point, as `vpl` |
+/// | `sampler` | `joint_advanced` | how the pair of points on a ray light and a camera segment is drawn: `uniform`, `exponential`, `uniform_equiangular`, `joint_simple`, `joint_advanced` (a name, or `{"type": "joint_advanced", "nodes": 10}`) |
+/// | `max_vertex_mib` | 512 | budget for the light vertices and segments stored per iteration |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VrlSettings {
+    pub max_depth: u32,
+    pub light_paths: LightPaths,
+    pub vl_samples: u32,
+    #[serde(deserialize_with = "sampler_by_name_or_object")]
+    pub sampler: Sampler,
+    pub max_vertex_mib: f32,
+}
+
+impl Default for VrlSettings {
+    fn default() -> Self {
+        VrlSettings {
+            max_depth: 64,
+            light_paths: DEFAULT_PATHS,
+            vl_samples: 8,
+            sampler: DEFAULT_SAMPLER,
+            max_vertex_mib: 512.0,
+        }
+    }
+}
+
+const DEFAULT_SAMPLER: Sampler = Sampler::JointAdvanced { nodes: 10 };
+
+/// `vbl`: virtual beam lights, progressive.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth`, `light_paths`, `vl_samples`, `sampler`, `max_vertex_mib` | | as `vrl` |
+/// | `radius` | none | beam radius of the first iteration in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.01 | beam radius of the first iteration as a fraction of the scene's bounding-sphere radius |
+/// | `alpha` | 2/3 | r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1): the beam's cross-section (a disk) shrinks as progressive photon mapping's 2D kernel; 1 keeps the radius fixed |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct VblSettings {
+    pub max_depth: u32,
+    pub light_paths: LightPaths,
+    pub vl_samples: u32,
+    #[serde(deserialize_with = "sampler_by_name_or_object")]
+    pub sampler: Sampler,
+    pub max_vertex_mib: f32,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: f32,
+}
+
+impl Default for VblSettings {
+    fn default() -> Self {
+        VblSettings {
+            max_depth: 64,
+            light_paths: DEFAULT_PATHS,
+            vl_samples: 8,
+            sampler: DEFAULT_SAMPLER,
+            max_vertex_mib: 512.0,
+            radius: None,
+            radius_factor: 0.01,
+            alpha: 2.0 / 3.0,
+        }
+    }
+}
+
+/// A sampler written as its name (`"uniform"`) or as the tagged object.
+fn sampler_by_name_or_object<'de, D: Deserializer<'de>>(d: D) -> Result<Sampler, D::Error> {
+    let v = serde_json::Value::deserialize(d)?;
+    let v = match v {
+        serde_json::Value::String(name) => serde_json::json!({ "type": name }),
+        other => other,
+    };
+    serde_json::from_value(v).map_err(serde::de::Error::custom)
+}
+
+/// The checks every many-light method shares.
+pub(super) fn check_common(
+    max_depth: u32,
+    light_paths: LightPaths,
+    vl_samples: u32,
+    max_vertex_mib: f32,
+) -> Result<(), String> {
+    if max_depth == 0 {
+        return Err("max_depth must be at least 1".into());
+    }
+    light_paths.check()?;
+    if vl_samples > MAX_VL_SAMPLES {
+        return Err(format!(
+            "vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"
+        ));
+    }
+    if !(max_vertex_mib.is_finite() && max_vertex_mib > 0.0) {
+        return Err(format!(
+            "max_vertex_mib must be positive, got {max_vertex_mib}"
+        ));
+    }
+    Ok(())
+}
+
+impl VplSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        check_common(
+            self.max_depth,
+            self.light_paths,
+            self.vl_samples,
+            self.max_vertex_mib,
+        )?;
+        if let Some(b) = self.clamp_limit {
+            if !(b.is_finite() && b > 0.0) {
+                return Err(format!("clamp_limit must be positive and finite, got {b}"));
+            }
+            if self.clamp == Clamp::None {
+                return Err("clamp_limit needs clamp: clamp or compensate".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+impl VrlSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        check_common(
+            self.max_depth,
+            self.light_paths,
+            self.vl_samples,
+            self.max_vertex_mib,
+        )
+    }
+}
+
+impl VblSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        check_common(
+            self.max_depth,
+            self.light_paths,
+            self.vl_samples,
+            self.max_vertex_mib,
+        )?;
+        if let Some(r) = self.radius {
+            if !(r.is_finite() && r > 0.0) {
+                return Err(format!("radius must be positive and finite, got {r}"));
+            }
+        }
+        if !(self.radius_factor.is_finite() && self.radius_factor > 0.0) {
+            return Err(format!(
+                "radius_factor must be positive and finite, got {}",
+                self.radius_factor
+            ));
+        }
+        check_alpha(self.alpha)
+    }
+}
