@@ -5,6 +5,7 @@
 
 pub mod hashgrid;
 pub(crate) mod huge;
+pub mod light_tree;
 pub mod point_bvh;
 
 pub use hashgrid::HashGrid;
