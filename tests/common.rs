@@ -47,3 +47,41 @@ pub fn channel(film: &Film, iterations: u64, c: usize) -> Vec<f64> {
         .map(|p| p[c] / iterations as f64)
         .collect()
 }
+
+/// The Cornell box at `size` x `size` with `medium` inside an index-matched cube just
+/// larger than the box: the camera looks in from outside, through the cube's front face.
+pub fn fog_box(size: u32, medium: serde_json::Value) -> Scene {
+    use serde_json::json;
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box.json"
+    ))
+    .expect("cornell box");
+    let mut v: serde_json::Value = serde_json::from_str(&text).expect("cornell box parses");
+    v["film"] = json!({"width": size, "height": size});
+    v["materials"]["boundary"] = json!({"type": "null"});
+    v["media"] = json!({ "fog": medium });
+    v["shapes"].as_array_mut().unwrap().push(json!({
+        "type": "cube", "material": "boundary", "interior": "fog",
+        "transform": {"scale": 1.001}
+    }));
+    compile(v)
+}
+
+/// The media issue's extreme cases: nearly empty, opaque, strongly chromatic, black,
+/// sharply peaked phase functions both ways, and dense chromatic procedural noise.
+pub fn extreme_media() -> Vec<serde_json::Value> {
+    use serde_json::json;
+    vec![
+        json!({"type": "homogeneous", "sigma_t": [1e-4, 1e-4, 1e-4], "albedo": [0.8, 0.8, 0.8]}),
+        json!({"type": "homogeneous", "sigma_t": [1e4, 1e4, 1e4], "albedo": [0.8, 0.8, 0.8]}),
+        json!({"type": "homogeneous", "sigma_t": [1e4, 1e-4, 1.0], "albedo": [1, 0.5, 0]}),
+        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [0, 0, 0]}),
+        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
+               "phase": {"type": "hg", "g": 0.99}}),
+        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
+               "phase": {"type": "hg", "g": -0.99}}),
+        json!({"type": "procedural", "sigma_t": [1e4, 1e3, 1e2], "albedo": [1, 1, 1],
+               "octaves": 6, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
+    ]
+}

@@ -352,39 +352,17 @@ fn equiangular_and_distance_sampling_agree() {
     assert!(ea.se[0] * 8.0 < eb.se[0] * 16.0, "{ea:?} {eb:?}");
 }
 
-fn fog_box(size: u32, medium: Value) -> caustic::scene::Scene {
-    let mut v: Value =
-        serde_json::from_str(&std::fs::read_to_string("scenes/cornell-box.json").unwrap()).unwrap();
-    v["film"] = json!({"width": size, "height": size});
-    v["materials"]["boundary"] = json!({"type": "null"});
-    v["media"] = json!({"fog": medium});
-    v["shapes"].as_array_mut().unwrap().push(
-        json!({"type": "cube", "material": "boundary", "interior": "fog",
-                     "transform": {"scale": 1.001}}),
-    );
-    compile(v)
-}
-
 #[test]
 fn extreme_media_render_without_dropped_samples() {
-    let cases = [
-        json!({"type": "homogeneous", "sigma_t": [1e-4, 1e-4, 1e-4], "albedo": [0.8, 0.8, 0.8]}),
-        json!({"type": "homogeneous", "sigma_t": [1e4, 1e4, 1e4], "albedo": [0.8, 0.8, 0.8]}),
-        json!({"type": "homogeneous", "sigma_t": [1e4, 1e-4, 1.0], "albedo": [1, 0.5, 0]}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [0, 0, 0]}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
-               "phase": {"type": "hg", "g": 0.99}}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
-               "phase": {"type": "hg", "g": -0.99}}),
+    let mut cases = extreme_media();
+    cases.extend([
         json!({"type": "homogeneous", "sigma_a": [0.1, 0.1, 0.1], "sigma_s": [1, 1, 1],
                "phase": {"type": "schlick", "k": 0.9}}),
         json!({"type": "homogeneous", "sigma_a": [0.1, 0.1, 0.1], "sigma_s": [1, 1, 1],
                "phase": {"type": "rayleigh"}}),
         json!({"type": "procedural", "sigma_t": [8, 8, 8], "albedo": [0.9, 0.9, 0.9],
                "threshold": 0.5, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
-        json!({"type": "procedural", "sigma_t": [1e4, 1e3, 1e2], "albedo": [1, 1, 1],
-               "octaves": 6, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
-    ];
+    ]);
     for medium in cases {
         let scene = fog_box(12, medium.clone());
         let (film, n) = render(&scene, &settings("pt", json!({})), 3, 4);

@@ -29,17 +29,8 @@ fn cornell() -> Value {
     v
 }
 
-/// The Cornell box with `medium` inside an index-matched cube just larger than the
-/// box: the camera looks in from outside, through the cube's front face.
 fn fog_box(medium: Value) -> Scene {
-    let mut v = cornell();
-    v["materials"]["boundary"] = json!({"type": "null"});
-    v["media"] = json!({"fog": medium});
-    v["shapes"].as_array_mut().unwrap().push(json!({
-        "type": "cube", "material": "boundary", "interior": "fog",
-        "transform": {"scale": 1.001}
-    }));
-    compile(v)
+    common::fog_box(SIZE, medium)
 }
 
 /// Renders `scene` with volpath, lt and bpt (`iterations` each, in that order; light
@@ -122,20 +113,11 @@ fn extreme_media_render_without_dropped_samples() {
     // Nearly empty, opaque, strongly chromatic (the MIS transmittance floor), black,
     // sharply peaked phase functions, and dense procedural media (short paths: every
     // connection through the densest one is a long ratio-tracking walk).
-    let cases = [
-        json!({"type": "homogeneous", "sigma_t": [1e-4, 1e-4, 1e-4], "albedo": [0.8, 0.8, 0.8]}),
-        json!({"type": "homogeneous", "sigma_t": [1e4, 1e4, 1e4], "albedo": [0.8, 0.8, 0.8]}),
-        json!({"type": "homogeneous", "sigma_t": [1e4, 1e-4, 1.0], "albedo": [1, 0.5, 0]}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [0, 0, 0]}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
-               "phase": {"type": "hg", "g": 0.99}}),
-        json!({"type": "homogeneous", "sigma_t": [2, 2, 2], "albedo": [1, 1, 1],
-               "phase": {"type": "hg", "g": -0.99}}),
+    let mut cases = common::extreme_media();
+    cases.push(
         json!({"type": "procedural", "sigma_t": [8, 8, 8], "albedo": [0.9, 0.9, 0.9],
                "threshold": 0.5, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
-        json!({"type": "procedural", "sigma_t": [1e4, 1e3, 1e2], "albedo": [1, 1, 1],
-               "octaves": 6, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
-    ];
+    );
     for medium in cases {
         let scene = fog_box(medium.clone());
         for alg in ["lt", "bpt"] {

@@ -1134,6 +1134,10 @@ fn overrides(alg: &str, variant: bool) -> Map<String, Value> {
             "vcm" => json!({"merge_first": false, "technique_layers": true, "alpha": 1.0}),
             "ppm" | "sppm" => json!({"alpha": 1.0, "radius_factor": 0.05, "light_paths": 0.5}),
             "vpm" => json!({"estimate": "point", "rr_depth": 1}),
+            "vpl" => json!({"clamp": "compensate", "vl_samples": 0, "light_paths": 0.05}),
+            "vrl" => json!({"sampler": "uniform", "light_paths": {"count": 7}}),
+            "vbl" => json!({"sampler": "joint_simple", "radius_factor": 0.2, "vl_samples": 0,
+                            "light_paths": {"count": 5}}),
             _ => json!({}),
         }
     };

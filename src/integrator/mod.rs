@@ -135,6 +135,8 @@ pub enum Settings {
     Vpl(many::VplSettings),
     /// Virtual ray lights in media, virtual point lights on surfaces.
     Vrl(many::VrlSettings),
+    /// Progressive virtual beam lights: ray lights blurred over a shrinking disk.
+    Vbl(many::VblSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -144,8 +146,8 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "vpl", "vrl", "normals",
-    "albedo",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "vpl", "vrl", "vbl",
+    "normals", "albedo",
 ];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
@@ -174,6 +176,7 @@ impl Settings {
             Settings::Vpm(_) => "vpm",
             Settings::Vpl(_) => "vpl",
             Settings::Vrl(_) => "vrl",
+            Settings::Vbl(_) => "vbl",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -251,7 +254,8 @@ impl Settings {
     }
 
     /// Refuses algorithms that cannot render what the scene holds: media are rendered
-    /// by `pt`/`volpath`, the connection techniques `lt` and `bpt`, and `vpm`; the
+    /// by `pt`/`volpath`, the connection techniques `lt` and `bpt`, `vpm` and the
+    /// many-light methods (`vpl`, `vrl`, `vbl`); the
     /// other merging methods (`bpm`, `vcm`, `ppm`, `sppm`) have no volume estimator
     /// and would silently ignore them.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
@@ -262,6 +266,7 @@ impl Settings {
                 | Settings::Vpm(_)
                 | Settings::Vpl(_)
                 | Settings::Vrl(_)
+                | Settings::Vbl(_)
                 | Settings::Lt(_)
                 | Settings::Bpt(_)
                 | Settings::Normals {}
@@ -276,7 +281,7 @@ impl Settings {
         }
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, vpl or vrl)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, vpl, vrl or vbl)",
                 self.name()
             )));
         }
@@ -303,6 +308,7 @@ impl Settings {
             Settings::Vpm(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vpl(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vrl(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Vbl(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -320,6 +326,7 @@ impl Settings {
             Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),
             Settings::Vpl(s) => Box::new(many::ManyLights::vpl(s.clone())),
             Settings::Vrl(s) => Box::new(many::ManyLights::vrl(s.clone())),
+            Settings::Vbl(s) => Box::new(many::ManyLights::vbl(s.clone())),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

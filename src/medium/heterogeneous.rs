@@ -211,6 +211,14 @@ impl Heterogeneous {
         collided.is_none()
     }
 
+    /// The mean over the cube of the cell majorants' extinction: a rate for drawing
+    /// distances roughly in proportion to transmittance. The global majorant would make
+    /// T(t) / exp(-rate t) grow as exp((rate - sigma_t) t) in thin regions, a weight
+    /// without a useful bound.
+    pub fn mean_sigma_t(&self) -> f32 {
+        self.majorants.mean() * max_component(self.sigma_t)
+    }
+
     /// Largest extinction anywhere (for statistics and scene checks).
     pub fn max_sigma_t(&self) -> f32 {
         self.majorants.global_max() * max_component(self.sigma_t)

@@ -112,12 +112,13 @@ impl Medium {
 
     /// A grey extinction coefficient for drawing distances (estimators divide by the
     /// density they used, so any positive value is unbiased): the channel mean when
-    /// homogeneous, the largest extinction (the global majorant) otherwise.
+    /// homogeneous, the mean of the majorant grid otherwise (not its maximum, whose
+    /// densities fall far faster than the transmittance in thin regions).
     #[inline]
     pub fn sampling_sigma_t(&self) -> f32 {
         match self {
             Medium::Homogeneous(m) => m.sigma_t.element_sum() / 3.0,
-            Medium::Heterogeneous(m) => m.max_sigma_t(),
+            Medium::Heterogeneous(m) => m.mean_sigma_t(),
         }
     }
 

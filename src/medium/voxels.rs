@@ -127,6 +127,12 @@ impl MajorantGrid {
     pub fn global_max(&self) -> f32 {
         self.max.iter().copied().fold(0.0, f32::max)
     }
+
+    /// The mean of the cell bounds: an upper bound of the mean density over the cube.
+    pub fn mean(&self) -> f32 {
+        let sum: f64 = self.max.iter().map(|&m| m as f64).sum();
+        (sum / self.max.len().max(1) as f64) as f32
+    }
 }
 
 /// Exact per-cell maxima of a voxel grid (see [`VoxelGrid::max_over`]).

@@ -26,11 +26,14 @@
 use super::lights::{Lights, Picker, RayLight, Vpl};
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
+use crate::integrator::accel::light_tree::Query;
 use crate::integrator::common::camera::sample_bsdf;
 use crate::integrator::common::equiangular::EquiAngular;
 use crate::integrator::common::medium_walk::{MediumWalk, Step};
 use crate::integrator::common::nee::{direct_unweighted, Origin};
-use crate::integrator::vrl::{Distance, Exponential, Pair, PairMedia, Phases, Sampler, Segment};
+use crate::integrator::vrl::{
+    Beam, BeamOffset, Distance, Exponential, Pair, PairMedia, Phases, Sampler, Segment,
+};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::{Material, Mode};
@@ -125,6 +128,14 @@ impl CamSeg {
     fn segment(&self) -> Segment {
         Segment::new(self.o, self.d, self.len)
     }
+
+    fn query(&self) -> Query {
+        Query {
+            o: self.o,
+            d: self.d,
+            tmax: self.len,
+        }
+    }
 }
 
 impl RayLight {
@@ -149,6 +160,8 @@ pub(super) struct Gather<'a> {
     pub clamp: Option<(f32, bool)>,
     /// The pair sampler, when ray lights are on.
     pub sampler: Option<Sampler>,
+    /// `vbl`'s beam radius this iteration; 0 for ray lights.
+    pub beam_radius: f32,
 }
 
 impl Gather<'_> {
@@ -158,13 +171,34 @@ impl Gather<'_> {
         matches!(self.clamp, Some((_, true)))
     }
 
+    /// The ray light a gather uses: `r`'s segment itself, or for a beam (radius > 0)
+    /// the segment displaced by an offset drawn over the beam's disk, with the weight
+    /// (1 / (pi r^2)) / p(offset) (`vrl::beam`: averaging the ray light's transport
+    /// over the disk is the beam's, and r = 0 is exactly `vrl`). None when the offset's
+    /// weight is 0 (an offset of measure zero).
+    #[inline]
+    fn beam_of(&self, r: &RayLight, how: BeamOffset, rng: &mut Rng) -> Option<(Segment, f32)> {
+        if self.beam_radius <= 0.0 {
+            return Some((r.seg, 1.0));
+        }
+        let b = Beam::new(&r.seg, self.beam_radius).sample(how, [rng.next_f32(), rng.next_f32()]);
+        (b.weight > 0.0 && b.weight.is_finite()).then_some((b.light, b.weight))
+    }
+
     /// Draw `k` of `n` virtual lights: the index and the factor 1 / (K P(i)).
     #[inline]
-    fn draw(&self, picker: &Picker, n: usize, k: usize, rng: &mut Rng) -> Option<(usize, f32)> {
+    fn draw(
+        &self,
+        picker: &Picker,
+        q: &Query,
+        n: usize,
+        k: usize,
+        rng: &mut Rng,
+    ) -> Option<(usize, f32)> {
         if self.vl_samples == 0 {
             return Some((k, 1.0));
         }
-        let (i, p) = picker.pick(rng.next_f32())?;
+        let (i, p) = picker.pick(q, rng.next_f32())?;
         (i < n).then(|| (i, 1.0 / (self.vl_samples as f32 * p)))
     }
 
@@ -241,9 +275,10 @@ impl Gather<'_> {
     /// VPLs at a point.
     fn vpls_at(&self, x: &At, j: u32, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let (vpls, pick) = (&self.lights.vpls, &self.lights.vpl_pick);
+        let q = Query::point(x.p());
         let mut l = Rgb::ZERO;
         for k in 0..self.draws(pick, vpls.len()) {
-            let Some((i, w)) = self.draw(pick, vpls.len(), k, rng) else {
+            let Some((i, w)) = self.draw(pick, &q, vpls.len(), k, rng) else {
                 continue;
             };
             let y = &vpls[i];
@@ -288,9 +323,10 @@ impl Gather<'_> {
     fn vpls_on(&self, c: &CamSeg, j: u32, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let (vpls, pick) = (&self.lights.vpls, &self.lights.vpl_pick);
         let ray = Ray::new(c.o, c.d);
+        let q = c.query();
         let mut l = Rgb::ZERO;
         for k in 0..self.draws(pick, vpls.len()) {
-            let Some((i, w)) = self.draw(pick, vpls.len(), k, rng) else {
+            let Some((i, w)) = self.draw(pick, &q, vpls.len(), k, rng) else {
                 continue;
             };
             let y = &vpls[i];
@@ -319,9 +355,8 @@ impl Gather<'_> {
     }
 
     /// Single scattering of the lights along a camera segment: one light by the scene's
-    /// light sampler, a distance equi-angular about it when it is a point or a spot,
-    /// else by the truncated exponential of the medium's sampling extinction, and a
-    /// point on the light seen from there.
+    /// light sampler, a distance on the segment (`distance_for`) and a point on the
+    /// light seen from there.
     fn direct_on(&self, c: &CamSeg, j: u32, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let scene = self.scene;
         if j >= self.max_depth || scene.lights.is_empty() {
@@ -329,25 +364,10 @@ impl Gather<'_> {
         }
         let (li, sel, _) = scene.light_sampler.sample(rng.next_f32());
         let light = &scene.lights[li];
-        let xi = rng.next_f32();
-        let ea = match light {
-            Light::Point(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
-            Light::Spot(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
-            _ => None,
+        let Some((t, wt)) = self.distance_for(c, light, rng) else {
+            return Rgb::ZERO;
         };
-        let (t, pdf) = match ea {
-            Some(ea) => ea.sample(xi),
-            None => {
-                let m = &scene.media[c.medium as usize];
-                let e = Exponential {
-                    sigma: m.sampling_sigma_t() as f64,
-                    len: c.len as f64,
-                };
-                let t = e.sample(xi as f64).0 as f32;
-                (t, e.pdf(t as f64) as f32)
-            }
-        };
-        if !(pdf > 0.0 && pdf.is_finite() && sel > 0.0) {
+        if sel <= 0.0 {
             return Rgb::ZERO;
         }
         let x = c.o + c.d * t;
@@ -373,7 +393,41 @@ impl Gather<'_> {
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        c.weight(scene, t, rng) * tr * ls.li() * (ph / (sel * ls.pdf * pdf))
+        wt * tr * ls.li() * (ph / (sel * ls.pdf))
+    }
+
+    /// A distance t on the camera segment for direct light from `light`, with the
+    /// weight T(0, t) sigma_s(x(t)) / p(t) (over the cut's survival): equi-angular
+    /// about a point or spot light (Kulla and Fajardo 2012); otherwise a truncated
+    /// exponential in a homogeneous medium, and in a heterogeneous one a free flight by
+    /// spectral tracking, whose weight stays bounded where a fixed rate would let
+    /// T(t) / p(t) grow without bound in thin regions. None: no scattering point.
+    fn distance_for(&self, c: &CamSeg, light: &Light, rng: &mut Rng) -> Option<(f32, Rgb)> {
+        let m = &self.scene.media[c.medium as usize];
+        let ea = match light {
+            Light::Point(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
+            Light::Spot(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
+            _ => None,
+        };
+        let (t, pdf) = match (ea, m.as_homogeneous()) {
+            (Some(ea), _) => ea.sample(rng.next_f32()),
+            (None, Some(_)) => {
+                let e = Exponential {
+                    sigma: m.sampling_sigma_t() as f64,
+                    len: c.len as f64,
+                };
+                let t = e.sample(rng.next_f32() as f64).0 as f32;
+                (t, e.pdf(t as f64) as f32)
+            }
+            (None, None) => {
+                // Heterogeneous media are never cut (`lights::extent`).
+                return match m.sample_flight(c.o, c.d, c.len, Rgb::ONE, rng) {
+                    crate::medium::Flight::Scatter { t, weight } => Some((t, weight)),
+                    _ => None,
+                };
+            }
+        };
+        (pdf > 0.0 && pdf.is_finite()).then(|| (t, c.weight(self.scene, t, rng) / pdf))
     }
 
     /// Ray lights along a camera segment (volume to volume).
@@ -385,16 +439,21 @@ impl Gather<'_> {
         let (rays, pick) = (&self.lights.rays, &self.lights.ray_pick);
         let cm = &scene.media[c.medium as usize];
         let cam = c.segment();
+        let q = c.query();
         let mut l = Rgb::ZERO;
         for k in 0..self.draws(pick, rays.len()) {
-            let Some((i, w)) = self.draw(pick, rays.len(), k, rng) else {
+            let Some((i, w)) = self.draw(pick, &q, rays.len(), k, rng) else {
                 continue;
             };
             let r = &rays[i];
             if r.len + 1 + j > self.max_depth {
                 continue;
             }
-            let light = r.seg;
+            // Volume to volume the uniform offset suffices: the pair samplers already
+            // cancel the (logarithmic) singularity of close rays.
+            let Some((light, wb)) = self.beam_of(r, BeamOffset::Uniform, rng) else {
+                continue;
+            };
             let Some(pair) = Pair::new(light, cam) else {
                 continue;
             };
@@ -435,7 +494,7 @@ impl Gather<'_> {
             }
             let wl = r.weight(scene, &light, s.u, rng);
             let wc = c.weight(scene, s.t, rng);
-            l += r.beta * wl * wc * tr * (f * w / (d2 * s.pdf));
+            l += r.beta * wl * wc * tr * (f * w * wb / (d2 * s.pdf));
         }
         l
     }
@@ -449,16 +508,21 @@ impl Gather<'_> {
         let (rays, pick) = (&self.lights.rays, &self.lights.ray_pick);
         let density = sampler.surface();
         let p = x.p();
+        let q = Query::point(p);
         let mut l = Rgb::ZERO;
         for k in 0..self.draws(pick, rays.len()) {
-            let Some((i, w)) = self.draw(pick, rays.len(), k, rng) else {
+            let Some((i, w)) = self.draw(pick, &q, rays.len(), k, rng) else {
                 continue;
             };
             let r = &rays[i];
             if r.len + 1 + j > self.max_depth {
                 continue;
             }
-            let light = r.seg;
+            // Polar about p: the offset's density cancels the 1 / h of the displaced
+            // line's distance to p, the singularity the beam exists to remove.
+            let Some((light, wb)) = self.beam_of(r, BeamOffset::AboutPoint(p), rng) else {
+                continue;
+            };
             let lm = &scene.media[r.medium as usize];
             let (u, pdf) = density.sample(&light, lm.sampling_sigma_t(), p, rng.next_f32());
             if !(pdf > 0.0 && pdf.is_finite()) {
@@ -486,7 +550,7 @@ impl Gather<'_> {
                 continue;
             }
             let wl = r.weight(scene, &light, u, rng);
-            l += r.beta * wl * fx * tr * (fy * w / (d2 * pdf));
+            l += r.beta * wl * fx * tr * (fy * w * wb / (d2 * pdf));
         }
         l
     }

@@ -2,10 +2,10 @@
 //! point lights at light-subpath vertices, ray lights along their segments through
 //! media, and the distributions gathers draw them from.
 
+use crate::integrator::accel::light_tree::{Emitter, LightTree, Query};
 use crate::integrator::bidir::{LightSegment, LightStore, LightVertex};
 use crate::integrator::common::Stream;
 use crate::integrator::vrl::Segment;
-use crate::light::Distribution1D;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::medium::Medium;
 use crate::scene::Scene;
@@ -97,28 +97,35 @@ pub(super) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option
     (len > 0.0 && len.is_finite()).then_some((len, rate))
 }
 
-/// Draws among virtual lights in proportion to their power; the gather divides by the
-/// probability.
+/// Draws among virtual lights for a query, in proportion to an estimate of their
+/// contribution there (power over distance, `accel::light_tree`); the gather divides by
+/// the probability. The cost of a draw grows with the tree's depth, not with the
+/// number of lights.
 #[derive(Default)]
 pub(super) struct Picker {
-    dist: Option<Distribution1D>,
+    tree: LightTree,
+    items: Vec<Emitter>,
 }
 
 impl Picker {
-    fn build(&mut self, power: impl Iterator<Item = f32>) {
-        let w: Vec<f32> = power.collect();
-        self.dist = w.iter().any(|&p| p > 0.0).then(|| Distribution1D::new(&w));
+    fn build(&mut self, items: impl Iterator<Item = Emitter>) {
+        self.items.clear();
+        self.items.extend(items);
+        self.tree.build(&self.items);
     }
 
-    /// An index and its probability, for the uniform number `u`.
+    /// An index and its probability for the query, from the uniform number `u`.
     #[inline]
-    pub fn pick(&self, u: f32) -> Option<(usize, f32)> {
-        let (i, pmf, _) = self.dist.as_ref()?.sample_discrete(u);
-        (pmf > 0.0).then_some((i, pmf))
+    pub fn pick(&self, q: &Query, u: f32) -> Option<(usize, f32)> {
+        self.tree.sample(q, u).filter(|&(_, p)| p > 0.0)
     }
 
     pub fn is_empty(&self) -> bool {
-        self.dist.is_none()
+        self.tree.is_empty()
+    }
+
+    fn bytes(&self) -> usize {
+        self.tree.bytes() + self.items.capacity() * std::mem::size_of::<Emitter>()
     }
 }
 
@@ -158,8 +165,11 @@ impl Lights {
                 .filter(|v| kinds.medium_vpls || v.scattering_medium().is_none())
                 .map(|v| Vpl::new(v, inv_paths)),
         );
-        self.vpl_pick
-            .build(self.vpls.iter().map(|v| max_component(v.beta)));
+        self.vpl_pick.build(
+            self.vpls
+                .iter()
+                .map(|v| Emitter::point(v.p, max_component(v.beta))),
+        );
         self.rays.clear();
         if kinds.ray_lights {
             for (i, s) in store.segments().enumerate() {
@@ -169,13 +179,18 @@ impl Lights {
                 }
             }
         }
-        self.ray_pick
-            .build(self.rays.iter().map(|r| ray_power(scene, r)));
+        self.ray_pick.build(self.rays.iter().map(|r| Emitter {
+            a: r.seg.o,
+            b: r.seg.at(r.seg.tmax),
+            power: ray_power(scene, r),
+        }));
     }
 
     pub fn bytes(&self) -> usize {
         self.vpls.capacity() * std::mem::size_of::<Vpl>()
             + self.rays.capacity() * std::mem::size_of::<RayLight>()
+            + self.vpl_pick.bytes()
+            + self.ray_pick.bytes()
     }
 }
 

@@ -35,6 +35,7 @@ pub use settings::{Clamp, LightPaths, VblSettings, VplSettings, VrlSettings};
 
 use super::bidir::{Bidir, BidirSettings, Technique};
 use super::pixels::render_pixels;
+use super::vpm::radius_schedule;
 use super::vrl::Sampler;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -170,6 +171,23 @@ impl ManyLights {
         }
     }
 
+    /// `vbl`'s radius at `iteration` (0-based): r_1 from `radius` or `radius_factor`,
+    /// then r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011 for a 2D
+    /// kernel, as progressive photon beams shrink theirs). 0 for the other methods.
+    fn beam_radius(&self, scene: &Scene, iteration: u64) -> f32 {
+        let Method::Vbl {
+            radius,
+            radius_factor,
+            alpha,
+            ..
+        } = self.method
+        else {
+            return 0.0;
+        };
+        let r1 = radius.unwrap_or(radius_factor * scene.sphere.radius);
+        radius_schedule(r1, alpha, 2, iteration)
+    }
+
     fn sampler(&self) -> Option<Sampler> {
         match self.method {
             Method::Vpl { .. } => None,
@@ -195,6 +213,7 @@ impl Integrator for ManyLights {
             vl_samples: self.vl_samples,
             clamp: self.clamp(scene),
             sampler: self.sampler(),
+            beam_radius: self.beam_radius(scene, iteration),
         };
         stats += render_pixels(
             scene,

@@ -22,9 +22,11 @@
 //! cancel. Files: `pair` (the geometry of a light and a camera segment), `distance`
 //! (1D densities on a segment), `marginal` (the asinh marginal of 1/w^2 on the light
 //! ray), `advanced` (the phase-product fit on the camera ray), `samplers` (the five
-//! joint densities), `contribution` (the estimators in a homogeneous medium).
+//! joint densities), `contribution` (the estimators in a homogeneous medium), `beam`
+//! (the offsets of virtual beam lights: a ray light blurred over a disk).
 
 mod advanced;
+mod beam;
 mod contribution;
 mod distance;
 mod marginal;
@@ -34,6 +36,7 @@ mod samplers;
 mod tests;
 
 pub use advanced::{Phases, MAX_NODES};
+pub use beam::{Beam, BeamOffset, BeamSample};
 pub use contribution::{
     estimate_volume_to_surface, estimate_volume_to_volume, volume_to_surface, volume_to_volume,
     Grey, SurfacePoint, SurfaceSampler,

@@ -27,13 +27,18 @@ pub fn mean_se(n: usize, mut draw: impl FnMut() -> f64) -> (f64, f64) {
 
 /// The volume-to-volume integral by quadrature, split at closest approach.
 pub fn reference(p: &Pair, m: &Grey) -> f64 {
+    reference_within(p, m, 1e-6)
+}
+
+/// [`reference`] to relative tolerance `rel`.
+pub fn reference_within(p: &Pair, m: &Grey, rel: f64) -> f64 {
     integrate2(
         |u, t| volume_to_volume(p, m, u as f32, t as f32) as f64,
         (0.0, p.light.tmax as f64),
         (0.0, p.cam.tmax as f64),
         &u_splits(p),
         t_splits(p),
-        1e-6,
+        rel,
     )
 }
 

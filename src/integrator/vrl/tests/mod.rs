@@ -2,6 +2,7 @@
 //! the x axis against camera segments in every configuration the samplers must
 //! survive, homogeneous media, and deterministic random streams.
 
+mod beam;
 mod chi2;
 mod degenerate;
 mod densities;
