@@ -197,3 +197,48 @@ fn speed_bench_reports_wall_and_cpu_time_per_iteration() {
         );
     }
 }
+
+#[test]
+fn bench_entries_carry_their_own_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    // Two variants of one algorithm are two rows, each labelled by its entry (the bad
+    // entry below shows that an entry's parameters reach the settings).
+    let stdout = run(caustic().arg("bench").arg(&scene).args([
+        "--algorithms",
+        "pt:max_depth=1,pt:max_depth=12:rr_depth=12",
+        "--spp",
+        "4",
+        "--repeat",
+        "3",
+    ]));
+    let rays = |label: &str| -> f64 {
+        let row = stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("{label} ")))
+            .unwrap_or_else(|| panic!("no {label} row:\n{stdout}"));
+        row.split_whitespace().nth(4).unwrap().parse().unwrap()
+    };
+    let (short, long) = (rays("pt:max_depth=1"), rays("pt:max_depth=12:rr_depth=12"));
+    assert!(short > 0.0 && long > 0.0, "{stdout}");
+    // A bad entry is named.
+    let out = caustic()
+        .arg("bench")
+        .arg(&scene)
+        .args([
+            "--algorithms",
+            "pt,pt:max_dept=3",
+            "--spp",
+            "1",
+            "--repeat",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("pt:max_dept=3") && err.contains("max_dept"),
+        "{err}"
+    );
+}

@@ -300,7 +300,8 @@ pub struct ReferenceArgs {
 #[derive(Args)]
 pub struct BenchArgs {
     pub scene: PathBuf,
-    /// Comma-separated algorithms.
+    /// Comma-separated algorithms, each with its own parameters after colons
+    /// (`vrl:sampler=uniform,vpl:clamp=compensate`); `--param` applies to all.
     #[arg(long, default_value = "pt")]
     pub algorithms: String,
     /// Speed mode: iterations per timed run.

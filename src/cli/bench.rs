@@ -16,14 +16,25 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// The algorithms of `--algorithms`, each resolved against the scene and `--param`.
-fn bench_settings(a: &BenchArgs, scene: &Scene) -> Result<Vec<Settings>> {
-    let params = parse_params(&a.params)?;
+/// The algorithms of `--algorithms`, each resolved against the scene, `--param` and
+/// its own parameters (`vrl:sampler=uniform:vl_samples=4`), with its label: the entry
+/// as written, so that variants of one algorithm are told apart.
+fn bench_settings(a: &BenchArgs, scene: &Scene) -> Result<Vec<(String, Settings)>> {
+    let shared = parse_params(&a.params)?;
     a.algorithms
         .split(',')
         .map(str::trim)
         .filter(|s| !s.is_empty())
-        .map(|alg| Ok(Settings::for_scene(Some(alg), scene, &params)?))
+        .map(|entry| {
+            let mut parts = entry.split(':');
+            let alg = parts.next().unwrap_or_default();
+            let own: Vec<String> = parts.map(str::to_string).collect();
+            let mut params = shared.clone();
+            params.extend(parse_params(&own).with_context(|| format!("--algorithms {entry}"))?);
+            let settings = Settings::for_scene(Some(alg), scene, &params)
+                .with_context(|| format!("--algorithms {entry}"))?;
+            Ok((entry.to_string(), settings))
+        })
         .collect()
 }
 
@@ -46,7 +57,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
         iterations: Some(n),
         time: None,
     };
-    for settings in all {
+    for (label, settings) in all {
         // Each algorithm's own peak: the scene, plus what its iterations allocate.
         caustic::bench::reset_peak_rss();
         driver::render(
@@ -83,7 +94,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
         }
         println!(
             "{:<10} {:>12.2} {:>15.4} {:>14.3} {:>12.2} {:>10} {:>9}",
-            settings.name(),
+            label,
             median(ms),
             median(cpu),
             median(sps),
@@ -154,8 +165,8 @@ pub fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
     };
     let mut runs = Vec::new();
     let mut peaks = Vec::new();
-    for settings in &all {
-        let label = unique_label(settings.name(), &runs);
+    for (entry, settings) in &all {
+        let label = unique_label(&file_label(entry), &runs);
         caustic::bench::reset_peak_rss();
         let integrator = settings.build();
         let bar = progress_bar(halt, &label);
@@ -218,6 +229,20 @@ pub fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
 }
 
 /// `name`, or `name-2`, `name-3`, ... when earlier runs already use it.
+/// An `--algorithms` entry as a file name: `vrl:sampler=uniform` -> `vrl-sampler-uniform`.
+fn file_label(entry: &str) -> String {
+    entry
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect()
+}
+
 fn unique_label(name: &str, runs: &[caustic::bench::ConvergenceRun]) -> String {
     let taken = |l: &str| runs.iter().any(|r| r.label == l);
     if !taken(name) {

@@ -21,9 +21,14 @@ use crate::medium::Phase;
 
 /// Most nodes a fit may have (the table lives on the stack).
 pub const MAX_NODES: usize = 64;
-/// Every node is raised by this fraction of the largest, so the density is positive
-/// wherever the integrand is (the fit may miss a narrow lobe between two nodes).
-const FLOOR: f64 = 1e-3;
+/// The share of the density that is uniform in theta (the equi-angular density of
+/// `joint_simple`): a defensive mixture (Hesterberg 1995). Ten nodes over the angle a
+/// long camera segment subtends are ~0.3 rad apart, wider than the lobe of a g = 0.9
+/// phase function (~0.1 rad), so the fit can miss the peak that carries most of the
+/// integral; the mixture bounds the weight there by 1 / DEFENSIVE times
+/// `joint_simple`'s, where a floor relative to the fit's maximum left it ~1e3 times
+/// larger (a heavy tail the renders showed as rare bright pixels).
+const DEFENSIVE: f64 = 0.2;
 
 /// The phases at both ends of a connection: at the light point y and the camera point x.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,11 +72,14 @@ impl Advanced {
             let at_x = phases.cam.eval_mu(-s as f32);
             *vi = at_y as f64 * at_x as f64;
         }
-        let max = v[..nodes].iter().fold(0.0f64, |m, &x| m.max(x));
+        // The fit's mean over the angle; the uniform part adds DEFENSIVE of the total.
+        let mean = (0.5 * (v[0] + v[nodes - 1]) + v[1..nodes - 1].iter().sum::<f64>())
+            / (nodes - 1) as f64;
+        let floor = DEFENSIVE / (1.0 - DEFENSIVE) * mean;
         for vi in &mut v[..nodes] {
             // A phase that vanishes everywhere leaves the equi-angular density.
-            *vi = if max > 0.0 && max.is_finite() {
-                *vi + FLOOR * max
+            *vi = if mean > 0.0 && mean.is_finite() {
+                *vi + floor
             } else {
                 1.0
             };
