@@ -23,6 +23,18 @@
 //! camera chains. Paths whose vertices between x and the light are specular (caustics
 //! seen at x) have no estimator here, as in every VPL method.
 //!
+//! ## Beams (`vbl`)
+//! A virtual beam light of radius r is its ray light with the power spread evenly over
+//! the disk of radius r perpendicular to it (Novák, Nowrouzezahrai, Dachsbacher and
+//! Jarosz 2012, "Progressive virtual beam lights": the beam is the ray light blurred by a
+//! normalised 2D kernel across the beam). A gather estimates it by displacing the ray
+//! light by one offset v drawn in the disk with density p(v) and multiplying the
+//! ray-light estimate on the displaced line by (1 / (pi r^2)) / p(v)
+//! ([`super::vrl::Beam`]). The displaced line keeps the ray light's medium: where the
+//! disk crosses a wall or a medium's boundary the beam is not exactly the blurred
+//! ray light, a bias of order r that the shrinking radius removes. With r = 0 the
+//! weight is 1 and the estimate is `vrl`'s.
+//!
 //! `max_depth` counts segments over both halves: a virtual light after k light
 //! segments lights a point after j camera segments when k + 1 + j <= max_depth.
 
