@@ -1,6 +1,6 @@
 //! The many-light methods (`vpl`, `vrl`, `vbl`) against the volumetric path tracer:
-//! full transport on the fog-filled Cornell box, the spot shaft and a heterogeneous
-//! medium (the smoke room), block by block within the renders' own noise
+//! full transport on the fog-filled Cornell box, the spot shaft, a heterogeneous
+//! medium (the smoke room) and a point light in an unbounded medium, block by block within the renders' own noise
 //! (`bidirectional/stats.rs`); `vbl` tends to `vrl` as its radius shrinks; clamping is
 //! darker and monotone in its limit; no dropped samples in extreme media; bad
 //! parameters are refused by name.
@@ -105,6 +105,18 @@ fn smoke_room_every_method_agrees_with_volpath() {
         .filter(|(_, p, _)| p["sampler"] != "uniform")
         .collect();
     agree(&shipped("smoke-room"), 4000, &cases);
+}
+
+#[test]
+fn point_light_in_an_unbounded_medium_every_method_agrees_with_volpath() {
+    // Every camera segment is unbounded: gathers about a point (the light, a VPL)
+    // sample the whole ray, and ray lights the cut one (`lights::extent`). Isotropic,
+    // so the phase functions do not add their own heavy tail to the 1 / d^2 ones.
+    let cases: Vec<_> = every_method(300)
+        .into_iter()
+        .filter(|(_, p, _)| p["sampler"] != "uniform")
+        .collect();
+    agree(&shipped("vrl-point-g0"), 4000, &cases);
 }
 
 #[test]

@@ -35,6 +35,7 @@ impl Segments for InScatter<'_, '_> {
                 d,
                 len,
                 cut,
+                full: med.support_end(o, d, seg.tmax),
                 medium: seg.medium,
             };
             self.l += seg.beta * self.g.segment(&c, self.j, rng, stats);

@@ -106,23 +106,39 @@ impl At<'_> {
 
 /// A camera segment through a medium as the gathers see it: from `o` along unit `d`
 /// for `len` (the first surface, the field's end, or a cut at rate `cut`, see
-/// `lights::extent`).
+/// `lights::extent`). `full` is where the medium really ends (infinite when
+/// unbounded): gathers about a point sample the whole of it, since equi-angular
+/// sampling has a proper density on an unbounded ray and a cut would put the point's
+/// glow behind a survival weight exp(cut t) that grows without bound.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct CamSeg {
     pub o: Vec3,
     pub d: Vec3,
     pub len: f32,
     pub cut: f32,
+    pub full: f32,
     pub medium: u32,
 }
 
 impl CamSeg {
-    /// T(0, t) sigma_s(x(t)), over the probability that the cut lies beyond t.
+    /// T(0, t) sigma_s(x(t)), over the probability that the cut lies beyond t: the
+    /// weight of a point drawn on [0, len].
     #[inline]
     fn weight(&self, scene: &Scene, t: f32, rng: &mut Rng) -> Rgb {
+        self.scattering(scene, t, rng) * (self.cut * t).exp()
+    }
+
+    /// T(0, t) sigma_s(x(t)): the weight of a point drawn on [0, full].
+    #[inline]
+    fn scattering(&self, scene: &Scene, t: f32, rng: &mut Rng) -> Rgb {
         let m = &scene.media[self.medium as usize];
-        let tr = m.transmittance(self.o, self.d, t, rng);
-        tr * m.sigma_s_at(self.o + self.d * t) * (self.cut * t).exp()
+        m.transmittance(self.o, self.d, t, rng) * m.sigma_s_at(self.o + self.d * t)
+    }
+
+    /// Equi-angular sampling about `p` over the whole segment.
+    #[inline]
+    fn about(&self, p: Vec3) -> Option<EquiAngular> {
+        EquiAngular::new(&Ray::new(self.o, self.d), self.full, p)
     }
 
     fn segment(&self) -> Segment {
@@ -318,11 +334,11 @@ impl Gather<'_> {
         y.beta * fy * fx * tr * (cap / d2)
     }
 
-    /// VPLs along a camera segment, each at an equi-angular distance about it (uniform
-    /// where the VPL lies on the segment's line, which equi-angular cannot serve).
+    /// VPLs along a camera segment, each at an equi-angular distance about it over the
+    /// whole segment (uniform on the cut one where the VPL lies on the segment's line,
+    /// which equi-angular cannot serve).
     fn vpls_on(&self, c: &CamSeg, j: u32, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
         let (vpls, pick) = (&self.lights.vpls, &self.lights.vpl_pick);
-        let ray = Ray::new(c.o, c.d);
         let q = c.query();
         let mut l = Rgb::ZERO;
         for k in 0..self.draws(pick, vpls.len()) {
@@ -334,9 +350,12 @@ impl Gather<'_> {
                 continue;
             }
             let xi = rng.next_f32();
-            let (t, pdf) = match EquiAngular::new(&ray, c.len, y.p) {
-                Some(ea) => ea.sample(xi),
-                None => (xi * c.len, 1.0 / c.len),
+            let (t, pdf, whole) = match c.about(y.p) {
+                Some(ea) => {
+                    let (t, pdf) = ea.sample(xi);
+                    (t, pdf, true)
+                }
+                None => (xi * c.len, 1.0 / c.len, false),
             };
             if !(pdf > 0.0 && pdf.is_finite()) {
                 continue;
@@ -348,7 +367,12 @@ impl Gather<'_> {
             };
             let e = self.vpl_link(&x, y, rng, stats);
             if e != Rgb::ZERO {
-                l += e * c.weight(self.scene, t, rng) * (w / pdf);
+                let wt = if whole {
+                    c.scattering(self.scene, t, rng)
+                } else {
+                    c.weight(self.scene, t, rng)
+                };
+                l += e * wt * (w / pdf);
             }
         }
         l
@@ -396,38 +420,46 @@ impl Gather<'_> {
         wt * tr * ls.li() * (ph / (sel * ls.pdf))
     }
 
-    /// A distance t on the camera segment for direct light from `light`, with the
-    /// weight T(0, t) sigma_s(x(t)) / p(t) (over the cut's survival): equi-angular
-    /// about a point or spot light (Kulla and Fajardo 2012); otherwise a truncated
-    /// exponential in a homogeneous medium, and in a heterogeneous one a free flight by
-    /// spectral tracking, whose weight stays bounded where a fixed rate would let
-    /// T(t) / p(t) grow without bound in thin regions. None: no scattering point.
+    /// A distance t on the whole camera segment for direct light from `light`, with the
+    /// weight T(0, t) sigma_s(x(t)) / p(t): equi-angular about a point or spot light
+    /// (Kulla and Fajardo 2012); otherwise an exponential in a homogeneous medium, and
+    /// in a heterogeneous one a free flight by spectral tracking, whose weight stays
+    /// bounded where a fixed rate would let T(t) / p(t) grow without bound in thin
+    /// regions. None: no scattering point.
     fn distance_for(&self, c: &CamSeg, light: &Light, rng: &mut Rng) -> Option<(f32, Rgb)> {
         let m = &self.scene.media[c.medium as usize];
         let ea = match light {
-            Light::Point(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
-            Light::Spot(l) => EquiAngular::new(&Ray::new(c.o, c.d), c.len, l.position),
+            Light::Point(l) => c.about(l.position),
+            Light::Spot(l) => c.about(l.position),
             _ => None,
         };
         let (t, pdf) = match (ea, m.as_homogeneous()) {
             (Some(ea), _) => ea.sample(rng.next_f32()),
             (None, Some(_)) => {
+                // Unbounded: the cut's rate, the smallest extinction of the channels,
+                // keeps T(t) / p(t) bounded in every channel.
+                let sigma = if c.full.is_finite() {
+                    m.sampling_sigma_t()
+                } else {
+                    c.cut
+                };
                 let e = Exponential {
-                    sigma: m.sampling_sigma_t() as f64,
-                    len: c.len as f64,
+                    sigma: sigma as f64,
+                    len: c.full as f64,
                 };
                 let t = e.sample(rng.next_f32() as f64).0 as f32;
                 (t, e.pdf(t as f64) as f32)
             }
             (None, None) => {
-                // Heterogeneous media are never cut (`lights::extent`).
-                return match m.sample_flight(c.o, c.d, c.len, Rgb::ONE, rng) {
+                // Heterogeneous media end where their field does (`lights::extent`).
+                return match m.sample_flight(c.o, c.d, c.full, Rgb::ONE, rng) {
                     crate::medium::Flight::Scatter { t, weight } => Some((t, weight)),
                     _ => None,
                 };
             }
         };
-        (pdf > 0.0 && pdf.is_finite()).then(|| (t, c.weight(self.scene, t, rng) / pdf))
+        let ok = pdf > 0.0 && pdf.is_finite() && t.is_finite();
+        ok.then(|| (t, c.scattering(self.scene, t, rng) / pdf))
     }
 
     /// Ray lights along a camera segment (volume to volume).
