@@ -201,6 +201,53 @@ fn sweep_expands_runs_and_tabulates() {
     assert_eq!(csv.lines().count(), 5);
 }
 
+/// The natural sweep of the many-light methods: every pair sampler of `vrl` on one
+/// scene, each job rendering with the sampler its grid point names.
+#[test]
+fn a_sweep_over_the_vrl_sampler_renders_every_sampler() {
+    let s = TestServer::start(None);
+    let (code, info) = s.post_bytes("/v1/scenes", foggy_scene(12).to_string().as_bytes());
+    assert_eq!(code, 201, "{info}");
+    let samplers = [
+        "uniform",
+        "exponential",
+        "uniform_equiangular",
+        "joint_simple",
+        "joint_advanced",
+    ];
+    let (code, table) = s.post_json(
+        "/v1/sweeps",
+        &json!({"base": {"scene": info["id"], "algorithm": "vrl", "halt": {"spp": 3},
+                         "params": {"light_paths": {"count": 8}}},
+                "grid": {"params.sampler": samplers}}),
+    );
+    assert_eq!(code, 201, "{table}");
+    let sid = table["id"].as_str().unwrap().to_string();
+    let mut seen = Vec::new();
+    for r in table["rows"].as_array().unwrap() {
+        let id = r["job"].as_str().unwrap();
+        s.wait_job(id);
+        let (_, job) = s.get_json(&format!("/v1/jobs/{id}"));
+        assert_eq!(job["state"], "completed", "{job}");
+        // The resolved settings the integrator was built from, not just the request.
+        let used = &job["settings"]["sampler"]["type"];
+        assert_eq!(used, &r["point"]["params.sampler"], "{job}");
+        let (code, exr) = s.get(&format!("/v1/jobs/{id}/image.exr"));
+        assert_eq!(code, 200);
+        let img = caustic::film::decode_exr(&exr).unwrap();
+        let sum: f32 = img.pixels().iter().map(|p| p.x + p.y + p.z).sum();
+        assert!(sum.is_finite() && sum > 0.0, "{id}: image sum {sum}");
+        seen.push(used.as_str().unwrap().to_string());
+    }
+    seen.sort();
+    let mut want: Vec<String> = samplers.iter().map(|x| x.to_string()).collect();
+    want.sort();
+    assert_eq!(seen, want);
+    let (_, csv) = s.get(&format!("/v1/sweeps/{sid}?format=csv"));
+    let csv = String::from_utf8(csv).unwrap();
+    assert!(csv.starts_with("job,params.sampler,state"), "{csv}");
+}
+
 #[test]
 fn bearer_token_guards_everything_but_health() {
     let s = TestServer::start(Some("s3cret"));

@@ -6,7 +6,7 @@
 
 mod server_common;
 use serde_json::{json, Value};
-use server_common::{direct_render, respond, tiny_scene, ServerProcess};
+use server_common::{direct_render, foggy_scene, respond, tiny_scene, ServerProcess};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -39,23 +39,35 @@ fn wait_until(what: &str, mut f: impl FnMut() -> bool) {
 
 #[test]
 fn kill_9_then_restart_resumes_bit_identically() {
-    kill_9_then_restart("pt", json!({}), 1500);
+    kill_9_then_restart(tiny_scene(64), "pt", json!({}), 1500);
 }
 
 /// SPPM's iterations depend on per-pixel statistics, which the checkpoint carries.
 #[test]
 fn kill_9_then_restart_resumes_sppm_bit_identically() {
     kill_9_then_restart(
+        tiny_scene(64),
         "sppm",
         json!({"light_paths": 0.25, "radius_factor": 0.02}),
         1500,
     );
 }
 
-fn kill_9_then_restart(alg: &str, params: Value, spp: u64) {
+/// vbl's beam radius shrinks with the iteration index, which a resumed job must
+/// continue from, not restart.
+#[test]
+fn kill_9_then_restart_resumes_vbl_bit_identically() {
+    kill_9_then_restart(
+        foggy_scene(24),
+        "vbl",
+        json!({"light_paths": {"count": 16}, "sampler": "joint_advanced"}),
+        400,
+    );
+}
+
+fn kill_9_then_restart(scene: Value, alg: &str, params: Value, spp: u64) {
     let dir = tempfile::tempdir().unwrap();
     let mut p = start(dir.path());
-    let scene = tiny_scene(64);
     let (code, info) =
         respond(ureq::post(&format!("{}/v1/scenes", p.url)).send_string(&scene.to_string()));
     assert_eq!(code, 201);

@@ -155,6 +155,18 @@ pub fn tiny_scene(size: u32) -> Value {
     })
 }
 
+/// `tiny_scene` in an unbounded fog that also fills the camera's space: every medium
+/// estimator has work on it.
+#[allow(dead_code)]
+pub fn foggy_scene(size: u32) -> Value {
+    let mut v = tiny_scene(size);
+    v["media"] = json!({"fog": {"type": "homogeneous", "sigma_a": [0.05, 0.05, 0.05],
+                                "sigma_s": [0.2, 0.2, 0.2],
+                                "phase": {"type": "henyey_greenstein", "g": 0.5}}});
+    v["camera"]["medium"] = json!("fog");
+    v
+}
+
 /// Sends a raw HTTP/1.1 request (`head` without the final blank line) and as much of
 /// `body` as the server takes, then reads the answer: status and JSON body. For
 /// requests a well-behaved client library will not send (lying Content-Length,
