@@ -32,6 +32,29 @@ pub fn render(scene: &Scene, s: &Settings, seed: u64, spp: u64) -> (Film, u64) {
     (out.film, out.iterations)
 }
 
+/// `f` run on a rayon pool of `threads` threads (for images that must not depend on
+/// the thread count).
+pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// A scene shipped under scenes/media at `size` x `size` with `max_depth` as its
+/// integrator default (its assets found beside it).
+pub fn shipped_media(name: &str, size: u32, max_depth: u32) -> Scene {
+    let path = format!("{}/scenes/media/{name}.json", env!("CARGO_MANIFEST_DIR"));
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    v["film"] = serde_json::json!({"width": size, "height": size});
+    v["integrator"]["max_depth"] = serde_json::json!(max_depth);
+    let base = std::path::Path::new(&path).parent().unwrap();
+    let file = parse_scene(&v.to_string()).unwrap();
+    Scene::compile(&file, Some(base)).unwrap()
+}
+
 /// Mean and standard error of a set of independent values.
 pub fn mean_se(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;

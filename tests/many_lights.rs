@@ -12,7 +12,7 @@ mod stats;
 
 use caustic::integrator::Settings;
 use caustic::scene::Scene;
-use common::{extreme_media, fog_box, settings};
+use common::{extreme_media, fog_box, settings, shipped_media};
 use serde_json::{json, Value};
 use stats::{assert_agree, blocks, run, z_score, Rect, Run};
 
@@ -22,15 +22,8 @@ const MAX_DEPTH: u32 = 8;
 
 /// A shipped scene at SIZE x SIZE with MAX_DEPTH.
 fn shipped(name: &str) -> Scene {
-    let path = format!("{}/scenes/media/{name}.json", env!("CARGO_MANIFEST_DIR"));
-    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    v["film"] = json!({"width": SIZE, "height": SIZE});
-    v["integrator"]["max_depth"] = json!(MAX_DEPTH);
-    let base = std::path::Path::new(&path).parent().unwrap();
-    let file = caustic::scene::load::parse_scene(&v.to_string()).unwrap();
-    Scene::compile(&file, Some(base)).unwrap()
+    shipped_media(name, SIZE, MAX_DEPTH)
 }
-
 fn with_depth(params: &Value) -> Value {
     let mut p = params.clone();
     p["max_depth"] = json!(MAX_DEPTH);

@@ -1138,6 +1138,7 @@ fn overrides(alg: &str, variant: bool) -> Map<String, Value> {
             "vrl" => json!({"sampler": "uniform", "light_paths": {"count": 7}}),
             "vbl" => json!({"sampler": "joint_simple", "radius_factor": 0.2, "vl_samples": 0,
                             "light_paths": {"count": 5}}),
+            "ppb" => json!({"beams": "long", "radius_factor": 0.1, "light_paths": {"count": 9}}),
             _ => json!({}),
         }
     };

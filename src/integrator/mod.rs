@@ -12,6 +12,7 @@ mod debug;
 pub mod driver;
 pub mod many;
 mod pixels;
+pub mod ppb;
 pub mod pt;
 pub mod sppm;
 pub mod volpath;
@@ -137,6 +138,8 @@ pub enum Settings {
     Vrl(many::VrlSettings),
     /// Progressive virtual beam lights: ray lights blurred over a shrinking disk.
     Vbl(many::VblSettings),
+    /// Progressive photon beams in media; surfaces path traced.
+    Ppb(ppb::PpbSettings),
     /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
@@ -146,7 +149,7 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "vpl", "vrl", "vbl",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "ppb", "vpl", "vrl", "vbl",
     "normals", "albedo",
 ];
 
@@ -177,6 +180,7 @@ impl Settings {
             Settings::Vpl(_) => "vpl",
             Settings::Vrl(_) => "vrl",
             Settings::Vbl(_) => "vbl",
+            Settings::Ppb(_) => "ppb",
             Settings::Normals {} => "normals",
             Settings::Albedo {} => "albedo",
         }
@@ -255,7 +259,7 @@ impl Settings {
 
     /// Refuses algorithms that cannot render what the scene holds: media are rendered
     /// by `pt`/`volpath`, the connection techniques `lt` and `bpt`, `vpm` and the
-    /// many-light methods (`vpl`, `vrl`, `vbl`); the
+    /// many-light methods (`vpl`, `vrl`, `vbl`) and `ppb`; the
     /// other merging methods (`bpm`, `vcm`, `ppm`, `sppm`) have no volume estimator
     /// and would silently ignore them.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
@@ -267,6 +271,7 @@ impl Settings {
                 | Settings::Vpl(_)
                 | Settings::Vrl(_)
                 | Settings::Vbl(_)
+                | Settings::Ppb(_)
                 | Settings::Lt(_)
                 | Settings::Bpt(_)
                 | Settings::Normals {}
@@ -281,7 +286,7 @@ impl Settings {
         }
         if scene.has_media && !media_ok {
             return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, vpl, vrl or vbl)",
+                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, ppb, vpl, vrl or vbl)",
                 self.name()
             )));
         }
@@ -309,6 +314,7 @@ impl Settings {
             Settings::Vpl(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vrl(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Vbl(s) => s.validate().map_err(SettingsError::Invalid),
+            Settings::Ppb(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
         }
     }
@@ -327,6 +333,7 @@ impl Settings {
             Settings::Vpl(s) => Box::new(many::ManyLights::vpl(s.clone())),
             Settings::Vrl(s) => Box::new(many::ManyLights::vrl(s.clone())),
             Settings::Vbl(s) => Box::new(many::ManyLights::vbl(s.clone())),
+            Settings::Ppb(s) => Box::new(ppb::Ppb::new(s.clone())),
             Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
             Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
         }

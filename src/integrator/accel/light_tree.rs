@@ -6,7 +6,7 @@
 //! The tree is a BVH of up to 8 children per node over the lights in Morton order of
 //! their midpoints (63-bit codes). A node's children are the ranges left after
 //! splitting, up to 8 times, the range with the largest Morton cell at its LBVH split
-//! (Karras 2012, as in `point_bvh`): an octree cell's occupied octants. One light per
+//! (Karras 2012, as in `lbvh`): an octree cell's occupied octants. One light per
 //! leaf. A node keeps the bounding sphere of its box and its total power; siblings
 //! are stored as arrays (structure of arrays) in tree units (scene centre, scene
 //! radius), so the 8 importances of a node are one pass of vector instructions.
@@ -326,7 +326,7 @@ impl LightTree {
     }
 
     /// Where `[a, b)` divides: at the highest bit in which the first and last Morton
-    /// codes differ (Karras 2012, as in `point_bvh`); the index middle for equal codes.
+    /// codes differ (Karras 2012, as in `lbvh`); the index middle for equal codes.
     fn split(&self, a: usize, b: usize) -> usize {
         let (first, last) = (self.keys[a].0, self.keys[b - 1].0);
         if first == last {

@@ -34,7 +34,7 @@ use camera_path::CameraPass;
 pub(crate) use light_path::LightVertex;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::{Merges, Mis, Site};
-pub(crate) use segments::LightSegment;
+pub(crate) use segments::{extent, LightSegment};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;

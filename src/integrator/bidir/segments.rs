@@ -10,10 +10,11 @@
 
 use crate::integrator::common::medium_walk::Segment;
 use crate::math::{Rgb, Vec3};
+use crate::medium::Medium;
 
 /// One light-subpath segment in a medium.
 #[derive(Clone, Copy, Debug)]
-#[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
+// Read by the ray-light and photon-beam estimators.
 pub(crate) struct LightSegment {
     pub o: Vec3,
     /// Unit direction.
@@ -50,6 +51,35 @@ impl LightSegment {
     pub fn end(&self) -> Vec3 {
         self.o + self.d * self.t
     }
+}
+
+/// The cut of an unbounded homogeneous segment: the smallest extinction that removes
+/// light (a channel without extinction does not scatter either: sigma_s <= sigma_t).
+fn cut_rate(m: &Medium) -> f32 {
+    let Some(h) = m.as_homogeneous() else {
+        return 0.0;
+    };
+    let s = h.sigma_t;
+    [s.x, s.y, s.z]
+        .into_iter()
+        .filter(|&v| v > 0.0)
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// Where a segment of a medium ends for the estimators, and the rate of its cut: the
+/// first surface (or the field's end), or, when unbounded, a distance drawn from
+/// exp(-rate u) with the uniform number `xi`. None when nothing can scatter on it.
+pub(crate) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option<(f32, f32)> {
+    let end = m.support_end(o, d, tmax);
+    if end.is_finite() {
+        return (end > 0.0).then_some((end, 0.0));
+    }
+    let rate = cut_rate(m);
+    if !rate.is_finite() {
+        return None;
+    }
+    let len = -(1.0 - xi).ln() / rate;
+    (len > 0.0 && len.is_finite()).then_some((len, rate))
 }
 
 /// Where a light subpath's walk puts its segments, and how many it may still add.

@@ -2,6 +2,7 @@
 //! estimation, and the random streams.
 
 pub mod camera;
+pub mod density_camera;
 pub mod emit;
 pub mod equiangular;
 pub mod medium_walk;

@@ -18,13 +18,20 @@ pub fn check_photon_params(
     if !(light_paths > 0.0 && light_paths <= MAX_LIGHT_PATHS) {
         return Err(format!("light_paths must be in (0, {MAX_LIGHT_PATHS}]"));
     }
+    check_radius(radius, radius_factor)
+}
+
+/// A first radius in scene units (optional) and as a fraction of the scene's size.
+pub fn check_radius(radius: Option<f32>, radius_factor: f32) -> Result<(), String> {
     if let Some(r) = radius {
         if !(r > 0.0 && r.is_finite()) {
-            return Err("radius must be positive and finite".into());
+            return Err(format!("radius must be positive and finite, got {r}"));
         }
     }
     if !(radius_factor > 0.0 && radius_factor.is_finite()) {
-        return Err("radius_factor must be positive and finite".into());
+        return Err(format!(
+            "radius_factor must be positive and finite, got {radius_factor}"
+        ));
     }
     Ok(())
 }

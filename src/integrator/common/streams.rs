@@ -30,6 +30,8 @@ pub enum Stream {
     /// The many-light methods' per-light draws (truncation of unbounded ray lights,
     /// beam offsets), one sequence per virtual light.
     VirtualLights,
+    /// Photon beams' cuts, one sequence per beam.
+    PhotonBeams,
 }
 
 impl Stream {
@@ -44,6 +46,7 @@ impl Stream {
             Stream::SppmPhotons => mix64(seed ^ 0x5350_504D_5048_4F31),
             Stream::VpmPhotons => mix64(seed ^ 0x5650_4D50_484F_5431),
             Stream::VirtualLights => mix64(seed ^ 0x5649_5254_4C49_4731),
+            Stream::PhotonBeams => mix64(seed ^ 0x5048_4F54_4245_4131),
         }
     }
 

@@ -5,8 +5,8 @@
 //! along a purely specular chain: next-event estimation found the rest.
 
 use super::gather::{At, CamSeg, Gather};
-use super::lights::extent;
 use crate::geometry::{spawn_ray, Ray};
+use crate::integrator::bidir::extent;
 use crate::integrator::common::camera::{roulette, sample_bsdf};
 use crate::integrator::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;

@@ -3,11 +3,10 @@
 //! media, and the distributions gathers draw them from.
 
 use crate::integrator::accel::light_tree::{Emitter, LightTree, Query};
-use crate::integrator::bidir::{LightSegment, LightStore, LightVertex};
+use crate::integrator::bidir::{extent, LightSegment, LightStore, LightVertex};
 use crate::integrator::common::Stream;
 use crate::integrator::vrl::Segment;
 use crate::math::{max_component, Rgb, Vec3};
-use crate::medium::Medium;
 use crate::scene::Scene;
 
 /// A virtual point light: a stored light-subpath vertex, its power already divided by
@@ -66,35 +65,6 @@ pub(super) struct RayLight {
     pub len: u32,
     /// Rate of the cut (0: not cut).
     pub cut: f32,
-}
-
-/// The cut of an unbounded homogeneous segment: the smallest extinction that removes
-/// light (a channel without extinction does not scatter either: sigma_s <= sigma_t).
-pub(super) fn cut_rate(m: &Medium) -> f32 {
-    let Some(h) = m.as_homogeneous() else {
-        return 0.0;
-    };
-    let s = h.sigma_t;
-    [s.x, s.y, s.z]
-        .into_iter()
-        .filter(|&v| v > 0.0)
-        .fold(f32::INFINITY, f32::min)
-}
-
-/// Where a segment of a medium ends for the estimators, and the rate of its cut: the
-/// first surface (or the field's end), or, when unbounded, a distance drawn from
-/// exp(-rate u) with the uniform number `xi`. None when nothing can scatter on it.
-pub(super) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option<(f32, f32)> {
-    let end = m.support_end(o, d, tmax);
-    if end.is_finite() {
-        return (end > 0.0).then_some((end, 0.0));
-    }
-    let rate = cut_rate(m);
-    if !rate.is_finite() {
-        return None;
-    }
-    let len = -(1.0 - xi).ln() / rate;
-    (len > 0.0 && len.is_finite()).then_some((len, rate))
 }
 
 /// Draws among virtual lights for a query, in proportion to an estimate of their

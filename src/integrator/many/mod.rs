@@ -43,6 +43,7 @@ mod gather;
 mod lights;
 mod settings;
 
+pub(crate) use settings::check_common;
 pub use settings::{Clamp, LightPaths, VblSettings, VplSettings, VrlSettings};
 
 use super::bidir::{Bidir, BidirSettings, Technique};

@@ -1,7 +1,7 @@
 //! Parameters of the many-light integrators `vpl`, `vrl` and `vbl`. Each struct's doc
 //! comment is its parameter table (the README repeats it).
 
-use crate::integrator::common::params::check_alpha;
+use crate::integrator::common::params::{check_alpha, check_radius};
 use crate::integrator::vrl::Sampler;
 use serde::{Deserialize, Deserializer, Serialize};
 
@@ -175,7 +175,7 @@ fn sampler_by_name_or_object<'de, D: Deserializer<'de>>(d: D) -> Result<Sampler,
 }
 
 /// The checks every many-light method shares.
-pub(super) fn check_common(
+pub(crate) fn check_common(
     max_depth: u32,
     light_paths: LightPaths,
     vl_samples: u32,
@@ -237,17 +237,7 @@ impl VblSettings {
             self.vl_samples,
             self.max_vertex_mib,
         )?;
-        if let Some(r) = self.radius {
-            if !(r.is_finite() && r > 0.0) {
-                return Err(format!("radius must be positive and finite, got {r}"));
-            }
-        }
-        if !(self.radius_factor.is_finite() && self.radius_factor > 0.0) {
-            return Err(format!(
-                "radius_factor must be positive and finite, got {}",
-                self.radius_factor
-            ));
-        }
+        check_radius(self.radius, self.radius_factor)?;
         check_alpha(self.alpha)
     }
 }

@@ -46,9 +46,10 @@
 //! index-matched boundary would mix media of different sigma_s).
 //!
 //! ## Surfaces
-//! Path traced: direct light by next-event estimation (one light, its transmittance
-//! through media with `Scene::transmittance`), indirect light by continuing the camera
-//! path with a BSDF sample, on which the next medium segment queries the photons again.
+//! Path traced (the camera path shared with `ppb`, `common::density_camera`): direct
+//! light by next-event estimation (one light, its transmittance through media with
+//! `Scene::transmittance`), indirect light by continuing the camera path with a BSDF
+//! sample, on which the next medium segment queries the photons again.
 //! Emitters count only when seen through specular events (NEE found the rest). So no
 //! surface photon map is needed: surface transport is unbiased and all bias is the
 //! volume kernel's, which is what this integrator is about; photons still bounce off
@@ -69,7 +70,7 @@
 //!
 //! ## Acceleration
 //! Point queries use the shared hash grid (cells of 2r, 8 cells per query), beam
-//! queries the point BVH of `accel::point_bvh`, rebuilt every iteration. Walking
+//! queries the point BVH of `accel::lbvh`, rebuilt every iteration. Walking
 //! hash-grid cells along the ray would need a 3D DDA dilated by r through a hashed
 //! table whose slots alias far-away cells.
 //!
@@ -82,15 +83,13 @@
 mod photons;
 
 use super::accel::{HashGrid, PointBvh};
-use super::common::camera::{roulette, sample_bsdf};
-use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use super::common::density_camera::{self, Depths, MediumGather};
+use super::common::medium_walk::Segment;
 use super::common::params::{check_alpha, check_photon_params};
 use super::pixels::render_pixels;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
-use crate::geometry::{spawn_ray, Ray};
-use crate::integrator::common::nee::{direct_unweighted, Origin};
-use crate::math::{Frame, Rgb, Rng, Vec3, PI};
+use crate::math::{Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;
 use photons::{Chunk, Photon};
 use serde::{Deserialize, Serialize};
@@ -220,41 +219,14 @@ struct Workspace {
 
 /// What the camera pass reads: this iteration's photons, indexed for the estimate.
 struct Gather<'a> {
+    scene: &'a Scene,
+    s: &'a VpmSettings,
     photons: &'a [Photon],
     grid: &'a HashGrid,
     bvh: &'a PointBvh<Photon>,
     radius: f32,
     /// 1 / photon paths emitted this iteration.
     inv_paths: f32,
-}
-
-/// The camera walk's visitor: with the beam radiance estimate every medium segment is
-/// one query and the walk passes it with its transmittance; the point estimate lets the
-/// walk sample a flight (its query is made at the scattering point).
-struct BeamQueries<'a> {
-    vpm: &'a Vpm,
-    scene: &'a Scene,
-    g: &'a Gather<'a>,
-    /// Surface events before the segment.
-    depth: u32,
-    counts: bool,
-    l: Rgb,
-}
-
-impl Segments for BeamQueries<'_> {
-    fn enter(&mut self, seg: &Segment, rng: &mut Rng, stats: &mut RenderStats) -> Cross {
-        if self.vpm.s.estimate != Estimate::BeamRadiance {
-            return Cross::Flight;
-        }
-        if self.counts {
-            let e = self
-                .vpm
-                .beam(self.scene, self.g, seg, self.depth, rng, stats);
-            self.l += seg.beta * e;
-        }
-        let med = &self.scene.media[seg.medium as usize];
-        Cross::Pass(med.transmittance(seg.ray.o, seg.ray.d, seg.tmax, rng))
-    }
 }
 
 pub struct Vpm {
@@ -278,143 +250,31 @@ impl Vpm {
         let px = scene.width() as f64 * scene.height() as f64;
         (self.s.light_paths as f64 * px).ceil().max(1.0) as usize
     }
+}
 
-    /// Radiance along one camera ray (module notes: media from photons, surfaces path
-    /// traced with NEE).
-    fn li(
-        &self,
-        scene: &Scene,
-        g: &Gather,
-        mut ray: Ray,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> Rgb {
-        let mut l = Rgb::ZERO;
-        let mut walk = MediumWalk {
-            beta: Rgb::ONE,
-            medium: scene.camera_medium,
-        };
-        let mut depth = 0u32;
-        let mut specular = true;
-        loop {
-            // A photon stored after k events counts on a camera segment reached after
-            // j surface events when k + j + 2 <= max_depth (settings table).
-            let counts = depth + 2 <= self.s.max_depth;
-            let mut beams = BeamQueries {
-                vpm: self,
-                scene,
-                g,
-                depth,
-                counts,
-                l: Rgb::ZERO,
-            };
-            let step = walk.next(scene, &mut ray, &mut beams, rng, stats);
-            l += beams.l;
-            let (it, m) = match step {
-                Step::Surface(it, m) => (it, m),
-                // Only the point estimate samples flights: its query ends the path.
-                Step::Scatter { seg, t, weight } => {
-                    if counts {
-                        let x = seg.ray.at(t);
-                        // W / sigma_s(x) = T / pdf; a channel that does not scatter
-                        // adds nothing (and its W is 0 / 0).
-                        let ss = scene.media[seg.medium as usize].sigma_s_at(x);
-                        let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
-                        let e = self.point(scene, g, seg.medium, x, -ray.d, depth, stats);
-                        l += seg.beta * (w * e);
-                    }
-                    break;
-                }
-                Step::Escaped => {
-                    if specular && !scene.env_lights.is_empty() {
-                        l += walk.beta * scene.env_radiance(ray.d);
-                    }
-                    break;
-                }
-                Step::End => break,
-            };
-            if specular {
-                if let Some((_, area)) = scene.area_light(&it) {
-                    l += walk.beta * area.le(it.ng, -ray.d);
-                }
-            }
-            if depth + 1 >= self.s.max_depth {
-                break;
-            }
-            let frame = Frame::from_normal(it.ns);
-            let wo = frame.to_local(-ray.d);
-            if !m.is_delta() {
-                let at = Origin::Surface {
-                    it: &it,
-                    frame: &frame,
-                    wo,
-                    m,
-                };
-                l += walk.beta * direct_unweighted(scene, &at, walk.medium, rng, stats);
-            }
-            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
-                break;
-            };
-            walk.beta *= Rgb::from(s.weight);
-            specular = s.delta;
-            depth += 1;
-            if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
-                break;
-            }
-            walk.medium = scene.medium_after(&it, wi, walk.medium);
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            stats.rays += 1;
-        }
-        l
-    }
-
-    /// Point query: (1 / (N (4/3) pi r^3)) sum_{|x_p - x| < r} f_p(d_p, wo) beta_p, the
-    /// in-scattered radiance sigma_s int f_p L dw at x [Jensen and Christensen 1998, the
-    /// volume radiance estimate, with sigma_s inside beta_p].
-    #[allow(clippy::too_many_arguments)]
-    fn point(
-        &self,
-        scene: &Scene,
-        g: &Gather,
-        mi: u32,
-        x: Vec3,
-        wo: Vec3,
-        cam_depth: u32,
-        stats: &mut RenderStats,
-    ) -> Rgb {
-        let phase = scene.media[mi as usize].phase();
-        let mut sum = Rgb::ZERO;
-        g.grid.query_in(x, g.photons, |ph, _| {
-            if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
-                return;
-            }
-            stats.merges += 1;
-            sum += ph.beta * phase.eval(ph.d, wo);
-        });
-        let r = g.radius;
-        sum * (g.inv_paths / (4.0 / 3.0 * PI * r * r * r))
+impl MediumGather for Gather<'_> {
+    fn at_flights(&self) -> bool {
+        self.s.estimate == Estimate::Point
     }
 
     /// Beam radiance estimate over the camera segment `seg` (ray o + t d, t in [0, tmax)):
     /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
     /// within r of the segment [Jarosz et al. 2008, constant 2D kernel].
-    fn beam(
+    fn segment(
         &self,
-        scene: &Scene,
-        g: &Gather,
         seg: &Segment,
         cam_depth: u32,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
         let (mi, ray, tmax) = (seg.medium, &seg.ray, seg.tmax);
-        let med = &scene.media[mi as usize];
+        let med = &self.scene.media[mi as usize];
         let phase = med.phase();
         let homogeneous = med.as_homogeneous();
         let wo = -ray.d;
         let mut sum = Rgb::ZERO;
-        g.bvh
-            .query(g.photons, ray.o, ray.d, tmax, g.radius, |ph, t| {
+        self.bvh
+            .query(self.photons, ray.o, ray.d, tmax, self.radius, |ph, t| {
                 if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
                     return;
                 }
@@ -425,8 +285,39 @@ impl Vpm {
                 };
                 sum += tr * ph.beta * phase.eval(ph.d, wo);
             });
-        let r = g.radius;
-        sum * (g.inv_paths / (PI * r * r))
+        let r = self.radius;
+        sum * (self.inv_paths / (PI * r * r))
+    }
+
+    /// Point query: (1 / (N (4/3) pi r^3)) sum_{|x_p - x| < r} f_p(d_p, wo) beta_p, the
+    /// in-scattered radiance sigma_s int f_p L dw at x [Jensen and Christensen 1998, the
+    /// volume radiance estimate, with sigma_s inside beta_p], times W / sigma_s(x) =
+    /// T / pdf (W holds sigma_s already; a channel that does not scatter adds nothing,
+    /// and its W is 0 / 0).
+    fn point(
+        &self,
+        seg: &Segment,
+        t: f32,
+        weight: Rgb,
+        cam_depth: u32,
+        _: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let (mi, x, wo) = (seg.medium, seg.ray.at(t), -seg.ray.d);
+        let med = &self.scene.media[mi as usize];
+        let ss = med.sigma_s_at(x);
+        let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
+        let phase = med.phase();
+        let mut sum = Rgb::ZERO;
+        self.grid.query_in(x, self.photons, |ph, _| {
+            if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
+                return;
+            }
+            stats.merges += 1;
+            sum += ph.beta * phase.eval(ph.d, wo);
+        });
+        let r = self.radius;
+        w * sum * (self.inv_paths / (4.0 / 3.0 * PI * r * r * r))
     }
 }
 
@@ -450,14 +341,20 @@ impl Integrator for Vpm {
             }
         };
         let g = Gather {
+            scene,
+            s: &self.s,
             photons: &ws.photons,
             grid: &ws.grid,
             bvh: &ws.bvh,
             radius,
             inv_paths: 1.0 / paths.max(1) as f32,
         };
+        let depths = Depths {
+            max_depth: self.s.max_depth,
+            rr_depth: self.s.rr_depth,
+        };
         stats += render_pixels(scene, seed, iteration, film, |ray, rng, st| {
-            self.li(scene, &g, ray, rng, st)
+            density_camera::li(scene, &g, depths, ray, rng, st)
         });
         stats.merge_radius = radius;
         let chunk_bytes: usize = ws

@@ -1,32 +1,50 @@
-//! A binary BVH over points for segment queries ("which points lie within r of this
-//! segment?"), as the beam radiance estimate asks: points sorted along a Morton curve
-//! (keys hold the point index, so the order never depends on threads), split where the
+//! A binary BVH for segment queries ("which items lie within r of this segment?"):
+//! points, as the beam radiance estimate asks, and segments (photon beams), as the
+//! beam x beam estimate does. Items are sorted along a Morton curve of their centres
+//! (keys hold the item's index, so the order never depends on threads), split where the
 //! Morton codes change their highest differing bit (the LBVH split, an octree-like
-//! hierarchy), leaves of a few points. Every point has the same radius in a query, so
-//! nodes store point bounds and the ray is tested against them grown by r. A BVH
-//! bounds a segment query by the points near the segment and fixes the order in which
-//! they are reported. obvhs could build over point boxes, but its PLOC builder divides
-//! the work by `rayon::current_num_threads()`, so its tree (and with it the summation
-//! order, and the image bits) would not obviously be thread-count independent; a
-//! Morton sort with unique keys is, and building it costs one parallel sort.
+//! hierarchy), leaves of a few items. Every item has the same radius in a query, so
+//! nodes store the items' own bounds and the ray is tested against them grown by r. A
+//! BVH bounds a segment query by the items near the segment and fixes the order in
+//! which they are reported. obvhs could build over item boxes, but its PLOC builder
+//! divides the work by `rayon::current_num_threads()`, so its tree (and with it the
+//! summation order, and the image bits) would not obviously be thread-count
+//! independent; a Morton sort with unique keys is, and building it costs one parallel
+//! sort.
 
 use crate::math::Vec3;
 use rayon::prelude::*;
 
-/// What the BVH stores: anything with a position.
+/// What the BVH stores: anything with a box.
+pub trait Bounded: Copy + Send + Sync {
+    /// The smallest and largest corner.
+    fn bounds(&self) -> (Vec3, Vec3);
+}
+
+/// A point item: its box is the point.
 pub trait Point: Copy + Send + Sync {
     fn position(&self) -> Vec3;
 }
+
+impl<T: Point> Bounded for T {
+    #[inline(always)]
+    fn bounds(&self) -> (Vec3, Vec3) {
+        (self.position(), self.position())
+    }
+}
+
+/// The BVH over points of the beam radiance estimate.
+pub type PointBvh<T> = Lbvh<T>;
 
 /// Photons per leaf: a few point tests cost less than more box tests. Measured on 84k
 /// uniform photons in a cube of side 2 (rays of length 3, r = 0.04): 7.8 us per ray
 /// with 8, 7.5 with 16, 9.3 with 4, and 21.7 for index-middle splits with 4.
 const LEAF: usize = 8;
 
-/// A binary BVH over points in Morton order (module notes). `keys` keeps the sorted
-/// (code, index) pairs of the last build for the splits. Node 0 is the root; an
-/// inner node's first child follows it, `index` names the second.
-pub struct PointBvh<T> {
+/// A binary BVH in Morton order (module notes). `keys` keeps the sorted (code,
+/// index) pairs of the last build for the splits. Node 0 is the root; an inner node's
+/// first child follows it, `index` names the second.
+pub struct Lbvh<T> {
     nodes: Vec<BvhNode>,
     keys: Vec<u64>,
     scratch: Vec<T>,
@@ -36,15 +54,15 @@ pub struct PointBvh<T> {
 struct BvhNode {
     lo: Vec3,
     hi: Vec3,
-    /// Leaf: the first photon; inner: the second child.
+    /// Leaf: the first item; inner: the second child.
     index: u32,
-    /// Photons in a leaf; 0 for inner nodes.
+    /// Items in a leaf; 0 for inner nodes.
     count: u32,
 }
 
-impl<T> Default for PointBvh<T> {
+impl<T> Default for Lbvh<T> {
     fn default() -> Self {
-        PointBvh {
+        Lbvh {
             nodes: Vec::new(),
             keys: Vec::new(),
             scratch: Vec::new(),
@@ -52,29 +70,34 @@ impl<T> Default for PointBvh<T> {
     }
 }
 
-impl<T: Point> PointBvh<T> {
-    /// Reorders `photons` (the points) along a Morton curve and builds the tree over them.
+/// The centre of an item's box.
+#[inline(always)]
+fn centre<T: Bounded>(item: &T) -> Vec3 {
+    let (lo, hi) = item.bounds();
+    (lo + hi) * 0.5
+}
+
+impl<T: Bounded> Lbvh<T> {
+    /// Reorders `photons` (the items) along a Morton curve of their centres and builds
+    /// the tree over them.
     pub fn build(&mut self, photons: &mut Vec<T>) {
         assert!(
             photons.len() < u32::MAX as usize,
-            "too many points for the BVH"
+            "too many items for the BVH"
         );
         self.nodes.clear();
         if photons.is_empty() {
             return;
         }
-        let (lo, hi) = photons
-            .par_iter()
-            .map(|p| (p.position(), p.position()))
-            .reduce(
-                || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
+        let (lo, hi) = photons.par_iter().map(|p| (centre(p), centre(p))).reduce(
+            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
         let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
         self.keys.clear();
         self.keys
             .par_extend(photons.par_iter().enumerate().map(|(i, p)| {
-                let c = ((p.position() - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+                let c = ((centre(p) - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
                 (morton3(c.x as u32, c.y as u32, c.z as u32) as u64) << 32 | i as u64
             }));
         // Keys are unique (they hold the index): the sorted order is the same for any
@@ -93,7 +116,10 @@ impl<T: Point> PointBvh<T> {
         if b - a <= LEAF {
             let (lo, hi) = photons[a..b].iter().fold(
                 (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(p.position()), hi.max(p.position())),
+                |(lo, hi), p| {
+                    let (l, h) = p.bounds();
+                    (lo.min(l), hi.max(h))
+                },
             );
             self.nodes.push(BvhNode {
                 lo,
@@ -139,23 +165,15 @@ impl<T: Point> PointBvh<T> {
         a + self.keys[a..b].partition_point(|&k| code(k) >> bit & 1 == 0)
     }
 
-    /// Calls `f(photon, t)` for every photon within `r` of the segment o + t d, t in
-    /// [0, tmax) (unit d), t being its projection on the ray; in a fixed order.
+    /// Calls `f(item)` for every item whose box, grown by `r`, the segment o + t d, t
+    /// in [0, tmax] (unit d), meets; in a fixed order. The caller tests the item.
     #[inline]
-    pub fn query(
-        &self,
-        photons: &[T],
-        o: Vec3,
-        d: Vec3,
-        tmax: f32,
-        r: f32,
-        mut f: impl FnMut(&T, f32),
-    ) {
+    pub fn visit(&self, items: &[T], o: Vec3, d: Vec3, tmax: f32, r: f32, mut f: impl FnMut(&T)) {
         if self.nodes.is_empty() {
             return;
         }
         let inv = d.recip();
-        let (grow, r2) = (Vec3::splat(r), r * r);
+        let grow = Vec3::splat(r);
         // Depth is at most 30 Morton levels plus log2(n) middle splits of equal codes.
         let mut stack = [0u32; 96];
         let mut top = 1;
@@ -173,16 +191,9 @@ impl<T: Point> PointBvh<T> {
                 continue;
             }
             let start = n.index as usize;
-            for ph in &photons[start..start + n.count as usize] {
-                let v = ph.position() - o;
-                let t = v.dot(d);
-                if !(0.0..tmax).contains(&t) {
-                    continue;
-                }
-                if (v - d * t).length_squared() <= r2 {
-                    f(ph, t);
-                }
-            }
+            items[start..start + n.count as usize]
+                .iter()
+                .for_each(&mut f);
         }
     }
 
@@ -190,6 +201,30 @@ impl<T: Point> PointBvh<T> {
         self.nodes.capacity() * std::mem::size_of::<BvhNode>()
             + self.keys.capacity() * 8
             + self.scratch.capacity() * std::mem::size_of::<T>()
+    }
+}
+
+impl<T: Point> Lbvh<T> {
+    /// Calls `f(photon, t)` for every photon within `r` of the segment o + t d, t in
+    /// [0, tmax) (unit d), t being its projection on the ray; in a fixed order.
+    #[inline]
+    pub fn query(
+        &self,
+        photons: &[T],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        r: f32,
+        mut f: impl FnMut(&T, f32),
+    ) {
+        let r2 = r * r;
+        self.visit(photons, o, d, tmax, r, |ph| {
+            let v = ph.position() - o;
+            let t = v.dot(d);
+            if (0.0..tmax).contains(&t) && (v - d * t).length_squared() <= r2 {
+                f(ph, t);
+            }
+        });
     }
 }
 
@@ -253,7 +288,7 @@ mod tests {
             })
             .collect();
         let original = photons.clone();
-        let mut bvh = PointBvh::default();
+        let mut bvh = Lbvh::default();
         bvh.build(&mut photons);
         for q in 0..300 {
             let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 - 1.5;
@@ -285,7 +320,7 @@ mod tests {
 
     #[test]
     fn bvh_of_nothing_or_one_photon() {
-        let mut bvh = PointBvh::default();
+        let mut bvh = Lbvh::default();
         let mut none = Vec::new();
         bvh.build(&mut none);
         let mut n = 0;
@@ -307,7 +342,7 @@ mod tests {
             .map(|i| photon_at(Vec3::splat(0.25), i))
             .chain((0..50).map(|i| photon_at(Vec3::new(i as f32 * 0.02, 0.0, 0.0), 1000 + i)))
             .collect();
-        let mut bvh = PointBvh::default();
+        let mut bvh = Lbvh::default();
         bvh.build(&mut photons);
         let mut found = Vec::new();
         let d = Vec3::new(1.0, 1.0, 1.0).normalize();

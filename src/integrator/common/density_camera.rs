@@ -1,0 +1,154 @@
+//! The camera path of the density estimators in media (`vpm`'s photon points, `ppb`'s
+//! photon beams): media are left to the estimator, surfaces are path traced. Direct
+//! light at surfaces by next-event estimation (one light, its transmittance through
+//! media), indirect light by continuing with a BSDF sample; emitters count only when
+//! seen through specular events. Every medium segment the path crosses is handed to
+//! the estimator, which either gathers along the whole segment (the path then passes
+//! it with its transmittance) or asks the walk for a free flight and gathers at its
+//! scattering point, where the path ends. So surface transport is unbiased and all
+//! bias is the volume kernel's.
+
+use super::camera::{roulette, sample_bsdf};
+use super::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use super::nee::{direct_unweighted, Origin};
+use crate::geometry::{spawn_ray, Ray};
+use crate::integrator::RenderStats;
+use crate::math::{Frame, Rgb, Rng};
+use crate::scene::Scene;
+
+/// A density estimate of the radiance scattered towards the camera in media.
+pub trait MediumGather {
+    /// Whether the estimate is made at a free flight's scattering point (`point`)
+    /// rather than along whole segments (`segment`).
+    fn at_flights(&self) -> bool;
+
+    /// The radiance scattered towards the camera along the whole of `seg`, per unit of
+    /// the throughput at its start, from light that arrived after `depth` surface
+    /// events of the camera path.
+    fn segment(&self, seg: &Segment, depth: u32, rng: &mut Rng, stats: &mut RenderStats) -> Rgb;
+
+    /// The same at the scattering point `seg.ray.at(t)` of a free flight whose weight
+    /// (sigma_s T / pdf) is `weight`, per unit of the throughput at the segment's start.
+    fn point(
+        &self,
+        seg: &Segment,
+        t: f32,
+        weight: Rgb,
+        depth: u32,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb;
+}
+
+/// Path lengths: `max_depth` in Mitsuba's sense over both halves; a light
+/// contribution stored after k events counts on a camera segment reached after j
+/// surface events when k + j + 2 <= max_depth. `rr_depth`: camera scattering events
+/// before Russian roulette.
+#[derive(Clone, Copy, Debug)]
+pub struct Depths {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+}
+
+/// The walk's visitor: medium segments go to the estimator.
+struct Gathers<'a, G> {
+    g: &'a G,
+    scene: &'a Scene,
+    /// Surface events before the segment.
+    depth: u32,
+    counts: bool,
+    l: Rgb,
+}
+
+impl<G: MediumGather> Segments for Gathers<'_, G> {
+    #[inline]
+    fn enter(&mut self, seg: &Segment, rng: &mut Rng, stats: &mut RenderStats) -> Cross {
+        if self.g.at_flights() {
+            return Cross::Flight;
+        }
+        if self.counts {
+            self.l += seg.beta * self.g.segment(seg, self.depth, rng, stats);
+        }
+        let med = &self.scene.media[seg.medium as usize];
+        Cross::Pass(med.transmittance(seg.ray.o, seg.ray.d, seg.tmax, rng))
+    }
+}
+
+/// Radiance along one camera ray (module notes).
+pub fn li<G: MediumGather>(
+    scene: &Scene,
+    g: &G,
+    d: Depths,
+    mut ray: Ray,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let mut l = Rgb::ZERO;
+    let mut walk = MediumWalk {
+        beta: Rgb::ONE,
+        medium: scene.camera_medium,
+    };
+    let mut depth = 0u32;
+    let mut specular = true;
+    loop {
+        let counts = depth + 2 <= d.max_depth;
+        let mut visit = Gathers {
+            g,
+            scene,
+            depth,
+            counts,
+            l: Rgb::ZERO,
+        };
+        let step = walk.next(scene, &mut ray, &mut visit, rng, stats);
+        l += visit.l;
+        let (it, m) = match step {
+            Step::Surface(it, m) => (it, m),
+            // Only estimates made at flights sample them: the query ends the path.
+            Step::Scatter { seg, t, weight } => {
+                if counts {
+                    l += seg.beta * g.point(&seg, t, weight, depth, rng, stats);
+                }
+                break;
+            }
+            Step::Escaped => {
+                if specular && !scene.env_lights.is_empty() {
+                    l += walk.beta * scene.env_radiance(ray.d);
+                }
+                break;
+            }
+            Step::End => break,
+        };
+        if specular {
+            if let Some((_, area)) = scene.area_light(&it) {
+                l += walk.beta * area.le(it.ng, -ray.d);
+            }
+        }
+        if depth + 1 >= d.max_depth {
+            break;
+        }
+        let frame = Frame::from_normal(it.ns);
+        let wo = frame.to_local(-ray.d);
+        if !m.is_delta() {
+            let at = Origin::Surface {
+                it: &it,
+                frame: &frame,
+                wo,
+                m,
+            };
+            l += walk.beta * direct_unweighted(scene, &at, walk.medium, rng, stats);
+        }
+        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
+            break;
+        };
+        walk.beta *= Rgb::from(s.weight);
+        specular = s.delta;
+        depth += 1;
+        if !roulette(depth, d.rr_depth, &mut walk.beta, rng) {
+            break;
+        }
+        walk.medium = scene.medium_after(&it, wi, walk.medium);
+        ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+        stats.rays += 1;
+    }
+    l
+}

@@ -1,0 +1,208 @@
+//! Progressive photon beams (`ppb`; Jarosz, Nowrouzezahrai, Thomas, Sloan and Zwicker
+//! 2011, "Progressive photon beams"): light in media estimated from photon beams
+//! against camera beams, surfaces path traced and direct light at surfaces by
+//! next-event estimation, as `vpm` does with photon points
+//! ([`super::common::density_camera`]).
+//!
+//! ## An iteration
+//! 1. Light pass on the bidirectional core's store ([`Bidir::light_pass`]), keeping the
+//!    subpaths' segments through media; each becomes a beam ([`beams`]: `short` to the
+//!    flight's end, or `long` to the surface with transmittance).
+//! 2. A BVH over the beams (`accel::Lbvh`: Morton order of the boxes' centres with
+//!    unique keys, so its tree and the order of every query's results do not depend on
+//!    the thread count).
+//! 3. Camera pass: every segment of a camera path in a medium is one query against the
+//!    beams ([`estimate`]); the path passes it with its transmittance.
+//!
+//! ## The estimate
+//! The radiance scattered towards the camera along a segment o + t d is
+//! int T_c(t) sigma_s(x_t) int f(w', -d) L(x_t, w') dw' dt. A beam of power Phi along
+//! direction d_b puts Phi w_b(s) delta_2D(x perp beam) into int L dw' at a point x at
+//! distance s along it; integrated over t, the 2D delta perpendicular to the beam gives
+//! 1 / sin(theta) at the lines' closest points. Blurring the remaining 1D delta in the
+//! distance u between the lines with a kernel k gives the beam x beam 1D estimate
+//! ```text
+//! L ~ sum_b k(u_b) Phi_b w_b(t_b) T_c(t_c) sigma_s(x(t_c)) f(d_b, -d) / sin(theta_b)
+//! ```
+//! with sigma_s once, at the camera point (the beam carries light, not scattered
+//! light). Kernel: the constant 1 / (2r) on |u| < r rather than Epanechnikov's
+//! 3 / (4r) (1 - u^2 / r^2): at the same radius it has the lower peak, hence the lower
+//! variance, and its normalisation is the one SmallUPBP's MIS weights use for this
+//! estimator, which the combined `upbp` will share.
+//!
+//! Near-parallel pairs (sin theta < 0.1, `estimate::SIN_PARALLEL`) use instead the 2D
+//! kernel 1 / (pi r^2) across the camera line, integrated along the beam over the part
+//! within r of the camera segment (one uniform point of that interval, times its
+//! length). That is finite for exactly parallel lines, where 1 / sin(theta) is not, and
+//! it tends to the same limit as r -> 0; the split is by a fixed angle, so neither
+//! class's bias depends on the other and both vanish with r. Nothing is dropped.
+//!
+//! ## Progressive radius
+//! A 1D kernel: r_{i+1} = r_i (i + alpha) / (i + 1) (Knaus and Zwicker 2011 with k = 1,
+//! `vpm::radius_schedule`), alpha = 4 / 5 by default, the balance of variance ~ r^-1
+//! and squared bias ~ r^4 (see `vpm`'s notes). The 2D fallback shares the radius.
+//!
+//! `max_depth` counts segments over both halves: a beam that is segment k of its light
+//! path lights a camera segment reached after j surface events when k + j + 1 <=
+//! max_depth (the camera point lies on the beam).
+
+mod beams;
+mod estimate;
+#[cfg(test)]
+mod tests;
+
+pub use beams::BeamForm;
+
+use super::accel::Lbvh;
+use super::bidir::{Bidir, BidirSettings, Technique};
+use super::common::density_camera::{self, Depths};
+use super::common::params::{check_alpha, check_radius};
+use super::many::LightPaths;
+use super::pixels::render_pixels;
+use super::vpm::radius_schedule;
+use super::{Integrator, RenderStats};
+use crate::film::Film;
+use crate::scene::Scene;
+use beams::Beam;
+use estimate::Gather;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+/// `ppb`: progressive photon beams.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in segments (Mitsuba's meaning), over the light path, the beam and the camera path together |
+/// | `rr_depth` | 5 | camera-path scattering events before Russian roulette |
+/// | `light_paths` | 0.25 | light subpaths per iteration: a number is a multiple of the pixel count, `{"count": N}` an absolute count |
+/// | `beams` | `short` | `short`: beams end where the light's free flight did (weight T / P(pass), 1 in grey media); `long`: to the next surface, weighted by transmittance (heterogeneous media always use long beams) |
+/// | `radius` | none | beam radius of the first iteration in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.005 | beam radius of the first iteration as a fraction of the scene's bounding-sphere radius |
+/// | `alpha` | 0.8 | radius reduction r_{i+1} = r_i (i + alpha) / (i + 1) (1D kernel); 1 keeps the radius fixed |
+/// | `max_beam_mib` | 512 | budget for the light segments stored per iteration (beams beyond it are not stored; a warning is logged) |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct PpbSettings {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub light_paths: LightPaths,
+    pub beams: BeamForm,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: f32,
+    pub max_beam_mib: f32,
+}
+
+impl Default for PpbSettings {
+    fn default() -> Self {
+        PpbSettings {
+            max_depth: 64,
+            rr_depth: 5,
+            light_paths: LightPaths::Multiple(0.25),
+            beams: BeamForm::Short,
+            radius: None,
+            radius_factor: 0.005,
+            alpha: 0.8,
+            max_beam_mib: 512.0,
+        }
+    }
+}
+
+impl PpbSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        super::many::check_common(self.max_depth, self.light_paths, 0, self.max_beam_mib)
+            .map_err(|e| e.replace("max_vertex_mib", "max_beam_mib"))?;
+        check_radius(self.radius, self.radius_factor)?;
+        check_alpha(self.alpha)
+    }
+
+    /// The beam radius of `iteration` (from 0) on `scene`.
+    pub fn radius_at(&self, scene: &Scene, iteration: u64) -> f32 {
+        let r1 = self
+            .radius
+            .unwrap_or(self.radius_factor * scene.sphere.radius);
+        radius_schedule(r1, self.alpha, 1, iteration)
+    }
+}
+
+#[derive(Default)]
+struct Workspace {
+    beams: Vec<Beam>,
+    bvh: Lbvh<Beam>,
+}
+
+pub struct Ppb {
+    s: PpbSettings,
+    bidir: Bidir,
+    ws: Mutex<Workspace>,
+}
+
+impl Ppb {
+    pub fn new(s: PpbSettings) -> Self {
+        let light = BidirSettings {
+            max_depth: s.max_depth,
+            max_vertex_mib: s.max_beam_mib,
+            light_paths: match s.light_paths {
+                LightPaths::Multiple(m) => m,
+                LightPaths::Count { .. } => 1.0,
+            },
+            ..Default::default()
+        };
+        let mut bidir = Bidir::new(Technique::Store, light).keeping_segments();
+        if let LightPaths::Count { count } = s.light_paths {
+            bidir = bidir.with_path_count(count as usize);
+        }
+        Ppb {
+            s,
+            bidir,
+            ws: Mutex::new(Workspace::default()),
+        }
+    }
+}
+
+impl Integrator for Ppb {
+    fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = &mut *guard;
+        let form = self.s.beams;
+        // Without media there is nothing for beams to light: no light pass.
+        let mut stats = RenderStats::default();
+        ws.beams.clear();
+        if scene.has_media && !scene.lights.is_empty() {
+            let ((), st) = self.bidir.light_pass(scene, seed, iteration, |store| {
+                let segs = store.segments().copied();
+                beams::collect(
+                    scene,
+                    segs,
+                    store.paths(),
+                    form,
+                    seed,
+                    iteration,
+                    &mut ws.beams,
+                );
+            });
+            stats = st;
+        }
+        ws.bvh.build(&mut ws.beams);
+        let radius = self.s.radius_at(scene, iteration);
+        stats.light_vertices = ws.beams.len() as u64;
+        stats.merge_radius = radius;
+        stats.vertex_bytes +=
+            (ws.beams.capacity() * std::mem::size_of::<Beam>() + ws.bvh.bytes()) as u64;
+        let g = Gather {
+            scene,
+            beams: &ws.beams,
+            bvh: &ws.bvh,
+            radius,
+            max_depth: self.s.max_depth,
+        };
+        let depths = Depths {
+            max_depth: self.s.max_depth,
+            rr_depth: self.s.rr_depth,
+        };
+        stats += render_pixels(scene, seed, iteration, film, |ray, rng, st| {
+            density_camera::li(scene, &g, depths, ray, rng, st)
+        });
+        stats
+    }
+}
