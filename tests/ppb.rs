@@ -58,19 +58,34 @@ fn agree(scene: &Scene, reference: u64, params: Value, iterations: u64) {
 
 #[test]
 fn fog_cornell_agrees_with_volpath() {
-    agree(&shipped("fog-cornell"), 4000, json!({"radius": 0.01}), 300);
+    agree(
+        &shipped("fog-cornell"),
+        4000,
+        json!({"radius": 0.01, "light_paths": {"count": 64}}),
+        300,
+    );
 }
 
 #[test]
 fn smoke_room_agrees_with_volpath() {
     // A radius of 0.01 in this dense smoke (sigma_t 25) leaves an estimate so
     // heavy-tailed that 300 iterations underestimate its noise; 0.04 does not.
-    agree(&shipped("smoke-room"), 4000, json!({"radius": 0.04}), 300);
+    agree(
+        &shipped("smoke-room"),
+        4000,
+        json!({"radius": 0.04, "light_paths": {"count": 64}}),
+        300,
+    );
 }
 
 #[test]
 fn point_light_in_an_unbounded_medium_agrees_with_volpath() {
-    agree(&shipped("vrl-point-g0"), 4000, json!({"radius": 0.01}), 300);
+    agree(
+        &shipped("vrl-point-g0"),
+        4000,
+        json!({"radius": 0.01, "light_paths": {"count": 64}}),
+        300,
+    );
 }
 
 /// The bias of a fixed radius (alpha = 1), measured: the mean over blocks and channels

@@ -46,13 +46,18 @@ pub(crate) enum Weight {
     Short { p: Rgb },
 }
 
-/// One photon beam.
+/// One photon beam, or a piece of one: long beams are stored as pieces of bounded
+/// length, whose boxes the BVH can separate (a diagonal beam's box is mostly empty).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Beam {
+    /// Where the piece starts.
     pub o: Vec3,
     /// Unit direction.
     pub d: Vec3,
+    /// The piece's length.
     pub len: f32,
+    /// Distance from the beam's origin to the piece's start.
+    pub start: f32,
     /// Power entering the beam, over the number of light paths.
     pub beta: Rgb,
     pub medium: u32,
@@ -99,6 +104,7 @@ impl Beam {
             o: s.o,
             d: s.d,
             len,
+            start: 0.0,
             beta: s.beta * inv_paths,
             medium: s.medium,
             depth: s.len,
@@ -106,12 +112,13 @@ impl Beam {
         })
     }
 
-    /// The weight of the point at distance `u` along the beam (module notes).
+    /// The weight of the point at distance `u` along the piece (module notes).
     #[inline]
     pub fn weight_at(&self, m: &Medium, u: f32, rng: &mut Rng) -> Rgb {
+        let (origin, u) = (self.o - self.d * self.start, self.start + u);
         match self.weight {
             Weight::Short { p } => {
-                let tr = m.transmittance(self.o, self.d, u, rng);
+                let tr = m.transmittance(origin, self.d, u, rng);
                 let pass = (p * tr).element_sum();
                 if pass > 0.0 {
                     tr / pass
@@ -120,7 +127,7 @@ impl Beam {
                 }
             }
             Weight::Long { cut } => {
-                let tr = m.transmittance(self.o, self.d, u, rng);
+                let tr = m.transmittance(origin, self.d, u, rng);
                 if cut > 0.0 {
                     tr * (cut * u).exp()
                 } else {
@@ -129,24 +136,52 @@ impl Beam {
             }
         }
     }
+
+    /// Appends the beam cut into pieces of at most `piece` (the last one shorter).
+    pub fn split_into(&self, piece: f32, out: &mut Vec<Beam>) {
+        let n = (self.len / piece).ceil().clamp(1.0, MAX_PIECES as f32) as u32;
+        let step = self.len / n as f32;
+        out.extend((0..n).map(|k| {
+            let start = self.start + step * k as f32;
+            Beam {
+                o: self.o + self.d * (step * k as f32),
+                len: if k + 1 == n {
+                    self.len - step * k as f32
+                } else {
+                    step
+                },
+                start,
+                ..*self
+            }
+        }));
+    }
 }
 
-/// The beams of an iteration's light store, in the store's order.
+/// Most pieces one beam is cut into.
+const MAX_PIECES: u32 = 256;
+
+/// The beams of an iteration's light store, in the store's order, in pieces of at
+/// most `piece`; returns the number of beams.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn collect(
     scene: &Scene,
     segments: impl Iterator<Item = LightSegment>,
     paths: usize,
     form: BeamForm,
+    piece: f32,
     seed: u64,
     iteration: u64,
     out: &mut Vec<Beam>,
-) {
+) -> usize {
     let inv_paths = 1.0 / paths.max(1) as f32;
     out.clear();
+    let mut beams = 0;
     for (i, s) in segments.enumerate() {
         let mut rng = Stream::PhotonBeams.rng(seed, iteration, i as u64);
         if let Some(b) = Beam::new(scene, &s, form, inv_paths, rng.next_f32()) {
-            out.push(b);
+            b.split_into(piece, out);
+            beams += 1;
         }
     }
+    beams
 }

@@ -74,7 +74,7 @@ use std::sync::Mutex;
 /// |---|---|---|
 /// | `max_depth` | 64 | longest path in segments (Mitsuba's meaning), over the light path, the beam and the camera path together |
 /// | `rr_depth` | 5 | camera-path scattering events before Russian roulette |
-/// | `light_paths` | 0.25 | light subpaths per iteration: a number is a multiple of the pixel count, `{"count": N}` an absolute count |
+/// | `light_paths` | 0.01 | light subpaths per iteration: a number is a multiple of the pixel count, `{"count": N}` an absolute count (few beams and many iterations win: at 30 s on fog-cornell and spot-shaft, 0.01 beat 0.05 and 0.25 and was within 15% of 0.0025 in RMSE, lowest in relative MSE) |
 /// | `beams` | `short` | `short`: beams end where the light's free flight did (weight T / P(pass), 1 in grey media); `long`: to the next surface, weighted by transmittance (heterogeneous media always use long beams) |
 /// | `radius` | none | beam radius of the first iteration in scene units; overrides `radius_factor` |
 /// | `radius_factor` | 0.005 | beam radius of the first iteration as a fraction of the scene's bounding-sphere radius |
@@ -98,7 +98,7 @@ impl Default for PpbSettings {
         PpbSettings {
             max_depth: 64,
             rr_depth: 5,
-            light_paths: LightPaths::Multiple(0.25),
+            light_paths: LightPaths::Multiple(0.01),
             beams: BeamForm::Short,
             radius: None,
             radius_factor: 0.005,
@@ -124,6 +124,13 @@ impl PpbSettings {
         radius_schedule(r1, self.alpha, 1, iteration)
     }
 }
+
+/// Beams are stored in pieces of at most this fraction of the scene's bounding-sphere
+/// radius. Measured on fog-cornell (256 x 256, `light_paths` 0.05: 11k beams, 3.3 M
+/// merges per iteration, r = 0.006): 2.27 s per iteration whole, 1.07 s in pieces of
+/// R / 32, 0.82-0.87 s at R / 16 and R / 8, 1.50 s at R / 64 (vertex storage 5.7, 41,
+/// 23 and 79 MiB).
+const PIECE: f32 = 1.0 / 16.0;
 
 #[derive(Default)]
 struct Workspace {
@@ -168,24 +175,29 @@ impl Integrator for Ppb {
         // Without media there is nothing for beams to light: no light pass.
         let mut stats = RenderStats::default();
         ws.beams.clear();
+        let mut count = 0;
         if scene.has_media && !scene.lights.is_empty() {
-            let ((), st) = self.bidir.light_pass(scene, seed, iteration, |store| {
+            let (n, st) = self.bidir.light_pass(scene, seed, iteration, |store| {
                 let segs = store.segments().copied();
+                let piece = scene.sphere.radius * PIECE;
+                let out = &mut ws.beams;
                 beams::collect(
                     scene,
                     segs,
                     store.paths(),
                     form,
+                    piece,
                     seed,
                     iteration,
-                    &mut ws.beams,
-                );
+                    out,
+                )
             });
-            stats = st;
+            (stats, count) = (st, n);
         }
         ws.bvh.build(&mut ws.beams);
         let radius = self.s.radius_at(scene, iteration);
-        stats.light_vertices = ws.beams.len() as u64;
+        // Beams, not their pieces.
+        stats.light_vertices = count as u64;
         stats.merge_radius = radius;
         stats.vertex_bytes +=
             (ws.beams.capacity() * std::mem::size_of::<Beam>() + ws.bvh.bytes()) as u64;

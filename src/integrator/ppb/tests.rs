@@ -32,6 +32,7 @@ fn beam(o: Vec3, d: Vec3, len: f32) -> Beam {
         o,
         d: d.normalize(),
         len,
+        start: 0.0,
         beta: Rgb::ONE,
         medium: 0,
         depth: 1,
@@ -137,9 +138,12 @@ fn the_blur_integrates_to_the_beam_for_every_angle() {
         let a = angle_deg.to_radians();
         let bd = Vec3::new(a.sin(), 0.0, a.cos());
         let b = beam(Vec3::new(-0.5 * a.sin(), 0.0, -0.5), bd, 1.2);
-        let beams = vec![b];
+        // In pieces, as the integrator stores beams: the pieces' estimates add up to
+        // the beam's.
+        let mut beams = Vec::new();
+        b.split_into(0.5, &mut beams);
+        assert_eq!(beams.len(), 3);
         let mut bvh = Lbvh::default();
-        let mut beams = beams;
         bvh.build(&mut beams);
         let r = 0.05;
         let g = Gather {
