@@ -3,6 +3,7 @@
 //! own noise: per-block means and standard errors estimated from the spread of
 //! independent iterations (see `bidirectional/stats.rs`).
 
+#[allow(dead_code)]
 #[path = "bidirectional/stats.rs"]
 mod stats;
 

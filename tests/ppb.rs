@@ -14,7 +14,7 @@ use caustic::integrator::{RenderStats, Settings};
 use caustic::scene::Scene;
 use common::{extreme_media, fog_box, on_threads, settings, shipped_media};
 use serde_json::{json, Value};
-use stats::{assert_agree, blocks, run, z_score, Rect, Run};
+use stats::{assert_agree, blocks, mean_z2, run, Rect, Run};
 
 const SIZE: u32 = 16;
 const BLOCK: u32 = 4;
@@ -103,16 +103,7 @@ fn the_bias_shrinks_with_the_radius() {
         let p = json!({"radius": r, "alpha": 1.0, "light_paths": 1.0});
         let run = run(&scene, &ppb(p), 3, 200, &regions);
         assert_eq!(run.dropped, 0);
-        let (mut sum, mut n) = (0.0, 0.0);
-        for (a, b) in run.regions.iter().zip(&vp.regions).take(regions.len()) {
-            for c in 0..3 {
-                if let Some(z) = z_score(a, b, c) {
-                    sum += z * z;
-                    n += 1.0;
-                }
-            }
-        }
-        sum / n
+        mean_z2(&run, &vp, regions.len())
     };
     let (big, small) = (mean_z2(0.3), mean_z2(0.01));
     let bound = 1.0 + 4.0 * (2.0f64 / 16.0).sqrt();

@@ -1114,9 +1114,6 @@ fn scene() -> BoxedStrategy<Case> {
 // Checking one scene
 // =====================================================================================
 
-/// Algorithms whose `check_scene` refuses scenes with media (documented there).
-const NO_MEDIA: &[&str] = &["bpm", "vcm", "ppm", "sppm"];
-
 /// Each algorithm's alternative parameters (the scene's `max_depth` applies to all
 /// through the shared defaults).
 fn overrides(alg: &str, variant: bool) -> Map<String, Value> {
@@ -1131,8 +1128,10 @@ fn overrides(alg: &str, variant: bool) -> Map<String, Value> {
             "bpm" => {
                 json!({"heuristic": "power", "russian_roulette": false, "radius_factor": 0.05})
             }
-            "vcm" => json!({"merge_first": false, "technique_layers": true, "alpha": 1.0}),
-            "ppm" | "sppm" => json!({"alpha": 1.0, "radius_factor": 0.05, "light_paths": 0.5}),
+            "vcm" => json!({"merge_first": false, "technique_layers": true, "alpha": 1.0,
+                            "medium_radius_factor": 0.05}),
+            "ppm" | "sppm" => json!({"alpha": 1.0, "radius_factor": 0.05, "light_paths": 0.5,
+                                     "medium_alpha": 1.0}),
             "vpm" => json!({"estimate": "point", "rr_depth": 1}),
             "vpl" => json!({"clamp": "compensate", "vl_samples": 0, "light_paths": 0.05}),
             "vrl" => json!({"sampler": "uniform", "light_paths": {"count": 7}}),
@@ -1214,7 +1213,7 @@ fn check_case(case: &Case) -> Result<(), String> {
         if let Err(e) = s.check_scene(&scene) {
             // Also documented: pt's albedo roulette (its variant) on scenes with media.
             let pt_albedo = alg == "pt" && case.variant;
-            if scene.has_media && (NO_MEDIA.contains(&alg) || pt_albedo) {
+            if scene.has_media && pt_albedo {
                 continue;
             }
             return Err(format!("{alg}: check_scene refused: {e}"));

@@ -257,38 +257,15 @@ impl Settings {
         Ok(settings)
     }
 
-    /// Refuses algorithms that cannot render what the scene holds: media are rendered
-    /// by `pt`/`volpath`, the connection techniques `lt` and `bpt`, `vpm` and the
-    /// many-light methods (`vpl`, `vrl`, `vbl`) and `ppb`; the
-    /// other merging methods (`bpm`, `vcm`, `ppm`, `sppm`) have no volume estimator
-    /// and would silently ignore them.
+    /// Refuses settings that contradict what the scene holds. Every algorithm renders
+    /// media; only `pt`'s albedo roulette assumes there are none.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
-        let media_ok = matches!(
-            self,
-            Settings::Pt(_)
-                | Settings::Volpath(_)
-                | Settings::Vpm(_)
-                | Settings::Vpl(_)
-                | Settings::Vrl(_)
-                | Settings::Vbl(_)
-                | Settings::Ppb(_)
-                | Settings::Lt(_)
-                | Settings::Bpt(_)
-                | Settings::Normals {}
-                | Settings::Albedo {}
-        );
         if let (Settings::Pt(s), true) = (self, scene.has_media) {
             if s.roulette == pt::Roulette::Albedo {
                 return Err(SettingsError::Invalid(
                     "roulette = albedo applies to scenes without media; this scene has media, where pt renders as volpath with throughput roulette (leave roulette out, or set it to throughput)".into(),
                 ));
             }
-        }
-        if scene.has_media && !media_ok {
-            return Err(SettingsError::Invalid(format!(
-                "`{}` does not render participating media yet; this scene has media (use pt, volpath, lt, bpt, vpm, ppb, vpl, vrl or vbl)",
-                self.name()
-            )));
         }
         Ok(())
     }

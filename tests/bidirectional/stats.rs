@@ -45,7 +45,7 @@ impl Rect {
         }
     }
 
-    fn area(&self) -> f64 {
+    pub fn area(&self) -> f64 {
         ((self.x1 - self.x0) * (self.y1 - self.y0)) as f64
     }
 }
@@ -71,6 +71,22 @@ pub fn blocks(w: u32, h: u32, b: u32) -> Vec<Rect> {
 pub struct Estimate {
     pub mean: [f64; 3],
     pub se: [f64; 3],
+}
+
+impl Estimate {
+    /// Mean and standard error from the sums and sums of squares of `n` independent
+    /// samples per channel.
+    pub fn from_sums(sum: &[f64; 3], sum2: &[f64; 3], n: u64) -> Estimate {
+        let n = n as f64;
+        let mut e = Estimate::default();
+        for c in 0..3 {
+            let mean = sum[c] / n;
+            let var = ((sum2[c] - n * mean * mean) / (n - 1.0)).max(0.0);
+            e.mean[c] = mean;
+            e.se[c] = (var / n).sqrt();
+        }
+        e
+    }
 }
 
 /// One render, kept as per-pixel sums and per-region statistics.
@@ -169,20 +185,10 @@ pub fn run(
             }
         }
     }
-    let n = iterations as f64;
     let regions = s1
         .iter()
         .zip(&s2)
-        .map(|(a, b)| {
-            let mut e = Estimate::default();
-            for c in 0..3 {
-                let mean = a[c] / n;
-                let var = ((b[c] - n * mean * mean) / (n - 1.0)).max(0.0);
-                e.mean[c] = mean;
-                e.se[c] = (var / n).sqrt();
-            }
-            e
-        })
+        .map(|(a, b)| Estimate::from_sums(a, b, iterations))
         .collect();
     Run {
         name: settings.name().to_string(),
@@ -206,6 +212,21 @@ pub fn z_score(a: &Estimate, b: &Estimate, c: usize) -> Option<f64> {
         return (d != 0.0).then_some(f64::INFINITY);
     }
     Some(d / se)
+}
+
+/// The mean over the first `regions` regions and the three channels of z^2 between two
+/// runs: 1 when they agree (their difference is noise), more where one is biased.
+pub fn mean_z2(a: &Run, b: &Run, regions: usize) -> f64 {
+    let (mut sum, mut n) = (0.0, 0.0);
+    for (ea, eb) in a.regions.iter().zip(&b.regions).take(regions) {
+        for c in 0..3 {
+            if let Some(z) = z_score(ea, eb, c) {
+                sum += z * z;
+                n += 1.0;
+            }
+        }
+    }
+    sum / n
 }
 
 /// Two-sided tail probability of a standard normal beyond `z`: erfc(z / sqrt 2).

@@ -4,7 +4,7 @@
 use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::Site;
-use super::vertex::{Media, Vertex};
+use super::vertex::{Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
@@ -195,13 +195,15 @@ impl<M: Media> CameraPass<'_, M> {
                 }
                 *l += connect(pass, light, walk, v, rng, stats, layers);
             }
-            // Merging is not offered in media (Settings::check_scene): surfaces only.
-            if let Vertex::Surface { it, s: surface, .. } = v {
-                if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
-                    let e = walk.throughput * merge(pass, ws, walk, it, surface, stats);
-                    record(layers, pass.layers.merge(), e);
-                    *l += e;
-                }
+            if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
+                let e = match v {
+                    Vertex::Surface { it, s: surface, .. } => {
+                        walk.throughput * merge(pass, ws, walk, it, surface, stats)
+                    }
+                    Vertex::Medium { p, m } => merge_medium(pass, ws, walk, *p, M::get(m), stats),
+                };
+                record(layers, pass.layers.merge(), e);
+                *l += e;
             }
         }
         let len = walk.len;
@@ -426,9 +428,9 @@ fn merge(
 ) -> Rgb {
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.grid.query_sorted_in(
+    ws.surface.grid.query_sorted_in(
         it.p,
-        &ws.merge,
+        &ws.surface.merge,
         #[inline(always)]
         |y, _| {
             if y.len + walk.len > pass.s.max_depth {
@@ -449,4 +451,55 @@ fn merge(
     );
     stats.merges += merges;
     sum * pass.vm_norm
+}
+
+/// Merging at a medium vertex x with the stored light vertices of the same medium
+/// within the medium radius (point x point 3D): the kernel 1 / (4/3 pi r^3), the
+/// phase function at x, and 1 / N; throughput included. The camera's throughput holds
+/// the flight's sigma_s(x) T / pdf and each light vertex's its own sigma_s: the merged
+/// path has one scattering event, so the camera's sigma_s(x) is divided out (as
+/// `vpm`'s point estimate does).
+#[inline(always)]
+fn merge_medium(
+    pass: &Pass,
+    ws: &Workspace,
+    walk: &Walk,
+    x: Vec3,
+    m: &MediumPoint,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let Some(medium) = walk.medium else {
+        return Rgb::ZERO;
+    };
+    let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
+    let beta = Rgb::select(
+        sigma_s.cmpgt(Rgb::ZERO),
+        walk.throughput / sigma_s,
+        Rgb::ZERO,
+    );
+    if beta == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let mut sum = Rgb::ZERO;
+    let mut merges = 0u64;
+    ws.medium.grid.query_sorted_in(
+        x,
+        &ws.medium.merge,
+        #[inline(always)]
+        |y, _| {
+            if y.medium != medium || y.len + walk.len > pass.s.max_depth {
+                return;
+            }
+            let ph = m.phase.eval(-m.wo, y.wo);
+            if ph <= 0.0 {
+                return;
+            }
+            let (dir, rev) = (ph * m.cont, ph * y.cont);
+            let w = pass.mis.weight_merge(y.q, walk.q, Site::Medium, dir, rev);
+            merges += 1;
+            sum += y.throughput * (ph * w);
+        },
+    );
+    stats.merges += merges;
+    beta * sum * pass.medium_norm
 }

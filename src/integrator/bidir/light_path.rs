@@ -7,7 +7,7 @@ use super::mis::{Partial, Site};
 use super::segments::{LightSegment, SegmentSink};
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::walk::{Eval, Surface, Walk};
-use super::{Pass, Splat, Workspace};
+use super::{MergeSet, Pass, Splat, Workspace};
 use crate::geometry::{spawn_ray_to, Ray};
 use crate::integrator::common::emit::{sample_emission, LightStart};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
@@ -69,6 +69,8 @@ pub(crate) struct MergeVertex {
     pub throughput: Rgb,
     pub len: u32,
     pub cont: f32,
+    /// As `LightVertex::medium` (a medium vertex merges only in its own medium).
+    pub medium: u32,
     pub q: Partial,
 }
 
@@ -117,6 +119,7 @@ impl From<&LightVertex> for MergeVertex {
             throughput: v.throughput,
             len: v.len,
             cont: v.cont,
+            medium: v.medium,
             q: v.q,
         }
     }
@@ -197,12 +200,19 @@ pub(super) fn trace_light_paths(
             pass.s.max_vertex_mib
         );
     }
-    ws.positions.clear();
+    ws.surface.positions.clear();
+    ws.medium.positions.clear();
     if pass.technique.merges() {
-        huge::reserve(&mut ws.positions, total);
-        let chunks = &ws.chunks;
-        ws.positions
-            .extend(chunks.iter().flat_map(|c| c.vertices.iter().map(|v| v.p)));
+        let vertices = || ws.chunks.iter().flat_map(|c| c.vertices.iter());
+        let media = vertices().filter(|v| v.site() == Site::Medium).count();
+        huge::reserve(&mut ws.surface.positions, total - media);
+        huge::reserve(&mut ws.medium.positions, media);
+        for v in vertices() {
+            match v.site() {
+                Site::Surface => ws.surface.positions.push(v.p),
+                Site::Medium => ws.medium.positions.push(v.p),
+            }
+        }
     }
     stats.light_vertices = total as u64;
     stats
@@ -231,23 +241,18 @@ impl Workspace {
         &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
     }
 
-    /// The merging copy of every vertex, in the hash grid's storage order. The store
-    /// is read in order and the copies written where the grid ranks them: scattered
-    /// writes overlap their cache misses, where gathering reads would wait on each.
+    /// The merging copy of every vertex, per site in its hash grid's storage order.
     pub(super) fn fill_merge(&mut self) {
-        let n = self.positions.len();
-        self.merge.clear();
-        huge::reserve(&mut self.merge, n);
-        self.merge.resize(n, MergeVertex::default());
-        let rank = self.grid.rank();
-        let vertices = self.chunks.iter().flat_map(|c| c.vertices.iter());
-        for (&at, v) in rank.iter().zip(vertices) {
-            self.merge[at as usize] = MergeVertex::from(v);
+        for (set, site) in [
+            (&mut self.surface, Site::Surface),
+            (&mut self.medium, Site::Medium),
+        ] {
+            let vertices = self.chunks.iter().flat_map(|c| c.vertices.iter());
+            set.fill(vertices.filter(|v| v.site() == site));
         }
     }
 
-    /// Bytes held for light vertices and segments (the chunks' stores and the grid's
-    /// positions).
+    /// Bytes held for light vertices and segments (the chunks' stores).
     pub(super) fn vertex_store_bytes(&self) -> usize {
         let stores: usize = self
             .chunks
@@ -257,7 +262,31 @@ impl Workspace {
                     + c.segments.capacity() * std::mem::size_of::<LightSegment>()
             })
             .sum();
-        stores + self.positions.capacity() * std::mem::size_of::<Vec3>()
+        stores
+    }
+}
+
+impl MergeSet {
+    /// The merging copies of `vertices` (this set's, in store order), in the grid's
+    /// storage order. The store is read in order and the copies written where the grid
+    /// ranks them: scattered writes overlap their cache misses, where gathering reads
+    /// would wait on each.
+    fn fill<'a>(&mut self, vertices: impl Iterator<Item = &'a LightVertex>) {
+        let n = self.positions.len();
+        self.merge.clear();
+        huge::reserve(&mut self.merge, n);
+        self.merge.resize(n, MergeVertex::default());
+        let rank = self.grid.rank();
+        for (&at, v) in rank.iter().zip(vertices) {
+            self.merge[at as usize] = MergeVertex::from(v);
+        }
+    }
+
+    /// Bytes held for positions, grid and merging copies.
+    pub(super) fn index_bytes(&self) -> usize {
+        self.positions.capacity() * std::mem::size_of::<Vec3>()
+            + self.merge.capacity() * std::mem::size_of::<MergeVertex>()
+            + self.grid.bytes()
     }
 }
 

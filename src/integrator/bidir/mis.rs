@@ -38,8 +38,9 @@
 //! path that every technique evaluates alike still sum to one over the techniques,
 //! which is all unbiasedness needs; the proxies only rank techniques less well where a
 //! medium is dense or strongly chromatic. (D at a medium vertex is a factor of every
-//! connection technique's density, so it cancels in `lt` and `bpt`; merging, where it
-//! would not, is not offered in media.) T is clamped below at exp(-MAX_MIS_DEPTH) so
+//! connection technique's density, so it cancels in `lt` and `bpt`; a merge there has
+//! it twice, from both subpaths, so with merging in media the proxy D = 1 of
+//! heterogeneous media ranks merging against connecting less well, still unbiased.) T is clamped below at exp(-MAX_MIS_DEPTH) so
 //! that 1 / T stays finite under the power heuristic's squares.
 
 use crate::integrator::common::Heuristic;
@@ -57,8 +58,7 @@ impl Site {
     pub const COUNT: usize = 2;
 }
 
-/// The merge estimators of a technique set: eta by site, None where nothing merges
-/// (media today: a volume point kernel, 4/3 pi r^3 N, joins with merging in media).
+/// The merge estimators of a technique set: eta by site, None where nothing merges.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Merges {
     pub eta: [Option<f64>; Site::COUNT],
@@ -71,6 +71,15 @@ impl Merges {
         let mut m = Merges::default();
         m.eta[Site::Surface as usize] = Some(eta);
         m
+    }
+
+    /// The same with merging in media too: the 3D kernel of radius r over N light
+    /// subpaths, eta = 4/3 pi r^3 N (the point x point 3D estimator of Křivánek et al.
+    /// 2014, whose MIS normalisation is its kernel's support times N likewise).
+    pub fn with_medium(mut self, radius: f32, light_paths: f32) -> Self {
+        let eta = 4.0 / 3.0 * std::f64::consts::PI * (radius as f64).powi(3) * light_paths as f64;
+        self.eta[Site::Medium as usize] = Some(eta);
+        self
     }
 
     /// The kernel's normalisation 1 / eta at `site`, which scales the estimate (0
@@ -590,8 +599,7 @@ mod tests {
             Merges::default()
         };
         if vm && volume {
-            m.eta[Site::Medium as usize] =
-                Some(4.0 / 3.0 * std::f64::consts::PI * 0.05f64.powi(3) * 1000.0);
+            m = m.with_medium(0.05, light_paths);
         }
         m
     }

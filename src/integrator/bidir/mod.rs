@@ -10,9 +10,12 @@
 //! light sampling, to the vertices of the light subpath with the pixel's index, and
 //! merging with every stored vertex within the radius.
 //!
-//! In scenes with participating media (`lt` and `bpt` only) both subpaths also scatter
-//! in media ([`media`], [`vertex`]) and every connection carries the transmittance of
-//! its segment; the MIS quantities account for distance sampling (see [`mis`]).
+//! In scenes with participating media both subpaths also scatter in media ([`media`],
+//! [`vertex`]) and every connection carries the transmittance of its segment; the MIS
+//! quantities account for distance sampling (see [`mis`]). `bpm` and `vcm` also merge
+//! at medium vertices of the camera subpath: light vertices in the same medium within
+//! the medium radius, with the 3D kernel 1 / (4/3 pi r^3) (point x point 3D of
+//! Křivánek et al. 2014), a second merge estimator with its own eta in the MIS.
 
 mod camera_path;
 mod light_path;
@@ -23,8 +26,10 @@ mod vertex;
 mod walk;
 
 use super::accel::HashGrid;
+use super::common::params::check_radius;
 use super::common::Heuristic;
 use super::pixels::render_paths;
+use super::vpm::radius_schedule;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::material::Material;
@@ -81,6 +86,9 @@ impl Technique {
 /// | `radius` | none | initial merge radius in scene units; overrides `radius_factor` |
 /// | `radius_factor` | 0.003 | initial merge radius as a fraction of the scene's bounding-sphere radius |
 /// | `alpha` | 0.75 | radius reduction: r_i = r_0 / i^((1 - alpha) / 2) |
+/// | `medium_radius` | none | initial radius of merging in media (3D kernel) in scene units; overrides `medium_radius_factor` |
+/// | `medium_radius_factor` | 0.02 | the same as a fraction of the scene's bounding-sphere radius |
+/// | `medium_alpha` | 4/7 | its reduction, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1) (Knaus and Zwicker; 4/7 balances variance and squared bias in 3D) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
@@ -95,6 +103,9 @@ pub struct BidirSettings {
     pub radius: Option<f32>,
     pub radius_factor: f32,
     pub alpha: f32,
+    pub medium_radius: Option<f32>,
+    pub medium_radius_factor: f32,
+    pub medium_alpha: f32,
     pub merge_first: bool,
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
@@ -111,6 +122,9 @@ impl Default for BidirSettings {
             radius: None,
             radius_factor: 0.003,
             alpha: 0.75,
+            medium_radius: None,
+            medium_radius_factor: 0.02,
+            medium_alpha: 4.0 / 7.0,
             merge_first: true,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
@@ -145,6 +159,14 @@ impl BidirSettings {
         }
         if !(self.alpha > 0.0 && self.alpha <= 1.0) {
             return Err(format!("alpha must be in (0, 1], got {}", self.alpha));
+        }
+        check_radius(self.medium_radius, self.medium_radius_factor)
+            .map_err(|e| format!("medium_{e}"))?;
+        if !(self.medium_alpha > 0.0 && self.medium_alpha <= 1.0) {
+            return Err(format!(
+                "medium_alpha must be in (0, 1], got {}",
+                self.medium_alpha
+            ));
         }
         if !(self.max_vertex_mib.is_finite() && self.max_vertex_mib > 0.0) {
             return Err(format!(
@@ -230,6 +252,9 @@ pub(crate) struct Pass<'a> {
     pub radius: f32,
     /// 1 / (pi r^2 N): the merge kernel's normalisation.
     pub vm_norm: f32,
+    /// Merging in media: the radius and 1 / (4/3 pi r^3 N) (0 when not merging there).
+    pub medium_radius: f32,
+    pub medium_norm: f32,
     pub light_paths: usize,
     pub layers: &'a Layers,
     /// Light subpaths keep their segments through media (`segments`), for the
@@ -266,11 +291,19 @@ struct Workspace {
     /// The light paths of the iteration, their vertices stored per chunk.
     chunks: Vec<Chunk>,
     paths: usize,
-    /// Every stored vertex's position, chunk after chunk (only when merging).
-    positions: Vec<Vec3>,
-    grid: HashGrid,
+    /// Merging at surfaces and in media, each over its own vertices.
+    surface: MergeSet,
+    medium: MergeSet,
+}
+
+/// The stored vertices of one merge site and the grid over them.
+#[derive(Default)]
+pub(super) struct MergeSet {
+    /// Every such vertex's position, chunk after chunk (only when merging).
+    pub positions: Vec<Vec3>,
+    pub grid: HashGrid,
     /// What merging needs of each vertex, in the grid's storage order.
-    merge: Vec<MergeVertex>,
+    pub merge: Vec<MergeVertex>,
 }
 
 pub struct Bidir {
@@ -338,12 +371,18 @@ impl Bidir {
         let radius =
             (r0 / ((iteration + 1) as f32).powf(0.5 * (1.0 - self.s.alpha))).max(1e-7 * r0);
         let t = self.technique;
-        let surface = Merges::surface(radius, light_paths as f32);
-        let merges = if t.merges() {
-            surface
-        } else {
-            Merges::default()
-        };
+        let medium_r0 = self
+            .s
+            .medium_radius
+            .unwrap_or(self.s.medium_radius_factor * scene.sphere.radius);
+        let medium_radius = radius_schedule(medium_r0, self.s.medium_alpha, 3, iteration);
+        let mut merges = Merges::default();
+        if t.merges() {
+            merges = Merges::surface(radius, light_paths as f32);
+            if scene.has_media {
+                merges = merges.with_medium(medium_radius, light_paths as f32);
+            }
+        }
         let mut mis = Mis::new(self.s.heuristic, light_paths as f32, t.connects(), merges);
         mis.merge_first = self.s.merge_first;
         Pass {
@@ -352,7 +391,9 @@ impl Bidir {
             technique: t,
             mis,
             radius,
-            vm_norm: surface.norm(Site::Surface),
+            vm_norm: merges.norm(Site::Surface),
+            medium_radius,
+            medium_norm: merges.norm(Site::Medium),
             light_paths,
             layers: &self.layers,
             keep_segments: self.keep_segments,
@@ -367,13 +408,15 @@ impl Integrator for Bidir {
         let ws = &mut *guard;
         let mut stats = trace_light_paths(&pass, seed, iteration, ws);
         if pass.technique.merges() {
-            ws.grid.build(&ws.positions, pass.radius);
+            ws.surface.grid.build(&ws.surface.positions, pass.radius);
+            ws.medium
+                .grid
+                .build(&ws.medium.positions, pass.medium_radius);
             ws.fill_merge();
             stats.merge_radius = pass.radius;
         }
-        stats.vertex_bytes = (ws.vertex_store_bytes()
-            + ws.merge.capacity() * std::mem::size_of::<MergeVertex>()
-            + ws.grid.bytes()) as u64;
+        stats.vertex_bytes =
+            (ws.vertex_store_bytes() + ws.surface.index_bytes() + ws.medium.index_bytes()) as u64;
         let ids: Vec<usize> = self
             .layers
             .names

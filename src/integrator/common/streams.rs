@@ -25,6 +25,8 @@ pub enum Stream {
     SppmDirect,
     /// sppm's photon paths.
     SppmPhotons,
+    /// sppm's transmittance estimates and beam radiance estimates in media.
+    SppmMedium,
     /// vpm's photon paths.
     VpmPhotons,
     /// The many-light methods' per-light draws (truncation of unbounded ray lights,
@@ -44,6 +46,7 @@ impl Stream {
             Stream::SppmCamera => mix64(seed ^ 0x5350_504D_4341_4D31),
             Stream::SppmDirect => mix64(seed ^ 0x5350_504D_4E45_4531),
             Stream::SppmPhotons => mix64(seed ^ 0x5350_504D_5048_4F31),
+            Stream::SppmMedium => mix64(seed ^ 0x5350_504D_4D45_4431),
             Stream::VpmPhotons => mix64(seed ^ 0x5650_4D50_484F_5431),
             Stream::VirtualLights => mix64(seed ^ 0x5649_5254_4C49_4731),
             Stream::PhotonBeams => mix64(seed ^ 0x5048_4F54_4245_4131),
@@ -69,8 +72,10 @@ mod tests {
             Stream::SppmCamera,
             Stream::SppmDirect,
             Stream::SppmPhotons,
+            Stream::SppmMedium,
             Stream::VpmPhotons,
             Stream::VirtualLights,
+            Stream::PhotonBeams,
         ];
         for seed in [0u64, 1, 11, u64::MAX] {
             let mut seeds: Vec<u64> = all.iter().map(|s| s.seed(seed)).collect();

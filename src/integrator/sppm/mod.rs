@@ -32,24 +32,34 @@
 //! sums its photons in the grid's fixed order with no atomics, so the image does not
 //! depend on the thread count, and photon memory is bounded by the wave size.
 //!
+//! In scenes with participating media the camera path crosses media with their
+//! transmittance, photons take free flights, and the media are gathered along the camera
+//! segments with `vpm`'s beam radiance estimate ([`media`]).
+//!
 //! Iterations are not independent: the per-pixel statistics are the integrator's state
 //! (`save_state` / `load_state`). After iteration i the film holds (i + 1) times the
 //! current estimate, so that every consumer's sums / iterations is the estimate.
 
+mod media;
 mod state;
 
 use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::spawn_ray;
 use crate::integrator::accel::HashGrid;
+use crate::integrator::accel::PointBvh;
 use crate::integrator::common::camera::sample_bsdf;
 use crate::integrator::common::emit::sample_emission;
+use crate::integrator::common::medium_walk::{MediumWalk, Step};
 use crate::integrator::common::nee::{direct_unweighted, Origin};
+use crate::integrator::common::params::check_radius;
 use crate::integrator::common::params::{check_alpha, check_photon_params};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
+use crate::integrator::vpm::{radius_schedule, BeamQuery, Photon as MediumPhoton};
 use crate::material::Mode;
-use crate::math::{max_component, Frame, Rgb, Vec2, Vec3};
+use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};
+use media::{gather_segments, CameraSegment, Record};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use state::State;
@@ -66,6 +76,10 @@ use std::sync::Mutex;
 /// | `radius_factor` | 0.01 | initial radius as a fraction of the scene's bounding-sphere radius (about 1.5 pixels on the 256 x 256 Cornell box) |
 /// | `alpha` | 0.7 | fraction of new photons kept per pass (the papers' alpha, in (0, 1]; 1 never shrinks the radius) |
 /// | `rr_depth` | 1 | photon scattering events before Russian roulette starts (it keeps photon power near constant: survival = new / old throughput) |
+/// | `medium_radius` | none | media: first radius of the beam radiance estimate in scene units; overrides `medium_radius_factor` |
+/// | `medium_radius_factor` | 0.03 | media: the same as a fraction of the scene's bounding-sphere radius (`vpm`'s default) |
+/// | `medium_alpha` | 2/3 | media: r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker; 2/3 balances variance and squared bias in 2D) |
+/// | `max_photon_mib` | 1024 | media: budget for the medium photons of one wave of photon paths |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct SppmSettings {
@@ -75,6 +89,10 @@ pub struct SppmSettings {
     pub radius_factor: f32,
     pub alpha: f32,
     pub rr_depth: u32,
+    pub medium_radius: Option<f32>,
+    pub medium_radius_factor: f32,
+    pub medium_alpha: f32,
+    pub max_photon_mib: f32,
 }
 
 impl Default for SppmSettings {
@@ -86,6 +104,10 @@ impl Default for SppmSettings {
             radius_factor: 0.01,
             alpha: 0.7,
             rr_depth: 1,
+            medium_radius: None,
+            medium_radius_factor: 0.03,
+            medium_alpha: 2.0 / 3.0,
+            max_photon_mib: 1024.0,
         }
     }
 }
@@ -98,7 +120,25 @@ impl SppmSettings {
             self.radius,
             self.radius_factor,
         )?;
-        check_alpha(self.alpha)
+        check_alpha(self.alpha)?;
+        check_radius(self.medium_radius, self.medium_radius_factor)
+            .map_err(|e| format!("medium_{e}"))?;
+        check_alpha(self.medium_alpha).map_err(|e| format!("medium_{e}"))?;
+        if !(self.max_photon_mib.is_finite() && self.max_photon_mib > 0.0) {
+            return Err(format!(
+                "max_photon_mib must be positive, got {}",
+                self.max_photon_mib
+            ));
+        }
+        Ok(())
+    }
+
+    /// The radius of the media's beam radiance estimate in `iteration`.
+    fn medium_radius_at(&self, scene: &Scene, iteration: u64) -> f32 {
+        let r1 = self
+            .medium_radius
+            .unwrap_or(self.medium_radius_factor * scene.sphere.radius);
+        radius_schedule(r1, self.medium_alpha, 2, iteration)
     }
 
     /// Initial radius for `scene`.
@@ -153,25 +193,41 @@ struct Photon {
 struct PhotonChunk {
     pos: Vec<Vec3>,
     data: Vec<Photon>,
+    /// Photons in media (scenes with media only).
+    media: Vec<MediumPhoton>,
+    over_budget: bool,
     stats: RenderStats,
 }
 
-/// The photons of one wave and the grid over their positions.
+/// The photons of one wave and the grid over their positions; in media, the medium
+/// photons and their BVH.
 #[derive(Default)]
 struct PhotonMap {
     grid: HashGrid,
     pos: Vec<Vec3>,
     data: Vec<Photon>,
+    media: Vec<MediumPhoton>,
+    bvh: PointBvh<MediumPhoton>,
 }
 
-/// What a pixel's camera path found: radiance on the way, and its visible point.
-type CameraResult = (Rgb, Option<VisiblePoint>);
+/// What a pixel's camera path found: radiance on the way, its visible point, and the
+/// medium segments it crossed.
+#[derive(Default)]
+struct CameraResult {
+    l: Rgb,
+    vp: Option<VisiblePoint>,
+    segments: Vec<CameraSegment>,
+}
 
 /// Per-pixel gather result of one pass.
 #[derive(Clone, Copy, Default)]
 struct Gathered {
     phi: [f64; 3],
     m: u64,
+    /// Media: the beam radiance estimates' sum over the pass's waves, and how many
+    /// photons they found.
+    medium: [f64; 3],
+    medium_merges: u64,
 }
 
 pub struct PhotonMapper {
@@ -212,7 +268,7 @@ impl PhotonMapper {
         iteration: u64,
         index: u64,
         stats: &mut RenderStats,
-    ) -> (Rgb, Option<VisiblePoint>) {
+    ) -> CameraResult {
         let w = scene.width() as u64;
         let cam_iteration = match self.variant {
             Variant::Ppm => 0,
@@ -223,40 +279,62 @@ impl PhotonMapper {
         let mut ray = scene.camera.generate_ray(film_pos, rng.next_2d());
         stats.samples += 1;
         stats.rays += 1;
-        let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
+        let mut out = CameraResult::default();
+        // Media: transmittance estimates drawn anew every pass (ppm replays the camera
+        // sample, not the ratio tracking along it).
+        let mut tr_rng = Stream::SppmMedium.rng(seed, iteration, index);
+        let mut walk = MediumWalk {
+            beta: Rgb::ONE,
+            medium: scene.camera_medium,
+        };
         let mut depth = 0u32;
         loop {
-            let (it, m) = match scene.next_scattering(&mut ray, &mut stats.rays) {
-                Surfacing::Hit(it, m) => (it, m),
-                Surfacing::Escaped => {
+            let step = if scene.has_media {
+                let mut rec = Record {
+                    scene,
+                    depth,
+                    out: &mut out.segments,
+                };
+                walk.next(scene, &mut ray, &mut rec, &mut tr_rng, stats)
+            } else {
+                match scene.next_scattering(&mut ray, &mut stats.rays) {
+                    Surfacing::Hit(it, m) => Step::Surface(it, m),
+                    Surfacing::Escaped => Step::Escaped,
+                    Surfacing::Lost => Step::End,
+                }
+            };
+            let beta = walk.beta;
+            let (it, m) = match step {
+                Step::Surface(it, m) => (it, m),
+                Step::Escaped => {
                     // Every event so far was a delta lobe: no NEE could have found this.
                     if !scene.env_lights.is_empty() {
-                        l += beta * scene.env_radiance(ray.d);
+                        out.l += beta * scene.env_radiance(ray.d);
                     }
-                    return (l, None);
+                    return out;
                 }
-                Surfacing::Lost => return (l, None),
+                Step::Scatter { .. } | Step::End => return out,
             };
             if let Some((_, area)) = scene.area_light(&it) {
-                l += beta * area.le(it.ng, -ray.d);
+                out.l += beta * area.le(it.ng, -ray.d);
             }
             if depth + 1 >= self.s.max_depth {
-                return (l, None);
+                return out;
             }
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() {
                 let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
                 // Light sampling alone: the camera path stops here, so no BSDF
-                // sample can find the light. No media (Settings::check_scene).
+                // sample can find the light.
                 let at = Origin::Surface {
                     it: &it,
                     frame: &frame,
                     wo,
                     m,
                 };
-                l += beta * direct_unweighted(scene, &at, None, &mut nee_rng, stats);
+                let medium = walk.medium;
+                out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
                 let vp = VisiblePoint {
                     p: it.p,
                     ng: it.ng,
@@ -266,16 +344,18 @@ impl PhotonMapper {
                     material: scene.shapes[it.shape as usize].material,
                     depth,
                 };
-                return (l, Some(vp));
+                out.vp = Some(vp);
+                return out;
             }
             let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, &mut rng) else {
-                return (l, None);
+                return out;
             };
-            beta *= Rgb::from(s.weight);
+            walk.beta *= Rgb::from(s.weight);
             depth += 1;
-            if beta == Rgb::ZERO {
-                return (l, None);
+            if walk.beta == Rgb::ZERO {
+                return out;
             }
+            walk.medium = scene.medium_after(&it, wi, walk.medium);
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
             stats.rays += 1;
         }
@@ -289,6 +369,7 @@ impl PhotonMapper {
         iteration: u64,
         index: u64,
         out: &mut PhotonChunk,
+        budget: usize,
     ) {
         let mut rng = Stream::SppmPhotons.rng(seed, iteration, index);
         let Some(start) = sample_emission(scene, &mut rng) else {
@@ -297,6 +378,10 @@ impl PhotonMapper {
         let mut beta = start.power();
         if !is_valid_sample(beta) || beta == Rgb::ZERO {
             return;
+        }
+        if scene.has_media {
+            let (ray, medium) = (start.ray, start.medium);
+            return self.trace_photon_in_media(scene, ray, beta, medium, &mut rng, out, budget);
         }
         let mut ray = start.ray;
         let max_depth = self.s.max_depth;
@@ -308,13 +393,7 @@ impl PhotonMapper {
             };
             let wo_world = -ray.d;
             if depth >= 1 && !m.is_delta() {
-                out.pos.push(it.p);
-                out.data.push(Photon {
-                    wi: wo_world,
-                    beta,
-                    depth,
-                });
-                out.stats.light_vertices += 1;
+                self.store_surface_photon(it.p, wo_world, beta, depth, out);
             }
             // A photon stored after depth + 1 events contributes to a visible point
             // with camera depth 0 only if (depth + 1) + 0 + 2 <= max_depth.
@@ -339,22 +418,45 @@ impl PhotonMapper {
             }
             let new_beta = beta * Rgb::from(s.weight) * corr;
             depth += 1;
-            // Russian roulette with survival new / old power, so surviving photons keep
-            // about the power they had (pbrt-v4's SPPM does the same).
-            beta = if depth >= self.s.rr_depth {
-                let q = (max_component(new_beta) / max_component(beta)).min(1.0);
-                if q.is_nan() || rng.next_f32() >= q {
-                    return;
-                }
-                new_beta / q
-            } else {
-                new_beta
-            };
-            if beta == Rgb::ZERO || !beta.is_finite() {
+            let Some(b) = self.survive(depth, beta, new_beta, &mut rng) else {
                 return;
-            }
+            };
+            beta = b;
             ray = spawn_ray(it.p, it.p_err, it.ng, wi);
         }
+    }
+
+    /// A photon arriving at a non-delta surface at `p` from direction `wi` (towards
+    /// where it came from) after `depth` events.
+    #[inline]
+    fn store_surface_photon(
+        &self,
+        p: Vec3,
+        wi: Vec3,
+        beta: Rgb,
+        depth: u32,
+        out: &mut PhotonChunk,
+    ) {
+        out.pos.push(p);
+        out.data.push(Photon { wi, beta, depth });
+        out.stats.light_vertices += 1;
+    }
+
+    /// Russian roulette after the `depth`-th event took the power from `old` to `new`:
+    /// survival new / old, so surviving photons keep about the power they had
+    /// (pbrt-v4's SPPM does the same). The surviving power, or None.
+    #[inline]
+    fn survive(&self, depth: u32, old: Rgb, new: Rgb, rng: &mut Rng) -> Option<Rgb> {
+        let beta = if depth >= self.s.rr_depth {
+            let q = (max_component(new) / max_component(old)).min(1.0);
+            if q.is_nan() || rng.next_f32() >= q {
+                return None;
+            }
+            new / q
+        } else {
+            new
+        };
+        (beta != Rgb::ZERO && beta.is_finite()).then_some(beta)
     }
 
     /// Photon paths `start..end` of a pass into `map` (photons in path order).
@@ -370,23 +472,36 @@ impl PhotonMapper {
             .step_by(PATHS_PER_TASK)
             .map(|a| (a, (a + PATHS_PER_TASK as u64).min(end)))
             .collect();
+        let budget = (self.s.max_photon_mib as f64 * 1048576.0
+            / std::mem::size_of::<MediumPhoton>() as f64
+            / chunks.len().max(1) as f64) as usize;
         let parts: Vec<PhotonChunk> = chunks
             .into_par_iter()
             .map(|(a, b)| {
                 let mut c = PhotonChunk::default();
                 for i in a..b {
-                    self.trace_photon(scene, seed, iteration, i, &mut c);
+                    self.trace_photon(scene, seed, iteration, i, &mut c, budget);
                 }
                 c
             })
             .collect();
         map.pos.clear();
         map.data.clear();
+        map.media.clear();
         let mut stats = RenderStats::default();
+        let mut over_budget = false;
         for c in parts {
             map.pos.extend_from_slice(&c.pos);
             map.data.extend_from_slice(&c.data);
+            map.media.extend_from_slice(&c.media);
+            over_budget |= c.over_budget;
             stats += c.stats;
+        }
+        if over_budget {
+            tracing::warn!(
+                "medium photons beyond max_photon_mib = {} per wave were not stored; raise it or lower light_paths",
+                self.s.max_photon_mib
+            );
         }
         stats
     }
@@ -476,29 +591,55 @@ impl Integrator for PhotonMapper {
         let r_max = camera
             .iter()
             .zip(&state.pixels)
-            .filter(|((_, vp), _)| vp.is_some())
+            .filter(|(c, _)| c.vp.is_some())
             .map(|(_, p)| p.r as f32)
             .fold(0.0f32, f32::max);
+        let crosses_media = camera.iter().any(|c| !c.segments.is_empty());
+        let medium_radius = self.s.medium_radius_at(scene, iteration);
         let map = &mut inner.map;
         let mut start = 0u64;
-        while start < paths && r_max > 0.0 {
+        while start < paths && (r_max > 0.0 || crosses_media) {
             let end = (start + WAVE as u64).min(paths);
             stats += self.trace_wave(scene, seed, iteration, (start, end), map);
-            map.grid.build(&map.pos, r_max);
+            map.grid.build(&map.pos, r_max.max(f32::MIN_POSITIVE));
+            if crosses_media {
+                map.bvh.build(&mut map.media);
+            }
             stats.vertex_bytes = stats.vertex_bytes.max(
                 (map.pos.capacity() * std::mem::size_of::<Vec3>()
                     + map.data.capacity() * std::mem::size_of::<Photon>()
-                    + map.grid.bytes()) as u64,
+                    + map.grid.bytes()
+                    + map.media.capacity() * std::mem::size_of::<MediumPhoton>()
+                    + map.bvh.bytes()) as u64,
             );
             let map = &*map;
+            let beams = BeamQuery {
+                scene,
+                photons: &map.media,
+                bvh: &map.bvh,
+                radius: medium_radius,
+                inv_paths: 1.0,
+                max_depth: self.s.max_depth,
+            };
+            let wave = start / WAVE as u64;
             gathered
                 .par_iter_mut()
                 .with_min_len(256)
                 .zip(camera.par_iter())
                 .zip(state.pixels.par_iter())
-                .for_each(|((acc, (_, vp)), px)| {
-                    if let Some(vp) = vp {
+                .enumerate()
+                .for_each(|(i, ((acc, c), px))| {
+                    if let Some(vp) = &c.vp {
                         self.gather(scene, map, vp, px.r as f32, acc);
+                    }
+                    if !c.segments.is_empty() {
+                        // One sequence per pixel and wave (ratio tracking to photons).
+                        let mut rng =
+                            Stream::SppmMedium.rng(seed ^ (wave + 1), iteration, i as u64);
+                        let mut st = RenderStats::default();
+                        let l = gather_segments(&beams, &c.segments, &mut rng, &mut st);
+                        acc.medium = std::array::from_fn(|k| acc.medium[k] + l[k] as f64);
+                        acc.medium_merges += st.merges;
                     }
                 });
             start = end;
@@ -506,15 +647,19 @@ impl Integrator for PhotonMapper {
 
         // 3. Per-pixel statistics [2008, eqs. (7), (8), (11)], then the film.
         let alpha = self.s.alpha as f64;
+        let per_path = 1.0 / paths.max(1) as f64;
         let dropped: u64 = state
             .pixels
             .par_iter_mut()
             .with_min_len(256)
             .zip(camera.par_iter())
             .zip(gathered.par_iter())
-            .map(|((px, (l, _)), g)| {
+            .map(|((px, c), g)| {
                 let mut dropped = 0;
-                if is_valid_sample(*l) {
+                // The camera pass's radiance, media included (averaged over passes).
+                let medium = g.medium.map(|v| (v * per_path) as f32);
+                let l = c.l + Rgb::new(medium[0], medium[1], medium[2]);
+                if is_valid_sample(l) {
                     for c in 0..3 {
                         px.direct[c] += l[c] as f64;
                     }
@@ -541,7 +686,7 @@ impl Integrator for PhotonMapper {
         state.passes += 1;
         state.emitted += paths;
         state.next = iteration + 1;
-        stats.merges = gathered.iter().map(|g| g.m).sum();
+        stats.merges = gathered.iter().map(|g| g.m + g.medium_merges).sum();
         stats.merge_radius =
             (state.pixels.iter().map(|p| p.r).sum::<f64>() / npix.max(1) as f64) as f32;
 

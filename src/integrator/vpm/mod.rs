@@ -91,7 +91,8 @@ use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::math::{Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;
-use photons::{Chunk, Photon};
+use photons::Chunk;
+pub(crate) use photons::{photon_bounce, Photon};
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
@@ -219,14 +220,59 @@ struct Workspace {
 
 /// What the camera pass reads: this iteration's photons, indexed for the estimate.
 struct Gather<'a> {
-    scene: &'a Scene,
     s: &'a VpmSettings,
-    photons: &'a [Photon],
     grid: &'a HashGrid,
-    bvh: &'a PointBvh<Photon>,
-    radius: f32,
-    /// 1 / photon paths emitted this iteration.
-    inv_paths: f32,
+    /// The photons, their BVH, the radius and 1 / photon paths emitted.
+    q: BeamQuery<'a>,
+}
+
+/// The beam radiance estimate over one iteration's (or wave's) photons in media, for
+/// `vpm` and for the medium part of `ppm` and `sppm`.
+pub(crate) struct BeamQuery<'a> {
+    pub scene: &'a Scene,
+    pub photons: &'a [Photon],
+    pub bvh: &'a PointBvh<Photon>,
+    pub radius: f32,
+    /// 1 / photon paths emitted.
+    pub inv_paths: f32,
+    pub max_depth: u32,
+}
+
+impl BeamQuery<'_> {
+    /// Beam radiance estimate over the camera segment `seg` (ray o + t d, t in [0, tmax)):
+    /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
+    /// within r of the segment [Jarosz et al. 2008, constant 2D kernel], per unit of the
+    /// throughput at the segment's start; photons stored after k events count on a
+    /// segment reached after `cam_depth` surface events when k + cam_depth + 2 <=
+    /// max_depth.
+    pub fn segment(
+        &self,
+        seg: &Segment,
+        cam_depth: u32,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        let (mi, ray, tmax) = (seg.medium, &seg.ray, seg.tmax);
+        let med = &self.scene.media[mi as usize];
+        let phase = med.phase();
+        let homogeneous = med.as_homogeneous();
+        let wo = -ray.d;
+        let mut sum = Rgb::ZERO;
+        self.bvh
+            .query(self.photons, ray.o, ray.d, tmax, self.radius, |ph, t| {
+                if ph.medium != mi || ph.depth + cam_depth + 2 > self.max_depth {
+                    return;
+                }
+                stats.merges += 1;
+                let tr = match homogeneous {
+                    Some(h) => h.transmittance(t),
+                    None => med.transmittance(ray.o, ray.d, t, rng),
+                };
+                sum += tr * ph.beta * phase.eval(ph.d, wo);
+            });
+        let r = self.radius;
+        sum * (self.inv_paths / (PI * r * r))
+    }
 }
 
 pub struct Vpm {
@@ -257,9 +303,6 @@ impl MediumGather for Gather<'_> {
         self.s.estimate == Estimate::Point
     }
 
-    /// Beam radiance estimate over the camera segment `seg` (ray o + t d, t in [0, tmax)):
-    /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
-    /// within r of the segment [Jarosz et al. 2008, constant 2D kernel].
     fn segment(
         &self,
         seg: &Segment,
@@ -267,26 +310,7 @@ impl MediumGather for Gather<'_> {
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
-        let (mi, ray, tmax) = (seg.medium, &seg.ray, seg.tmax);
-        let med = &self.scene.media[mi as usize];
-        let phase = med.phase();
-        let homogeneous = med.as_homogeneous();
-        let wo = -ray.d;
-        let mut sum = Rgb::ZERO;
-        self.bvh
-            .query(self.photons, ray.o, ray.d, tmax, self.radius, |ph, t| {
-                if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
-                    return;
-                }
-                stats.merges += 1;
-                let tr = match homogeneous {
-                    Some(h) => h.transmittance(t),
-                    None => med.transmittance(ray.o, ray.d, t, rng),
-                };
-                sum += tr * ph.beta * phase.eval(ph.d, wo);
-            });
-        let r = self.radius;
-        sum * (self.inv_paths / (PI * r * r))
+        self.q.segment(seg, cam_depth, rng, stats)
     }
 
     /// Point query: (1 / (N (4/3) pi r^3)) sum_{|x_p - x| < r} f_p(d_p, wo) beta_p, the
@@ -304,20 +328,21 @@ impl MediumGather for Gather<'_> {
         stats: &mut RenderStats,
     ) -> Rgb {
         let (mi, x, wo) = (seg.medium, seg.ray.at(t), -seg.ray.d);
-        let med = &self.scene.media[mi as usize];
+        let q = &self.q;
+        let med = &q.scene.media[mi as usize];
         let ss = med.sigma_s_at(x);
         let w = Rgb::select(ss.cmpgt(Rgb::ZERO), weight / ss, Rgb::ZERO);
         let phase = med.phase();
         let mut sum = Rgb::ZERO;
-        self.grid.query_in(x, self.photons, |ph, _| {
+        self.grid.query_in(x, q.photons, |ph, _| {
             if ph.medium != mi || ph.depth + cam_depth + 2 > self.s.max_depth {
                 return;
             }
             stats.merges += 1;
             sum += ph.beta * phase.eval(ph.d, wo);
         });
-        let r = self.radius;
-        w * sum * (self.inv_paths / (4.0 / 3.0 * PI * r * r * r))
+        let r = q.radius;
+        w * sum * (q.inv_paths / (4.0 / 3.0 * PI * r * r * r))
     }
 }
 
@@ -341,13 +366,16 @@ impl Integrator for Vpm {
             }
         };
         let g = Gather {
-            scene,
             s: &self.s,
-            photons: &ws.photons,
             grid: &ws.grid,
-            bvh: &ws.bvh,
-            radius,
-            inv_paths: 1.0 / paths.max(1) as f32,
+            q: BeamQuery {
+                scene,
+                photons: &ws.photons,
+                bvh: &ws.bvh,
+                radius,
+                inv_paths: 1.0 / paths.max(1) as f32,
+                max_depth: self.s.max_depth,
+            },
         };
         let depths = Depths {
             max_depth: self.s.max_depth,

@@ -17,16 +17,16 @@ use rayon::prelude::*;
 
 /// A photon stored at a scattering event in a medium.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Photon {
-    pub(super) p: Vec3,
+pub(crate) struct Photon {
+    pub(crate) p: Vec3,
     /// Direction the light travelled before scattering here (the phase function's `d`).
-    pub(super) d: Vec3,
+    pub(crate) d: Vec3,
     /// Power: flux per emitted path, times the weight sigma_s T / pdf of the free flight
     /// that ended here.
-    pub(super) beta: Rgb,
-    pub(super) medium: u32,
+    pub(crate) beta: Rgb,
+    pub(crate) medium: u32,
     /// Scattering events on the photon path before this one.
-    pub(super) depth: u32,
+    pub(crate) depth: u32,
 }
 
 impl Point for Photon {
@@ -180,7 +180,7 @@ pub(super) fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32
 /// A photon's BSDF sample at a surface: the new direction and the power factor, with
 /// the adjoint correction for shading normals |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)
 /// (Veach 1997, eq. (5.17)).
-pub(super) fn photon_bounce(
+pub(crate) fn photon_bounce(
     it: &Interaction,
     m: &Material,
     wo_world: Vec3,

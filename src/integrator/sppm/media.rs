@@ -1,0 +1,136 @@
+//! `ppm` and `sppm` in participating media. Surfaces keep their visible points and
+//! per-pixel statistics; the media are gathered as `vpm`'s beam radiance estimate does
+//! (Jarosz, Zwicker and Jensen 2008), with a radius of its own following the 2D
+//! schedule r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) of the iteration index:
+//! - the camera path crosses media to its visible point with their transmittance
+//!   (closed form, or ratio tracking), recording every medium segment it crosses with
+//!   the throughput at its start;
+//! - photon paths take free flights: a real scattering event in a medium stores a
+//!   medium photon (power sigma_s T / pdf included, direct ones too, since the camera
+//!   path does no next-event estimation in media), then samples the phase function;
+//!   surface photons are stored as without media, after at least one event of either
+//!   kind (the visible point's next-event estimate, with transmittance, has the rest);
+//! - each wave's medium photons are gathered along every recorded segment, and the
+//!   pass's sum, divided by the photon paths of the pass, joins the camera-pass
+//!   radiance (an average over passes, like the direct light).
+
+use super::{PhotonChunk, PhotonMapper};
+use crate::geometry::{spawn_ray, Ray};
+use crate::integrator::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use crate::integrator::vpm::{photon_bounce, BeamQuery, Photon};
+use crate::integrator::RenderStats;
+use crate::math::{Rgb, Rng};
+use crate::scene::Scene;
+
+/// A medium segment of a camera path, reached after `depth` scattering events.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CameraSegment {
+    pub seg: Segment,
+    pub depth: u32,
+}
+
+/// The camera walk's visitor: records each medium segment and crosses it with its
+/// transmittance.
+pub(super) struct Record<'a> {
+    pub scene: &'a Scene,
+    pub depth: u32,
+    pub out: &'a mut Vec<CameraSegment>,
+}
+
+impl Segments for Record<'_> {
+    fn enter(&mut self, seg: &Segment, rng: &mut Rng, _: &mut RenderStats) -> Cross {
+        self.out.push(CameraSegment {
+            seg: *seg,
+            depth: self.depth,
+        });
+        let med = &self.scene.media[seg.medium as usize];
+        Cross::Pass(med.transmittance(seg.ray.o, seg.ray.d, seg.tmax, rng))
+    }
+}
+
+/// The radiance the medium photons of `q` scatter towards the camera along `segments`,
+/// per photon path of `q` (its inv_paths is 1: the pass divides by its own count).
+pub(super) fn gather_segments(
+    q: &BeamQuery,
+    segments: &[CameraSegment],
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    segments
+        .iter()
+        .map(|c| c.seg.beta * q.segment(&c.seg, c.depth, rng, stats))
+        .fold(Rgb::ZERO, |a, b| a + b)
+}
+
+impl PhotonMapper {
+    /// One photon path through media from `ray` with power `beta`, emitted into
+    /// `medium`: medium photons into `out.media` (at most `budget`), surface photons as
+    /// without media.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn trace_photon_in_media(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        beta: Rgb,
+        medium: Option<u32>,
+        rng: &mut Rng,
+        out: &mut PhotonChunk,
+        budget: usize,
+    ) {
+        let max_depth = self.s.max_depth;
+        let mut walk = MediumWalk { beta, medium };
+        let mut depth = 0u32;
+        loop {
+            out.stats.rays += 1;
+            let next = match walk.next(scene, &mut ray, &mut (), rng, &mut out.stats) {
+                Step::Scatter { seg, t, .. } => {
+                    let p = seg.ray.at(t);
+                    if depth + 2 <= max_depth {
+                        if out.media.len() < budget {
+                            out.media.push(Photon {
+                                p,
+                                d: seg.ray.d,
+                                beta: walk.beta,
+                                medium: seg.medium,
+                                depth,
+                            });
+                            out.stats.light_vertices += 1;
+                        } else {
+                            out.over_budget = true;
+                        }
+                    }
+                    if depth + 3 > max_depth {
+                        return;
+                    }
+                    let phase = scene.media[seg.medium as usize].phase();
+                    let (wi, _) = phase.sample(seg.ray.d, rng.next_2d());
+                    // Exact phase sampling: the flight's weight is the event's.
+                    (seg.beta, Ray::new(p, wi))
+                }
+                Step::Surface(it, m) => {
+                    if depth >= 1 && !m.is_delta() {
+                        self.store_surface_photon(it.p, -ray.d, walk.beta, depth, out);
+                    }
+                    if depth + 3 > max_depth {
+                        return;
+                    }
+                    let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
+                        return;
+                    };
+                    let old = walk.beta;
+                    walk.beta *= weight;
+                    walk.medium = scene.medium_after(&it, wi, walk.medium);
+                    (old, spawn_ray(it.p, it.p_err, it.ng, wi))
+                }
+                Step::Escaped | Step::End => return,
+            };
+            let (old, next_ray) = next;
+            depth += 1;
+            let Some(b) = self.survive(depth, old, walk.beta, rng) else {
+                return;
+            };
+            walk.beta = b;
+            ray = next_ray;
+        }
+    }
+}
