@@ -3,8 +3,8 @@
 
 use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
-use super::mis::Site;
-use super::vertex::{Media, MediumPoint, Vertex};
+use super::mis::{Merge, Site};
+use super::vertex::{segment_sine, Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
@@ -344,8 +344,7 @@ fn light_sample<M: Media>(
     };
     let w = pass.mis.weight_light_sample(
         walk.q,
-        v.site(),
-        walk.len,
+        v.merges(pass, ls.wi(), Some(walk.len)),
         pick,
         direct / tr_mis,
         pos * dir,
@@ -400,9 +399,8 @@ fn connect<M: Media>(
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
         let w = pass.mis.weight_connection(
-            (y.q, y.site()),
-            (walk.q, v.site()),
-            walk.len,
+            (y.q, ys.merges(pass, dir, None)),
+            (walk.q, v.merges(pass, dir, Some(walk.len))),
             ec.pdf_dir * cont * el.cos / seg,
             el.pdf_dir * y_cont * ec.cos / seg,
             el.pdf_rev * y_cont,
@@ -428,6 +426,8 @@ fn merge(
 ) -> Rgb {
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
+    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0);
+    let surface_merge = (eta, eta);
     ws.surface.grid.query_sorted_in(
         it.p,
         &ws.surface.merge,
@@ -443,7 +443,7 @@ fn merge(
                 return;
             }
             let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
-            let w = pass.mis.weight_merge(y.q, walk.q, Site::Surface, dir, rev);
+            let w = pass.mis.weight_merge(y.q, walk.q, surface_merge, dir, rev);
             merges += 1;
             // The photon's flux already holds the cosine at its surface: f without it.
             sum += y.throughput * e.f * (w / e.cos);
@@ -495,7 +495,14 @@ fn merge_medium(
                 return;
             }
             let (dir, rev) = (ph * m.cont, ph * y.cont);
-            let w = pass.mis.weight_merge(y.q, walk.q, Site::Medium, dir, rev);
+            let sin = if pass.mis.beam_beam() {
+                segment_sine(m.wo, y.wo)
+            } else {
+                0.0
+            };
+            let own = pass.mis.eta(Merge::Point3d, m.sigma, sin);
+            let all = pass.mis.merges(Site::Medium, m.sigma, sin, None);
+            let w = pass.mis.weight_merge(y.q, walk.q, (own, all), dir, rev);
             merges += 1;
             sum += y.throughput * (ph * w);
         },

@@ -565,17 +565,19 @@ fn connect_to_camera<M: Media>(
     let (ray, medium) = v.ray_to(pass, walk.medium, lens, Vec3::ZERO, Vec3::ZERO);
     let layer = pass.layers.connection(walk.len + 1, 1);
     let link = (camera_pdf, dist2);
+    // Seen from the lens, the vertex would be the first camera vertex.
+    let vm = v.merges(pass, dir, Some(1));
     if !M::ON {
         return Some(LensShadow {
             ray,
             raster,
-            value: lens_value(pass, walk, (&e, v.site()), v.cont(), link, Rgb::ONE, 1.0),
+            value: lens_value(pass, walk, (&e, vm), v.cont(), link, Rgb::ONE, 1.0),
             layer,
         });
     }
     let rays = &mut chunk.stats.shadow_rays;
     let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
-    let value = lens_value(pass, walk, (&e, v.site()), v.cont(), link, tr, tr_mis);
+    let value = lens_value(pass, walk, (&e, vm), v.cont(), link, tr, tr_mis);
     push_splat(pass, chunk, raster, value, layer);
     None
 }
@@ -587,7 +589,7 @@ fn connect_to_camera<M: Media>(
 fn lens_value(
     pass: &Pass,
     walk: &Walk,
-    (e, site): (&Eval, Site),
+    (e, vm): (&Eval, f64),
     cont: f32,
     (camera_pdf, dist2): (f32, f32),
     tr: Rgb,
@@ -598,7 +600,7 @@ fn lens_value(
         1.0
     } else {
         pass.mis
-            .weight_camera_connection((walk.q, site), camera_a, e.pdf_rev * cont)
+            .weight_camera_connection((walk.q, vm), camera_a, e.pdf_rev * cont)
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.

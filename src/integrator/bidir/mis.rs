@@ -58,50 +58,84 @@ impl Site {
     pub const COUNT: usize = 2;
 }
 
-/// The merge estimators of a technique set: eta by site, None where nothing merges.
+/// The merge estimators (Křivánek et al. 2014, "Unifying points, beams and paths in
+/// volumetric light transport simulation", referred to as [UPBP] below): photon points
+/// on surfaces (2D kernel), and in media photon points at a camera point (3D), photon
+/// points along a camera beam (2D) and photon beams along a camera beam (1D).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Merge {
+    Surface = 0,
+    Point3d = 1,
+    PointBeam2d = 2,
+    BeamBeam1d = 3,
+}
+
+impl Merge {
+    pub const COUNT: usize = 4;
+}
+
+/// Pairs of beams closer to parallel than this sine are no beam x beam technique (its
+/// density, proportional to the sine, is ~0 there, and its estimate divides by it):
+/// both the estimate and the MIS leave them to the other techniques.
+pub const MIN_BEAM_SIN: f32 = 1e-4;
+
+/// The merge estimators of a technique set: eta (the kernel's support times the number
+/// of light subpaths) of each, None where it is not used.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Merges {
-    pub eta: [Option<f64>; Site::COUNT],
+    pub eta: [Option<f64>; Merge::COUNT],
 }
 
 impl Merges {
     /// Surface merging with radius r over N light subpaths ([TR] eq. 20).
     pub fn surface(radius: f32, light_paths: f32) -> Self {
-        let eta = std::f64::consts::PI * (radius as f64).powi(2) * light_paths as f64;
-        let mut m = Merges::default();
-        m.eta[Site::Surface as usize] = Some(eta);
-        m
+        Merges::default().with(Merge::Surface, radius, light_paths)
     }
 
-    /// The same with merging in media too: the 3D kernel of radius r over N light
-    /// subpaths, eta = 4/3 pi r^3 N (the point x point 3D estimator of Křivánek et al.
-    /// 2014, whose MIS normalisation is its kernel's support times N likewise).
-    pub fn with_medium(mut self, radius: f32, light_paths: f32) -> Self {
-        let eta = 4.0 / 3.0 * std::f64::consts::PI * (radius as f64).powi(3) * light_paths as f64;
-        self.eta[Site::Medium as usize] = Some(eta);
+    /// The same with estimator `k` of radius r over N light subpaths added: eta =
+    /// pi r^2 N (surface; point x beam 2D), 4/3 pi r^3 N (point x point 3D), 2 r N
+    /// (beam x beam 1D): each kernel's support, as [UPBP]'s normalisation.
+    pub fn with(mut self, k: Merge, radius: f32, light_paths: f32) -> Self {
+        let (r, n) = (radius as f64, light_paths as f64);
+        let support = match k {
+            Merge::Surface | Merge::PointBeam2d => std::f64::consts::PI * r * r,
+            Merge::Point3d => 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+            Merge::BeamBeam1d => 2.0 * r,
+        };
+        self.eta[k as usize] = Some(support * n);
         self
     }
 
-    /// The kernel's normalisation 1 / eta at `site`, which scales the estimate (0
-    /// where nothing merges).
-    pub fn norm(&self, site: Site) -> f32 {
-        self.eta[site as usize].map_or(0.0, |eta| (1.0 / eta) as f32)
+    /// The kernel's normalisation 1 / eta of estimator `k`, which scales its estimate
+    /// (0 where it is not used).
+    pub fn norm(&self, k: Merge) -> f32 {
+        self.eta[k as usize].map_or(0.0, |eta| (1.0 / eta) as f32)
     }
 }
 
 /// Per-iteration MIS constants.
 ///
-/// With one eta, [TR] keeps dVM relative to the merge density, eta included. With an
-/// eta per site the site of the eventual merge is unknown while the subpath is
-/// traced, so `Partial::dvm` here is [TR]'s dVM times Mis(eta) of the merging vertex:
-/// the recursion's constant 1 becomes Mis(eta_x) of the vertex x it stands for, its
-/// Mis(1 / eta) becomes [connections in use], and the merge weight divides by
-/// Mis(eta) of its own vertex. With one site this is [TR]'s algebra exactly.
+/// With one eta, [TR] keeps dVM relative to the merge density, eta included. Here
+/// each vertex x has its own sum M(x) of Mis(eta_k(x)) over the merge estimators that
+/// can sit there (see [`Mis::merges`]), unknown while a subpath is traced, so
+/// `Partial::dvm` is [TR]'s dVM times Mis(eta) of the merging vertex: the recursion's
+/// constant 1 becomes M(x) of the vertex x it stands for, its Mis(1 / eta) becomes
+/// [connections in use], and a merge's weight is Mis(eta_k(x)) / (others + M(x)).
+/// With one estimator this is [TR]'s algebra exactly.
+///
+/// Relative to a connection at a medium vertex x (the light's density p_l(x) of x, in
+/// volume measure, times the rest of the path), each volume estimator of [UPBP] has
+/// density p_l(x) eta_k(x) with: point x point 3D, eta; point x beam 2D, eta / sigma
+/// (a short camera beam reaches x with probability T, where the camera's free flight
+/// had density sigma T: the camera's sigma is all that differs); beam x beam 1D,
+/// eta sin / sigma^2 (both sides' sigma, and the 1D kernel 1 / (2 r sin) between
+/// beams meeting at sine `sin` puts sin in the density). sigma is the vertex's MIS
+/// factor D.
 #[derive(Clone, Copy, Debug)]
 pub struct Mis {
     pub heuristic: Heuristic,
-    /// Mis(eta) of the merge estimator by site, 0 where none is used.
-    merge: [f64; Site::COUNT],
+    /// Mis(eta) of each merge estimator, 0 where it is not used.
+    merge: [f64; Merge::COUNT],
     /// 1 when connections are used, else 0.
     vc: f64,
     /// Light subpaths per iteration (the light-tracing technique's sample count).
@@ -137,7 +171,7 @@ impl Mis {
     pub fn new(heuristic: Heuristic, light_paths: f32, vc: bool, merges: Merges) -> Self {
         let mut m = Mis {
             heuristic,
-            merge: [0.0; Site::COUNT],
+            merge: [0.0; Merge::COUNT],
             vc: if vc { 1.0 } else { 0.0 },
             light_paths: light_paths as f64,
             merge_first: true,
@@ -156,14 +190,43 @@ impl Mis {
         }
     }
 
-    /// Mis(eta) of merging at a vertex at `site`, `camera_len` segments from the
-    /// camera on camera subpaths (0 where that merge is no technique).
+    /// Mis(eta_k(x)) of estimator `k` at a vertex x whose MIS factor D is `sigma` and
+    /// whose two path segments meet at sine `sin` (see the notes above; 0 where `k` is
+    /// not used or cannot sit).
     #[inline]
-    fn merge_at(&self, site: Site, camera_len: Option<u32>) -> f64 {
+    pub fn eta(&self, k: Merge, sigma: f32, sin: f32) -> f64 {
+        let m = self.merge[k as usize];
+        match k {
+            Merge::Surface | Merge::Point3d => m,
+            Merge::PointBeam2d => m / self.f(sigma),
+            Merge::BeamBeam1d if m > 0.0 && sin >= MIN_BEAM_SIN => {
+                m * self.f(sin) / self.f(sigma as f64 * sigma as f64)
+            }
+            Merge::BeamBeam1d => 0.0,
+        }
+    }
+
+    /// Whether the beam x beam estimator is used (only it needs the sines).
+    #[inline]
+    pub fn beam_beam(&self) -> bool {
+        self.merge[Merge::BeamBeam1d as usize] > 0.0
+    }
+
+    /// M(x): the sum of Mis(eta_k(x)) over the estimators that can merge at a vertex x
+    /// at `site` (as [`Mis::eta`]), `camera_len` segments from the camera on camera
+    /// subpaths (0 where merging there is no technique).
+    #[inline]
+    pub fn merges(&self, site: Site, sigma: f32, sin: f32, camera_len: Option<u32>) -> f64 {
         if camera_len == Some(1) && !self.merge_first {
-            0.0
-        } else {
-            self.merge[site as usize]
+            return 0.0;
+        }
+        match site {
+            Site::Surface => self.merge[Merge::Surface as usize],
+            Site::Medium => {
+                self.eta(Merge::Point3d, sigma, sin)
+                    + self.eta(Merge::PointBeam2d, sigma, sin)
+                    + self.eta(Merge::BeamBeam1d, sigma, sin)
+            }
         }
     }
 
@@ -217,20 +280,18 @@ impl Mis {
         }
     }
 
-    /// Scattering at a vertex at `site` ([TR] eqs. 34-36; specular 53-55). `pdf_dir`
-    /// and `pdf_rev` are the sampled direction's density and the reverse one, with
-    /// continuation probabilities; `camera_len` is Some(segments) on camera subpaths.
-    #[allow(clippy::too_many_arguments)]
+    /// Scattering at a vertex whose merges sum to `vm` (M(x), [`Mis::merges`]; [TR]
+    /// eqs. 34-36; specular 53-55). `pdf_dir` and `pdf_rev` are the sampled
+    /// direction's density and the reverse one, with continuation probabilities.
     #[inline]
     pub fn on_scatter(
         &self,
         q: Partial,
-        site: Site,
+        vm: f64,
         cos_out: f32,
         pdf_dir: f32,
         pdf_rev: f32,
         delta: bool,
-        camera_len: Option<u32>,
     ) -> Partial {
         let g = self.f(cos_out as f64 / pdf_dir as f64);
         if delta {
@@ -241,7 +302,6 @@ impl Mis {
                 dvm: q.dvm * g * r,
             };
         }
-        let vm = self.merge_at(site, camera_len);
         let r = self.f(pdf_rev);
         Partial {
             dvc: g * (q.dvc * r + q.dvcm + vm),
@@ -263,14 +323,14 @@ impl Mis {
     /// BSDF's density of the light direction (0 for delta lights), `bsdf_rev` the
     /// reverse density; `direct` (solid angle at the vertex) and `emission` exclude
     /// the selection probability `pick`; `cos_at_light` is 1 for lights without a
-    /// surface; `cos_at_vertex` is the camera vertex's |cos| towards the light.
+    /// surface; `cos_at_vertex` is the camera vertex's |cos| towards the light; `vm`
+    /// the camera vertex's M(x).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn weight_light_sample(
         &self,
         camera: Partial,
-        site: Site,
-        camera_len: u32,
+        vm: f64,
         pick: f32,
         direct: f32,
         emission: f32,
@@ -279,7 +339,6 @@ impl Mis {
         bsdf_dir: f32,
         bsdf_rev: f32,
     ) -> f32 {
-        let vm = self.merge_at(site, Some(camera_len));
         let (direct, cos_at_light) = (direct as f64, cos_at_light as f64);
         let w_light = self.f(bsdf_dir as f64 / (pick as f64 * direct));
         let w_camera = self.f(emission as f64 * cos_at_vertex as f64 / (direct * cos_at_light))
@@ -290,22 +349,19 @@ impl Mis {
     /// Connection of a light vertex and a camera vertex ([TR] eqs. 40-41).
     /// `camera_to_light_a` is the camera BSDF's density of the connection converted to
     /// area at the light vertex, `light_to_camera_a` the converse; the reverse densities
-    /// are each vertex's density of sampling its own predecessor.
-    #[allow(clippy::too_many_arguments)]
+    /// are each vertex's density of sampling its own predecessor. Each side comes with
+    /// its vertex's M(x).
     #[inline]
     pub fn weight_connection(
         &self,
-        light: (Partial, Site),
-        camera: (Partial, Site),
-        camera_len: u32,
+        light: (Partial, f64),
+        camera: (Partial, f64),
         camera_to_light_a: f32,
         light_to_camera_a: f32,
         light_rev: f32,
         camera_rev: f32,
     ) -> f32 {
-        let ((light, light_site), (camera, camera_site)) = (light, camera);
-        let vm_light = self.merge_at(light_site, None);
-        let vm_camera = self.merge_at(camera_site, Some(camera_len));
+        let ((light, vm_light), (camera, vm_camera)) = (light, camera);
         let w_light =
             self.f(camera_to_light_a) * (vm_light + light.dvcm + light.dvc * self.f(light_rev));
         let w_camera =
@@ -315,39 +371,39 @@ impl Mis {
 
     /// Connection of a light vertex to the lens ([TR] eqs. 46-47): `camera_a` is the
     /// camera's density of the vertex in area measure per unit pixel area, `light_rev`
-    /// the vertex's density of sampling its predecessor. The vertex sits where a
-    /// camera path would have its first vertex.
+    /// the vertex's density of sampling its predecessor. The vertex, whose M(x) comes
+    /// with it (as a first camera vertex), sits where a camera path would have its
+    /// first vertex.
     #[inline]
     pub fn weight_camera_connection(
         &self,
-        light: (Partial, Site),
+        light: (Partial, f64),
         camera_a: f32,
         light_rev: f32,
     ) -> f32 {
-        let (light, site) = light;
-        let vm = self.merge_at(site, Some(1));
+        let (light, vm) = light;
         let w_light = self.f(camera_a as f64 / self.light_paths)
             * (vm + light.dvcm + light.dvc * self.f(light_rev));
         (1.0 / (w_light + 1.0)) as f32
     }
 
-    /// Merging a light vertex at a camera vertex ([TR] eqs. 38-39). `camera_dir` is the
-    /// camera BSDF's density of the light vertex's incoming direction, `camera_rev` the
-    /// reverse one (with the light vertex's continuation probability); both vertices
-    /// sit at `site`, whose estimator must be in use.
+    /// A merge at vertex x by the estimator whose Mis(eta_k(x)) is `own`, among all
+    /// merges there summing to `all` (M(x)) ([TR] eqs. 38-39 with [UPBP]'s estimators).
+    /// `light` and `camera` are both subpaths' partial weights at x; `camera_dir` is the
+    /// camera side's density of the light's incoming direction, `camera_rev` the
+    /// reverse one (with the light side's continuation probability).
     #[inline]
     pub fn weight_merge(
         &self,
         light: Partial,
         camera: Partial,
-        site: Site,
+        (own, all): (f64, f64),
         camera_dir: f32,
         camera_rev: f32,
     ) -> f32 {
         let w_light = light.dvcm * self.vc + light.dvm * self.f(camera_dir);
         let w_camera = camera.dvcm * self.vc + camera.dvm * self.f(camera_rev);
-        let own = self.merge[site as usize];
-        (own / (w_light + own + w_camera)) as f32
+        (own / (w_light + all + w_camera)) as f32
     }
 }
 
@@ -377,6 +433,8 @@ mod tests {
         pl: Vec<f32>,
         site: Vec<Site>,
         pc: Vec<f32>,
+        /// Sine between the two segments at each vertex (beam x beam's density).
+        sin: Vec<f32>,
         pick: f32,
         /// x0 is a direction (environment light): positions come from a disk and
         /// light sampling picks a solid angle, with no distance or cosine at x0.
@@ -402,6 +460,9 @@ mod tests {
             pl: (0..=n).map(|_| r(0.05, 3.0)).collect(),
             pc: (0..=n).map(|_| r(0.05, 3.0)).collect(),
             site: vec![Site::Surface; n + 1],
+            sin: (0..=n)
+                .map(|_| if r(0.0, 1.0) < 0.1 { 0.0 } else { r(0.0, 1.0) })
+                .collect(),
             pick: r(0.2, 1.0),
             infinite,
             a_direct: r(0.5, 4.0),
@@ -426,9 +487,16 @@ mod tests {
     enum Tech {
         /// Connection with s light vertices.
         Vc(usize),
-        /// Merge at vertex j.
-        Vm(usize),
+        /// Merge at vertex j by an estimator.
+        Vm(usize, Merge),
     }
+
+    const ALL_MERGES: [Merge; Merge::COUNT] = [
+        Merge::Surface,
+        Merge::Point3d,
+        Merge::PointBeam2d,
+        Merge::BeamBeam1d,
+    ];
 
     impl Path {
         /// Density of x_i sampled from the light side (area measure, or the
@@ -454,8 +522,38 @@ mod tests {
             }
         }
 
-        /// The technique's density times its sample count (merges at a vertex whose
-        /// site has no estimator have none).
+        /// D at vertex i as the MIS takes it (1 at surfaces).
+        fn sigma(&self, i: usize) -> f32 {
+            match self.site[i] {
+                Site::Surface => 1.0,
+                Site::Medium => self.cf[i],
+            }
+        }
+
+        /// eta_k(x_j) from its definition ([UPBP], the notes on `Mis`): 0 where the
+        /// estimator is not used or cannot sit at x_j.
+        fn eta(&self, j: usize, k: Merge, merges: &Merges) -> f64 {
+            let Some(eta) = merges.eta[k as usize] else {
+                return 0.0;
+            };
+            let sigma = self.sigma(j) as f64;
+            match (self.site[j], k) {
+                (Site::Surface, Merge::Surface) => eta,
+                (Site::Medium, Merge::Point3d) => eta,
+                (Site::Medium, Merge::PointBeam2d) => eta / sigma,
+                (Site::Medium, Merge::BeamBeam1d) if self.sin[j] >= MIN_BEAM_SIN => {
+                    eta * self.sin[j] as f64 / (sigma * sigma)
+                }
+                _ => 0.0,
+            }
+        }
+
+        /// M(x_i) as the recursion takes it.
+        fn vm(&self, m: &Mis, i: usize, camera_len: Option<u32>) -> f64 {
+            m.merges(self.site[i], self.sigma(i), self.sin[i], camera_len)
+        }
+
+        /// The technique's density times its sample count.
         fn density(&self, t: Tech, merges: &Merges, light_paths: f32) -> f64 {
             let n = self.n;
             let both = |s: usize| -> f32 {
@@ -469,10 +567,7 @@ mod tests {
                 }
                 Tech::Vc(s) if s == n => (light_paths * both(n)) as f64,
                 Tech::Vc(s) => both(s) as f64,
-                Tech::Vm(j) => {
-                    let eta = merges.eta[self.site[j] as usize].unwrap_or(0.0);
-                    eta * (both(j) * self.fwd(j)) as f64
-                }
+                Tech::Vm(j, k) => self.eta(j, k, merges) * (both(j) * self.fwd(j)) as f64,
             }
         }
 
@@ -495,15 +590,8 @@ mod tests {
             let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
             q = m.on_hit(q, self.seg(0), self.cb[1]);
             for i in 1..k {
-                q = m.on_scatter(
-                    q,
-                    self.site[i],
-                    self.cf[i],
-                    self.pl[i],
-                    self.pc[i],
-                    false,
-                    None,
-                );
+                let vm = self.vm(m, i, None);
+                q = m.on_scatter(q, vm, self.cf[i], self.pl[i], self.pc[i], false);
                 q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
             }
             q
@@ -517,8 +605,8 @@ mod tests {
             q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
             let mut len = 1;
             for i in (k + 1..n).rev() {
-                let (site, cos, pdf, rev) = (self.site[i], self.cb[i], self.pc[i], self.pl[i]);
-                q = m.on_scatter(q, site, cos, pdf, rev, false, Some(len));
+                let (vm, cos) = (self.vm(m, i, Some(len)), self.cb[i]);
+                q = m.on_scatter(q, vm, cos, self.pc[i], self.pl[i], false);
                 // An escaping ray: no cosine at infinity, only the 1 / T of its
                 // segment (as the camera subpath applies on escape).
                 let cos = if i == 1 && self.infinite {
@@ -550,8 +638,7 @@ mod tests {
                     };
                     m.weight_light_sample(
                         q,
-                        self.site[1],
-                        len,
+                        self.vm(m, 1, Some(len)),
                         self.pick,
                         direct_w / self.tr[0],
                         self.e_pos * self.e_dir,
@@ -564,26 +651,28 @@ mod tests {
                 Tech::Vc(s) if s == n => {
                     let q = self.light_q(m, n - 1);
                     let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
-                    m.weight_camera_connection((q, self.site[n - 1]), camera_a, self.pc[n - 1])
+                    let vm = self.vm(m, n - 1, Some(1));
+                    m.weight_camera_connection((q, vm), camera_a, self.pc[n - 1])
                 }
                 Tech::Vc(s) => {
                     let ql = self.light_q(m, s - 1);
                     let (qc, len) = self.camera_q(m, s);
                     let seg = self.seg(s - 1);
                     m.weight_connection(
-                        (ql, self.site[s - 1]),
-                        (qc, self.site[s]),
-                        len,
+                        (ql, self.vm(m, s - 1, None)),
+                        (qc, self.vm(m, s, Some(len))),
                         self.pc[s] * self.cf[s - 1] / seg,
                         self.pl[s - 1] * self.cb[s] / seg,
                         self.pc[s - 1],
                         self.pl[s],
                     )
                 }
-                Tech::Vm(j) => {
+                Tech::Vm(j, k) => {
                     let ql = self.light_q(m, j);
                     let (qc, _) = self.camera_q(m, j);
-                    m.weight_merge(ql, qc, self.site[j], self.pc[j], self.pl[j])
+                    let own = m.eta(k, self.sigma(j), self.sin[j]);
+                    let all = self.vm(m, j, None);
+                    m.weight_merge(ql, qc, (own, all), self.pc[j], self.pl[j])
                 }
             }
         }
@@ -599,9 +688,20 @@ mod tests {
             Merges::default()
         };
         if vm && volume {
-            m = m.with_medium(0.05, light_paths);
+            m = m.with(Merge::Point3d, 0.05, light_paths);
         }
         m
+    }
+
+    /// A set of [UPBP]'s estimators: `mask` bit k turns on `ALL_MERGES[k]`, each with
+    /// its own radius.
+    fn upbp(mask: u32) -> Merges {
+        let radii = [0.01f32, 0.05, 0.02, 0.03];
+        (0..Merge::COUNT)
+            .filter(|k| mask & (1 << k) != 0)
+            .fold(Merges::default(), |m, k| {
+                m.with(ALL_MERGES[k], radii[k], 1000.0)
+            })
     }
 
     fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, media: bool) {
@@ -618,11 +718,15 @@ mod tests {
                     techs.extend((0..=n).map(Tech::Vc));
                 }
                 let last = if merge_first { n } else { n - 1 };
-                let merges_at = |j: usize| merges.eta[path.site[j] as usize].is_some();
-                techs.extend((1..last).filter(|&j| merges_at(j)).map(Tech::Vm));
+                for j in 1..last {
+                    let can = ALL_MERGES
+                        .into_iter()
+                        .filter(|&k| path.eta(j, k, &merges) > 0.0);
+                    techs.extend(can.map(|k| Tech::Vm(j, k)));
+                }
                 let p = |t: Tech| m.f(path.density(t, &merges, light_paths));
                 if techs.is_empty() {
-                    continue; // bpm on a path whose inner vertices are all in media
+                    continue; // merging alone, where no estimator can sit on this path
                 }
                 let total: f64 = techs.iter().map(|&t| p(t)).sum();
                 let mut sum = 0.0;
@@ -667,6 +771,24 @@ mod tests {
                 check(h, true, merges(true, volume), true, true);
                 check(h, true, merges(true, volume), false, true);
                 check(h, false, merges(true, volume), true, true);
+            }
+        }
+    }
+
+    /// Every subset of [UPBP]'s estimators, with and without connections: the weights
+    /// of all techniques that can produce a path (connections, and each estimator at
+    /// each vertex where it can sit: surfaces, medium points, camera beams through
+    /// photon points, beams meeting at a sine above MIN_BEAM_SIN) are the explicit
+    /// heuristics and sum to one.
+    #[test]
+    fn upbp_weights_match_explicit_heuristics_and_sum_to_one() {
+        for h in [Heuristic::Balance, Heuristic::Power] {
+            for mask in 0..(1 << Merge::COUNT) {
+                check(h, true, upbp(mask), true, true);
+                check(h, true, upbp(mask), false, true);
+                if mask != 0 {
+                    check(h, false, upbp(mask), true, true);
+                }
             }
         }
     }

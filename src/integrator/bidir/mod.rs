@@ -38,7 +38,7 @@ use crate::scene::Scene;
 use camera_path::CameraPass;
 pub(crate) use light_path::LightVertex;
 use light_path::{trace_light_paths, Chunk, MergeVertex};
-use mis::{Merges, Mis, Site};
+use mis::{Merge, Merges, Mis};
 pub(crate) use segments::{extent, LightSegment};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -380,7 +380,7 @@ impl Bidir {
         if t.merges() {
             merges = Merges::surface(radius, light_paths as f32);
             if scene.has_media {
-                merges = merges.with_medium(medium_radius, light_paths as f32);
+                merges = merges.with(Merge::Point3d, medium_radius, light_paths as f32);
             }
         }
         let mut mis = Mis::new(self.s.heuristic, light_paths as f32, t.connects(), merges);
@@ -391,9 +391,9 @@ impl Bidir {
             technique: t,
             mis,
             radius,
-            vm_norm: merges.norm(Site::Surface),
+            vm_norm: merges.norm(Merge::Surface),
             medium_radius,
-            medium_norm: merges.norm(Site::Medium),
+            medium_norm: merges.norm(Merge::Point3d),
             light_paths,
             layers: &self.layers,
             keep_segments: self.keep_segments,

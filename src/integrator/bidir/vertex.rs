@@ -105,6 +105,26 @@ impl<'a> MediumPoint<'a> {
     }
 }
 
+impl MediumPoint<'_> {
+    /// M(x) of this point with `other` the direction of its other path segment (see
+    /// [`Mis::merges`](super::mis::Mis::merges)), `camera_len` as there.
+    #[inline]
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+        let sin = if pass.mis.beam_beam() {
+            segment_sine(self.wo, other)
+        } else {
+            0.0
+        };
+        pass.mis.merges(Site::Medium, self.sigma, sin, camera_len)
+    }
+}
+
+/// The sine of the angle between two unit directions.
+#[inline]
+pub(crate) fn segment_sine(a: Vec3, b: Vec3) -> f32 {
+    a.cross(b).length().min(1.0)
+}
+
 /// The MIS factor D of a vertex in `medium` (mis.rs: sigma_t, left out as 1 for
 /// heterogeneous media).
 #[inline]
@@ -137,6 +157,15 @@ impl<M: Media> Scatterer<'_, M> {
         match self {
             Scatterer::Surface(s) => s.cont,
             Scatterer::Medium(m) => M::get(m).cont,
+        }
+    }
+
+    /// M(x) of the vertex with `other` the direction of its other path segment.
+    #[inline(always)]
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+        match self {
+            Scatterer::Surface(_) => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len),
+            Scatterer::Medium(m) => M::get(m).merges(pass, other, camera_len),
         }
     }
 }
@@ -190,15 +219,6 @@ impl<'a, M: Media> Vertex<'a, M> {
         }
     }
 
-    /// Where a merge at this vertex would sit.
-    #[inline(always)]
-    pub fn site(&self) -> Site {
-        match self {
-            Vertex::Surface { .. } => Site::Surface,
-            Vertex::Medium { .. } => Site::Medium,
-        }
-    }
-
     /// The MIS factor D towards the previous vertex.
     #[inline(always)]
     pub fn d_in(&self) -> f32 {
@@ -233,6 +253,16 @@ impl<'a, M: Media> Vertex<'a, M> {
         match self {
             Vertex::Surface { s, .. } => s.cont,
             Vertex::Medium { m, .. } => M::get(m).cont,
+        }
+    }
+
+    /// M(x) of the vertex with `other` the direction of its other path segment
+    /// ([`Mis::merges`](super::mis::Mis::merges)), `camera_len` as there.
+    #[inline(always)]
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+        match self {
+            Vertex::Surface { .. } => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len),
+            Vertex::Medium { m, .. } => M::get(m).merges(pass, other, camera_len),
         }
     }
 
@@ -325,15 +355,10 @@ fn scatter_medium(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    walk.q = pass.mis.on_scatter(
-        walk.q,
-        Site::Medium,
-        m.sigma,
-        pdf_dir,
-        pdf_dir,
-        false,
-        camera_len,
-    );
+    let vm = m.merges(pass, wi, camera_len);
+    walk.q = pass
+        .mis
+        .on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);
     walk.specular = false;
     walk.throughput /= m.cont;
     walk.origin = p;

@@ -98,15 +98,10 @@ pub(crate) fn scatter(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    walk.q = pass.mis.on_scatter(
-        walk.q,
-        Site::Surface,
-        s.wi.z.abs(),
-        pdf_dir,
-        pdf_rev,
-        s.delta,
-        camera_len,
-    );
+    let vm = pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len);
+    walk.q = pass
+        .mis
+        .on_scatter(walk.q, vm, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta);
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
     if walk.throughput == Rgb::ZERO {
