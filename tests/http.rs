@@ -248,6 +248,47 @@ fn a_sweep_over_the_vrl_sampler_renders_every_sampler() {
     assert!(csv.starts_with("job,params.sampler,state"), "{csv}");
 }
 
+/// The natural sweep of `upbp`: technique sets against a beam radius. Every job
+/// renders with the set and radius of its grid point (checked in the resolved
+/// settings) and gives a finite, lit image.
+#[test]
+fn a_sweep_over_upbp_technique_sets_and_radii() {
+    let s = TestServer::start(None);
+    let (code, info) = s.post_bytes("/v1/scenes", foggy_scene(12).to_string().as_bytes());
+    assert_eq!(code, 201, "{info}");
+    let sets = json!([
+        ["bpt"],
+        ["surf", "pb2d"],
+        ["bpt", "surf", "pp3d", "pb2d", "bb1d"]
+    ]);
+    let (code, table) = s.post_json(
+        "/v1/sweeps",
+        &json!({"base": {"scene": info["id"], "algorithm": "upbp", "halt": {"spp": 2},
+                         "params": {"light_paths": 0.5}},
+                "grid": {"params.techniques": sets, "params.pb2d_radius_factor": [0.01, 0.05]}}),
+    );
+    assert_eq!(code, 201, "{table}");
+    let rows = table["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 6, "{table}");
+    for r in rows {
+        let id = r["job"].as_str().unwrap();
+        s.wait_job(id);
+        let (_, job) = s.get_json(&format!("/v1/jobs/{id}"));
+        assert_eq!(job["state"], "completed", "{job}");
+        let used = &job["settings"];
+        assert_eq!(used["techniques"], r["point"]["params.techniques"], "{job}");
+        // f32 settings: equal to the requested value in single precision.
+        let asked = r["point"]["params.pb2d_radius_factor"].as_f64().unwrap();
+        let got = used["pb2d_radius_factor"].as_f64().unwrap();
+        assert_eq!(got as f32, asked as f32, "{job}");
+        let (code, exr) = s.get(&format!("/v1/jobs/{id}/image.exr"));
+        assert_eq!(code, 200);
+        let img = caustic::film::decode_exr(&exr).unwrap();
+        let sum: f32 = img.pixels().iter().map(|p| p.x + p.y + p.z).sum();
+        assert!(sum.is_finite() && sum > 0.0, "{id}: image sum {sum}");
+    }
+}
+
 #[test]
 fn bearer_token_guards_everything_but_health() {
     let s = TestServer::start(Some("s3cret"));

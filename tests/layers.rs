@@ -1,5 +1,6 @@
-//! The integrators' own EXR layers: per-strategy images of `bpt` and the connection
-//! and merging parts of `vcm` add up to the image they split.
+//! The integrators' own EXR layers: per-strategy images of `bpt`, the connection and
+//! merging parts of `vcm` and the five technique layers of `upbp` add up to the image
+//! they split.
 
 mod common;
 use caustic::film::Image;
@@ -67,6 +68,27 @@ fn vcm_connection_and_merging_parts_sum_to_the_image() {
     let image = film.to_image(1.0 / n as f64);
     let worst = parts_mismatch(&image, &layers);
     assert!(worst < 1e-4, "vc + vm differ from the image by {worst}");
+    for (name, l) in &layers {
+        let total: f32 = l.pixels().iter().map(|p| p.element_sum()).sum();
+        assert!(total > 0.0, "{name} is black");
+    }
+}
+
+#[test]
+fn upbp_technique_layers_sum_to_the_image() {
+    let scene = shipped_media("fog-cornell", 16, 8);
+    let p = json!({"technique_layers": true, "light_paths": 2, "beam_paths": 0.5,
+                   "pb2d_radius": 0.03, "bb1d_radius": 0.02, "medium_radius": 0.05});
+    let (film, n) = render(&scene, &settings("upbp", p), 4, 2);
+    let layers = film.layer_images();
+    let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["bpt", "surf", "pp3d", "pb2d", "bb1d"]);
+    let image = film.to_image(1.0 / n as f64);
+    let worst = parts_mismatch(&image, &layers);
+    assert!(
+        worst < 1e-4,
+        "the technique layers differ from the image by {worst}"
+    );
     for (name, l) in &layers {
         let total: f32 = l.pixels().iter().map(|p| p.element_sum()).sum();
         assert!(total > 0.0, "{name} is black");

@@ -1130,6 +1130,8 @@ fn overrides(alg: &str, variant: bool) -> Map<String, Value> {
             }
             "vcm" => json!({"merge_first": false, "technique_layers": true, "alpha": 1.0,
                             "medium_radius_factor": 0.05}),
+            "upbp" => json!({"techniques": ["surf", "pb2d", "bb1d"], "heuristic": "power",
+                             "technique_layers": true, "beam_paths": 1.0}),
             "ppm" | "sppm" => json!({"alpha": 1.0, "radius_factor": 0.05, "light_paths": 0.5,
                                      "medium_alpha": 1.0}),
             "vpm" => json!({"estimate": "point", "rr_depth": 1}),

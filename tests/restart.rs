@@ -65,6 +65,18 @@ fn kill_9_then_restart_resumes_vbl_bit_identically() {
     );
 }
 
+/// upbp's five radii shrink with the iteration index, and its beams come from the
+/// light store: a resumed job must continue all of them.
+#[test]
+fn kill_9_then_restart_resumes_upbp_bit_identically() {
+    kill_9_then_restart(
+        foggy_scene(24),
+        "upbp",
+        json!({"light_paths": 0.5, "beam_paths": 0.5, "bb1d_radius_factor": 0.02}),
+        400,
+    );
+}
+
 fn kill_9_then_restart(scene: Value, alg: &str, params: Value, spp: u64) {
     let dir = tempfile::tempdir().unwrap();
     let mut p = start(dir.path());

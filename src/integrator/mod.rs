@@ -126,6 +126,9 @@ pub enum Settings {
     Bpm(bidir::BidirSettings),
     /// Vertex connection and merging.
     Vcm(bidir::BidirSettings),
+    /// Unifying points, beams and paths: connections, surface photons and the three
+    /// volume estimators (any subset) under one MIS.
+    Upbp(bidir::BidirSettings),
     /// Progressive photon mapping (visible points fixed per pixel).
     Ppm(sppm::SppmSettings),
     /// Stochastic progressive photon mapping (new visible points every pass).
@@ -149,8 +152,8 @@ pub enum Settings {
 
 /// Names accepted for `algorithm`.
 pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "vpm", "ppb", "vpl", "vrl", "vbl",
-    "normals", "albedo",
+    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "upbp", "vpm", "ppb", "vpl", "vrl",
+    "vbl", "normals", "albedo",
 ];
 
 /// Scene-default parameters that carry over to another algorithm that takes them
@@ -174,6 +177,7 @@ impl Settings {
             Settings::Bpt(_) => "bpt",
             Settings::Bpm(_) => "bpm",
             Settings::Vcm(_) => "vcm",
+            Settings::Upbp(_) => "upbp",
             Settings::Ppm(_) => "ppm",
             Settings::Sppm(_) => "sppm",
             Settings::Vpm(_) => "vpm",
@@ -283,6 +287,9 @@ impl Settings {
             Settings::Bpm(s) => s
                 .validate(bidir::Technique::Bpm)
                 .map_err(SettingsError::Invalid),
+            Settings::Upbp(s) => s
+                .validate(s.technique_of("upbp"))
+                .map_err(SettingsError::Invalid),
             Settings::Vcm(s) => s
                 .validate(bidir::Technique::Vcm)
                 .map_err(SettingsError::Invalid),
@@ -304,6 +311,7 @@ impl Settings {
             Settings::Bpt(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpt, s.clone())),
             Settings::Bpm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpm, s.clone())),
             Settings::Vcm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Vcm, s.clone())),
+            Settings::Upbp(s) => Box::new(bidir::Bidir::new(s.technique_of("upbp"), s.clone())),
             Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
             Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
             Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),

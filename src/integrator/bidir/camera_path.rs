@@ -1,9 +1,11 @@
 //! Camera subpaths: emitter hits, light sampling, connections to the paired light
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
+use super::beams;
 use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::{Merge, Site};
+use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use super::vertex::{segment_sine, Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
@@ -58,6 +60,8 @@ pub(super) struct CameraPath<'a> {
     /// The last vertex's light sample, whose shadow ray (without media) is traced
     /// together with the ray that continues the path.
     pending: Option<(Ray, Rgb)>,
+    /// The medium segments of the current flight, for the beam estimators.
+    pieces: Vec<LightSegment>,
 }
 
 impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
@@ -86,6 +90,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             ray,
             l: Rgb::ZERO,
             pending: None,
+            pieces: Vec::new(),
         }
     }
 
@@ -135,11 +140,37 @@ impl<M: Media> CameraPass<'_, M> {
             walk,
             l,
             pending,
+            pieces,
         } = p;
         let layers = self.slots(*pixel);
         let light_layer = |len: u32| pass.layers.connection(1, len + 1);
         let (event, tr) = if M::ON {
-            next_event::<M>(scene, ray, walk, rng, stats, None)
+            let beams = pass.norms[Merge::PointBeam2d as usize] > 0.0
+                || pass.norms[Merge::BeamBeam1d as usize] > 0.0;
+            if !beams {
+                next_event::<M>(scene, ray, walk, rng, stats, None)
+            } else {
+                pieces.clear();
+                let mut over = false;
+                let mut sink = SegmentSink {
+                    out: pieces,
+                    budget: usize::MAX,
+                    over_budget: &mut over,
+                    start: FlightStart {
+                        len: walk.len,
+                        q: walk.q,
+                        from: walk.origin,
+                        area: NO_AREA,
+                    },
+                };
+                let r = next_event::<M>(scene, ray, walk, rng, stats, Some(&mut sink));
+                let len = walk.len;
+                beams::gather(pass, &ws.beams, pieces, len, rng, stats, |k, v| {
+                    record(layers, pass.layers.merge(k), v);
+                    *l += v;
+                });
+                r
+            }
         } else {
             let shadow = pending.as_ref().map(|p| &p.0);
             let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays);
@@ -195,14 +226,18 @@ impl<M: Media> CameraPass<'_, M> {
                 }
                 *l += connect(pass, light, walk, v, rng, stats, layers);
             }
-            if pass.technique.merges() && (walk.len > 1 || pass.s.merge_first) {
-                let e = match v {
+            if walk.len > 1 || pass.s.merge_first {
+                let (k, e) = match v {
                     Vertex::Surface { it, s: surface, .. } => {
-                        walk.throughput * merge(pass, ws, walk, it, surface, stats)
+                        let e = merge(pass, ws, walk, it, surface, stats);
+                        (Merge::Surface, walk.throughput * e)
                     }
-                    Vertex::Medium { p, m } => merge_medium(pass, ws, walk, *p, M::get(m), stats),
+                    Vertex::Medium { p, m } => {
+                        let e = merge_medium(pass, ws, walk, *p, M::get(m), stats);
+                        (Merge::Point3d, e)
+                    }
                 };
-                record(layers, pass.layers.merge(), e);
+                record(layers, pass.layers.merge(k), e);
                 *l += e;
             }
         }
@@ -424,6 +459,9 @@ fn merge(
     surface: &Surface,
     stats: &mut RenderStats,
 ) -> Rgb {
+    if pass.norms[Merge::Surface as usize] == 0.0 {
+        return Rgb::ZERO;
+    }
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
     let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0);
@@ -450,7 +488,7 @@ fn merge(
         },
     );
     stats.merges += merges;
-    sum * pass.vm_norm
+    sum * pass.norms[Merge::Surface as usize]
 }
 
 /// Merging at a medium vertex x with the stored light vertices of the same medium
@@ -468,7 +506,10 @@ fn merge_medium(
     m: &MediumPoint,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let Some(medium) = walk.medium else {
+    let Some(medium) = walk
+        .medium
+        .filter(|_| pass.norms[Merge::Point3d as usize] > 0.0)
+    else {
         return Rgb::ZERO;
     };
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
@@ -508,5 +549,5 @@ fn merge_medium(
         },
     );
     stats.merges += merges;
-    beta * sum * pass.medium_norm
+    beta * sum * pass.norms[Merge::Point3d as usize]
 }

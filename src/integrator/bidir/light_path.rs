@@ -3,8 +3,8 @@
 //! camera (splats).
 
 use super::media::{next_event, next_event_with, shadow, Event};
-use super::mis::{Partial, Site};
-use super::segments::{LightSegment, SegmentSink};
+use super::mis::{Merge, Partial, Site};
+use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
 use super::walk::{Eval, Surface, Walk};
 use super::{MergeSet, Pass, Splat, Workspace};
@@ -125,6 +125,18 @@ impl From<&LightVertex> for MergeVertex {
     }
 }
 
+/// The segments light path `path` kept, in the order it traced them (empty unless the
+/// pass keeps segments).
+pub(super) fn path_segments(chunks: &[Chunk], path: usize) -> &[LightSegment] {
+    let chunk = &chunks[path / PATHS_PER_TASK];
+    let i = path % PATHS_PER_TASK;
+    if chunk.segment_ends.is_empty() {
+        return &[];
+    }
+    let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
+    &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
+}
+
 /// How many vertices and segments one chunk may store (`max_vertex_mib` each).
 #[derive(Clone, Copy)]
 struct Budget {
@@ -203,7 +215,15 @@ pub(super) fn trace_light_paths(
     ws.surface.positions.clear();
     ws.medium.positions.clear();
     if pass.technique.merges() {
-        let vertices = || ws.chunks.iter().flat_map(|c| c.vertices.iter());
+        // Only the sites whose estimator is in use (a zero norm: not used).
+        let keep = |site: Site| match site {
+            Site::Surface => pass.norms[Merge::Surface as usize] > 0.0,
+            Site::Medium => pass.norms[Merge::Point3d as usize] > 0.0,
+        };
+        let vertices = || {
+            let all = ws.chunks.iter().flat_map(|c| c.vertices.iter());
+            all.filter(move |v| keep(v.site()))
+        };
         let media = vertices().filter(|v| v.site() == Site::Medium).count();
         huge::reserve(&mut ws.surface.positions, total - media);
         huge::reserve(&mut ws.medium.positions, media);
@@ -230,15 +250,9 @@ impl Workspace {
 
     /// The segments light path `path` kept, in the order it traced them (empty unless
     /// the pass keeps segments).
-    #[allow(dead_code)] // read by the ray-light and photon-beam estimators and the tests
+    #[allow(dead_code)] // read by the tests
     pub(super) fn light_segments(&self, path: usize) -> &[LightSegment] {
-        let chunk = &self.chunks[path / PATHS_PER_TASK];
-        let i = path % PATHS_PER_TASK;
-        if chunk.segment_ends.is_empty() {
-            return &[];
-        }
-        let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
-        &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
+        path_segments(&self.chunks, path)
     }
 
     /// The merging copy of every vertex, per site in its hash grid's storage order.
@@ -432,11 +446,20 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
                 stats,
                 ..
             } = chunk;
+            let area = match area {
+                Some((l, _, _, _, n0, _)) if walk.len == 1 => (l as u32, n0),
+                _ => NO_AREA,
+            };
             let mut sink = SegmentSink {
                 out: segments,
                 budget: budget.segments,
                 over_budget,
-                len: walk.len,
+                start: FlightStart {
+                    len: walk.len,
+                    q: walk.q,
+                    from: walk.origin,
+                    area,
+                },
             };
             let keep = pass.keep_segments.then_some(&mut sink);
             next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep)

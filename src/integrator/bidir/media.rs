@@ -65,7 +65,7 @@ pub(crate) fn next_event<'a, M: Media>(
     match step {
         Step::Scatter { seg, t, .. } => {
             if let Some(keep) = depth.keep {
-                keep.push(&seg, t);
+                keep.push(&seg, t, depth.depth);
             }
             if walk.throughput == Rgb::ZERO {
                 return (Event::End, 1.0);
@@ -98,7 +98,7 @@ impl Segments for MisDepth<'_, '_, '_> {
     #[inline(always)]
     fn passed(&mut self, seg: &Segment) {
         if let Some(keep) = self.keep.as_deref_mut() {
-            keep.push(seg, seg.tmax);
+            keep.push(seg, seg.tmax, self.depth);
         }
         let sigma = mis_sigma(self.scene, seg.medium);
         if sigma > 0.0 {

@@ -8,6 +8,7 @@
 //! weighted by transmittance). Kept in path order per chunk, like the vertices, so the
 //! store never depends on the thread count.
 
+use super::mis::Partial;
 use crate::integrator::common::medium_walk::Segment;
 use crate::math::{Rgb, Vec3};
 use crate::medium::Medium;
@@ -29,11 +30,34 @@ pub(crate) struct LightSegment {
     pub beta: Rgb,
     /// Segments from the light to the vertex the ray leads to (this one included).
     pub len: u32,
+    /// What the MIS of a point on the segment needs (`upbp`'s beams): the subpath's
+    /// partial weights where the flight began (the light's first segment from an area
+    /// light: with dvcm still to be completed at the point, see `area`), that vertex,
+    /// and the MIS optical depth from it to `o` (null boundaries crossed on the way).
+    pub q: Partial,
+    pub from: Vec3,
+    pub depth0: f32,
+    /// On a light subpath's first segment from an area light: the light and its
+    /// normal at `from` (the light-sampling density of a point depends on where it
+    /// is); else NO_AREA.
+    pub area: (u32, Vec3),
+}
+
+/// `LightSegment::area` of segments that need no completion.
+pub(crate) const NO_AREA: (u32, Vec3) = (u32::MAX, Vec3::ZERO);
+
+/// Where a subpath's flight began, for the segments it lays down.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FlightStart {
+    pub len: u32,
+    pub q: Partial,
+    pub from: Vec3,
+    pub area: (u32, Vec3),
 }
 
 impl LightSegment {
     #[inline(always)]
-    pub fn new(seg: &Segment, t: f32, len: u32) -> Self {
+    pub fn new(seg: &Segment, t: f32, start: &FlightStart, depth0: f32) -> Self {
         LightSegment {
             o: seg.ray.o,
             d: seg.ray.d,
@@ -41,7 +65,11 @@ impl LightSegment {
             tmax: seg.tmax,
             medium: seg.medium,
             beta: seg.beta,
-            len,
+            len: start.len,
+            q: start.q,
+            from: start.from,
+            depth0,
+            area: start.area,
         }
     }
 
@@ -82,19 +110,21 @@ pub(crate) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option
     (len > 0.0 && len.is_finite()).then_some((len, rate))
 }
 
-/// Where a light subpath's walk puts its segments, and how many it may still add.
+/// Where a subpath's walk puts its segments, and how many it may still add.
 pub(crate) struct SegmentSink<'a> {
     pub out: &'a mut Vec<LightSegment>,
     pub budget: usize,
     pub over_budget: &'a mut bool,
-    pub len: u32,
+    pub start: FlightStart,
 }
 
 impl SegmentSink<'_> {
+    /// Keeps `seg`, its flight ending at `t`, with the MIS depth `depth0` before it.
     #[inline(always)]
-    pub fn push(&mut self, seg: &Segment, t: f32) {
+    pub fn push(&mut self, seg: &Segment, t: f32, depth0: f32) {
         if self.out.len() < self.budget {
-            self.out.push(LightSegment::new(seg, t, self.len));
+            self.out
+                .push(LightSegment::new(seg, t, &self.start, depth0));
         } else {
             *self.over_budget = true;
         }

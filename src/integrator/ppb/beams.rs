@@ -64,6 +64,9 @@ pub(crate) struct Beam {
     /// Segments from the light to the beam's far end (this one included).
     pub depth: u32,
     pub weight: Weight,
+    /// The index of the light segment it was made of, in the order given to
+    /// [`collect`].
+    pub seg: u32,
 }
 
 impl Bounded for Beam {
@@ -109,6 +112,7 @@ impl Beam {
             medium: s.medium,
             depth: s.len,
             weight,
+            seg: 0,
         })
     }
 
@@ -178,7 +182,8 @@ pub(crate) fn collect(
     let mut beams = 0;
     for (i, s) in segments.enumerate() {
         let mut rng = Stream::PhotonBeams.rng(seed, iteration, i as u64);
-        if let Some(b) = Beam::new(scene, &s, form, inv_paths, rng.next_f32()) {
+        if let Some(mut b) = Beam::new(scene, &s, form, inv_paths, rng.next_f32()) {
+            b.seg = i as u32;
             b.split_into(piece, out);
             beams += 1;
         }

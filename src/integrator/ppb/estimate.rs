@@ -28,13 +28,20 @@ pub(crate) enum Meeting {
 }
 
 /// Where beam `b` and the camera segment o + t d, t in [0, tmax) (unit d), meet within
-/// `r`; None if they do not.
+/// `r`; None if they do not. Pairs whose sine is below `parallel` meet `Along`.
 #[inline]
-pub(crate) fn meet(o: Vec3, d: Vec3, tmax: f32, b: &Beam, r: f32) -> Option<Meeting> {
+pub(crate) fn meet(
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    b: &Beam,
+    r: f32,
+    parallel: f32,
+) -> Option<Meeting> {
     let n = d.cross(b.d);
     let sin = n.length();
     let w = o - b.o;
-    if sin >= SIN_PARALLEL {
+    if sin >= parallel {
         // Distance between the lines, and the closest points (both directions unit).
         // Written so that a NaN distance meets nothing.
         let u = w.dot(n).abs() / sin;
@@ -118,7 +125,7 @@ impl MediumGather for Gather<'_> {
             if b.medium != mi || b.depth + cam_depth + 1 > self.max_depth {
                 return;
             }
-            let Some(meeting) = meet(o, d, tmax, b, r) else {
+            let Some(meeting) = meet(o, d, tmax, b, r, SIN_PARALLEL) else {
                 return;
             };
             stats.merges += 1;

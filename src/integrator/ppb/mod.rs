@@ -46,8 +46,8 @@
 //! path lights a camera segment reached after j surface events when k + j + 1 <=
 //! max_depth (the camera point lies on the beam).
 
-mod beams;
-mod estimate;
+pub(crate) mod beams;
+pub(crate) mod estimate;
 #[cfg(test)]
 mod tests;
 

@@ -39,6 +39,7 @@ fn beam(o: Vec3, d: Vec3, len: f32) -> Beam {
         weight: Weight::Short {
             p: Rgb::splat(1.0 / 3.0),
         },
+        seg: 0,
     }
 }
 
@@ -68,7 +69,7 @@ fn crossing_pairs_meet_at_their_closest_points() {
         let b = beam(rv(&mut rng), rv(&mut rng), 1.5);
         let (u, tc, tb) = closest_brute(o, d, &b);
         let r = u + 0.05;
-        match meet(o, d, 5.0, &b, r) {
+        match meet(o, d, 5.0, &b, r, SIN_PARALLEL) {
             Some(Meeting::Cross { tc: c, tb: s, sin }) => {
                 crossings += 1;
                 assert!(sin >= SIN_PARALLEL);
@@ -85,7 +86,7 @@ fn crossing_pairs_meet_at_their_closest_points() {
         }
         // Just beyond the distance nothing meets.
         if d.cross(b.d).length() >= SIN_PARALLEL {
-            assert_eq!(meet(o, d, 5.0, &b, u * 0.98), None);
+            assert_eq!(meet(o, d, 5.0, &b, u * 0.98, SIN_PARALLEL), None);
         }
     }
     assert!(crossings > 5, "{crossings}");
@@ -96,12 +97,13 @@ fn parallel_pairs_meet_along_their_overlap() {
     // A beam parallel to the camera ray at distance 0.3, from z = 1 to z = 4; the
     // camera segment covers z in [0, 3).
     let b = beam(Vec3::new(0.3, 0.0, 1.0), Vec3::Z, 3.0);
-    let m = meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.5);
+    let m = meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.5, SIN_PARALLEL);
     assert_eq!(m, Some(Meeting::Along { s0: 0.0, s1: 2.0 }));
-    assert_eq!(meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.2), None);
+    assert_eq!(meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.2, SIN_PARALLEL), None);
     // Opposite directions: the same overlap, from the beam's side.
     let b = beam(Vec3::new(0.3, 0.0, 4.0), -Vec3::Z, 3.0);
-    let Some(Meeting::Along { s0, s1 }) = meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.5) else {
+    let Some(Meeting::Along { s0, s1 }) = meet(Vec3::ZERO, Vec3::Z, 3.0, &b, 0.5, SIN_PARALLEL)
+    else {
         panic!()
     };
     assert!(
@@ -111,7 +113,8 @@ fn parallel_pairs_meet_along_their_overlap() {
     // Slightly tilted: the part of the beam within r of the line.
     let d = Vec3::new(0.02, 0.0, 1.0).normalize();
     let b = beam(Vec3::new(0.0, 0.0, 1.0), d, 20.0);
-    let Some(Meeting::Along { s0, s1 }) = meet(Vec3::ZERO, Vec3::Z, 100.0, &b, 0.1) else {
+    let Some(Meeting::Along { s0, s1 }) = meet(Vec3::ZERO, Vec3::Z, 100.0, &b, 0.1, SIN_PARALLEL)
+    else {
         panic!()
     };
     // x(s) = 0.02 s / |(0.02, 0, 1)| < 0.1.
@@ -223,7 +226,7 @@ fn random_beams(n: usize, rng: &mut Rng) -> Vec<Beam> {
 fn found(bvh: &Lbvh<Beam>, beams: &[Beam], o: Vec3, d: Vec3, tmax: f32, r: f32) -> Vec<u32> {
     let mut out = Vec::new();
     bvh.visit(beams, o, d, tmax, r, |b| {
-        if meet(o, d, tmax, b, r).is_some() {
+        if meet(o, d, tmax, b, r, SIN_PARALLEL).is_some() {
             out.push(b.depth);
         }
     });
@@ -253,7 +256,7 @@ fn the_beam_bvh_finds_what_brute_force_finds() {
         let mut got = found(&bvh, &beams, o, d, tmax, r);
         let mut expect: Vec<u32> = original
             .iter()
-            .filter(|b| meet(o, d, tmax, b, r).is_some())
+            .filter(|b| meet(o, d, tmax, b, r, SIN_PARALLEL).is_some())
             .map(|b| b.depth)
             .collect();
         got.sort_unstable();

@@ -1,0 +1,267 @@
+//! The beam estimators of `upbp` (Křivánek et al. 2014, [UPBP]) on the bidirectional
+//! core: every camera segment through a medium is a query beam, which gathers the
+//! light subpaths' medium vertices within r2 of it (point x beam 2D, kernel
+//! 1 / (pi r2^2)) and their segments, as photon beams, within r1 (beam x beam 1D,
+//! kernel 1 / (2 r1 sin theta)). Each contribution is weighted by the MIS of
+//! [`super::mis`], with both subpaths' partial weights completed at the point the
+//! estimate stands for.
+//!
+//! Beams are short ([UPBP]'s photon beams, SmallUPBP's default for them): a camera
+//! segment's query beam ends where the camera's own free flight did, a photon beam
+//! where the light's did, each point weighted by T / P(the flight passes it) (1 in grey
+//! media), so the density of reaching a point is T, as the MIS assumes. Heterogeneous
+//! media have no closed-form P: there beams are long (to the surface, weight T by ratio
+//! tracking), which is still an unbiased estimate of the same MIS-weighted integral.
+
+use super::light_path::{path_segments, Chunk, LightVertex, MEDIUM_VERTEX};
+use super::mis::{self, Merge, Partial, Site, MIN_BEAM_SIN};
+use super::segments::{LightSegment, NO_AREA};
+use super::vertex::{mis_sigma, segment_sine, MediumPoint};
+use super::Pass;
+use crate::integrator::accel::{Lbvh, Point, PointBvh};
+use crate::integrator::ppb::beams::{collect, Beam, BeamForm};
+use crate::integrator::ppb::estimate::{meet, Meeting};
+use crate::integrator::RenderStats;
+use crate::math::{Rgb, Rng, Vec3};
+use crate::medium::Medium;
+
+impl Point for LightVertex {
+    #[inline(always)]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+/// Beams are stored in pieces of at most this fraction of the scene's radius (as
+/// `ppb` does, for the BVH).
+const PIECE: f32 = 1.0 / 16.0;
+
+/// An iteration's photon points (medium vertices) and photon beams, indexed.
+#[derive(Default)]
+pub(super) struct BeamStore {
+    points: Vec<LightVertex>,
+    point_bvh: PointBvh<LightVertex>,
+    segments: Vec<LightSegment>,
+    beams: Vec<Beam>,
+    beam_bvh: Lbvh<Beam>,
+}
+
+impl BeamStore {
+    /// Gathers what the pass's estimators need from the light store.
+    pub fn build(&mut self, pass: &Pass, chunks: &[Chunk], seed: u64, iteration: u64) {
+        self.points.clear();
+        self.segments.clear();
+        self.beams.clear();
+        if pass.technique.uses(Merge::PointBeam2d) {
+            let all = chunks.iter().flat_map(|c| c.vertices.iter());
+            let medium = all.filter(|v| v.material == MEDIUM_VERTEX);
+            self.points.extend(medium.copied());
+        }
+        self.point_bvh.build(&mut self.points);
+        if pass.technique.uses(Merge::BeamBeam1d) {
+            let n = pass.beam_paths.min(pass.light_paths);
+            for path in 0..n {
+                self.segments.extend_from_slice(path_segments(chunks, path));
+            }
+            let scene = pass.scene;
+            let piece = scene.sphere.radius * PIECE;
+            let segs = self.segments.iter().copied();
+            let (form, out) = (BeamForm::Short, &mut self.beams);
+            collect(scene, segs, n, form, piece, seed, iteration, out);
+        }
+        self.beam_bvh.build(&mut self.beams);
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.points.capacity() * std::mem::size_of::<LightVertex>()
+            + self.segments.capacity() * std::mem::size_of::<LightSegment>()
+            + self.beams.capacity() * std::mem::size_of::<Beam>()
+            + self.point_bvh.bytes()
+            + self.beam_bvh.bytes()
+    }
+}
+
+/// A subpath's partial weights completed at the point x, `u` along segment `s` from its
+/// start, where a vertex with MIS factor D = `sigma` would be (as `on_hit` at a vertex
+/// reached along the segment's flight).
+fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> Partial {
+    let scene = pass.scene;
+    let dist2 = (x - s.from).length_squared();
+    let grey = scene.media[s.medium as usize].mis_sigma_t().unwrap_or(0.0);
+    let tr = mis::transmittance(s.depth0 + grey * u);
+    let mut q = s.q;
+    if s.area != NO_AREA {
+        // The first segment from an area light: its light-sampling density at x
+        // completes dvcm, as the light subpath does at its first vertex.
+        let (li, n0) = (s.area.0 as usize, s.area.1);
+        let light = &scene.lights[li];
+        let pick = scene.light_sampler.pmf(li) as f64;
+        let (pos, dir) = light.pdf_le(&scene.sphere, n0, s.d);
+        let emission = pick * pos as f64 * dir as f64;
+        let pdf_w = light.pdf_li(x, -s.d, s.from, n0) as f64;
+        let cos0 = n0.dot(s.d).abs() as f64;
+        q.dvcm = pass.mis.f(pick * pdf_w * cos0 / (dist2 as f64 * emission));
+    }
+    pass.mis.on_hit(q, dist2 / tr, sigma)
+}
+
+/// The camera's query beam along camera segment `c`, and the medium it is in.
+fn query_beam<'a>(pass: &'a Pass, c: &LightSegment, rng: &mut Rng) -> Option<(Beam, &'a Medium)> {
+    let m = &pass.scene.media[c.medium as usize];
+    let b = Beam::new(pass.scene, c, BeamForm::Short, 1.0, rng.next_f32())?;
+    Some((b, m))
+}
+
+/// What both beam estimators read of the camera side: its segment, query beam, the
+/// MIS factor D of its medium, and the camera subpath's length.
+struct Query<'a> {
+    c: &'a LightSegment,
+    beam: Beam,
+    m: &'a Medium,
+    sigma: f32,
+    camera_len: u32,
+}
+
+impl Query<'_> {
+    /// The MIS weight of estimator `k` for the path through the camera point `xc`
+    /// (`tc` along the query beam) and the light point with partial weights `ql`,
+    /// continuation `cont_l` and incoming direction `wl` (towards its predecessor).
+    #[allow(clippy::too_many_arguments)]
+    fn weight(
+        &self,
+        pass: &Pass,
+        k: Merge,
+        xc: Vec3,
+        tc: f32,
+        ql: Partial,
+        cont_l: f32,
+        wl: Vec3,
+        ph: f32,
+    ) -> f32 {
+        let sin = segment_sine(self.beam.d, wl);
+        let own = pass.mis.eta(k, self.sigma, sin);
+        let all = pass.mis.merges(Site::Medium, self.sigma, sin, None);
+        let qc = partial_at(pass, self.c, xc, tc, self.sigma);
+        let cam = MediumPoint::new(pass, self.c.medium, xc, -self.beam.d);
+        pass.mis
+            .weight_merge(ql, qc, (own, all), ph * cam.cont, ph * cont_l)
+    }
+}
+
+/// Point x beam 2D along the query beam: (1 / (N pi r^2)) sum over the medium light
+/// vertices y within r of it of w(t) f(y.wo, -d) beta_y times the MIS weight, per unit
+/// of the camera throughput at the segment's start.
+fn point_beam(
+    pass: &Pass,
+    store: &BeamStore,
+    q: &Query,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let b = &q.beam;
+    let phase = q.m.phase();
+    let max_depth = pass.s.max_depth;
+    let mut sum = Rgb::ZERO;
+    let r = pass.radii[Merge::PointBeam2d as usize];
+    store
+        .point_bvh
+        .query(&store.points, b.o, b.d, b.len, r, |y, t| {
+            if y.medium != q.c.medium || y.len + q.camera_len > max_depth {
+                return;
+            }
+            let ph = phase.eval(b.d, y.wo);
+            if ph <= 0.0 {
+                return;
+            }
+            let x = b.o + b.d * t;
+            let w = q.weight(pass, Merge::PointBeam2d, x, t, y.q, y.cont, y.wo, ph);
+            stats.merges += 1;
+            sum += y.throughput * b.weight_at(q.m, t, rng) * (ph * w);
+        });
+    sum * pass.norms[Merge::PointBeam2d as usize]
+}
+
+/// Beam x beam 1D along the query beam: over the photon beams crossing within r at
+/// sine >= MIN_BEAM_SIN, beta_b w_b(t_b) w_c(t_c) sigma_s(x_c) f(d_b, -d) /
+/// (2 r sin theta) times the MIS weight (beta_b holds 1 / N of the beam paths).
+fn beam_beam(
+    pass: &Pass,
+    store: &BeamStore,
+    q: &Query,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let c = &q.beam;
+    let phase = q.m.phase();
+    let max_depth = pass.s.max_depth;
+    let r = pass.radii[Merge::BeamBeam1d as usize];
+    let mut sum = Rgb::ZERO;
+    store.beam_bvh.visit(&store.beams, c.o, c.d, c.len, r, |b| {
+        if b.medium != q.c.medium || b.depth + q.camera_len > max_depth {
+            return;
+        }
+        let Some(Meeting::Cross { tc, tb, sin }) = meet(c.o, c.d, c.len, b, r, MIN_BEAM_SIN) else {
+            return;
+        };
+        let ph = phase.eval(b.d, -c.d);
+        if ph <= 0.0 {
+            return;
+        }
+        let s = &store.segments[b.seg as usize];
+        let (xc, xl) = (c.o + c.d * tc, b.o + b.d * tb);
+        let ql = partial_at(pass, s, xl, b.start + tb, q.sigma);
+        let cont_l = pass.medium_continuation(q.m.albedo_at(xl));
+        let w = q.weight(pass, Merge::BeamBeam1d, xc, tc, ql, cont_l, -b.d, ph);
+        stats.merges += 1;
+        let wc = c.weight_at(q.m, tc, rng);
+        let sigma_s = q.m.sigma_s_at(xc);
+        sum += b.beta * b.weight_at(q.m, tb, rng) * wc * sigma_s * (ph * w / (2.0 * r * sin));
+    });
+    sum
+}
+
+/// Both beam estimators along the camera's segments of one flight (`pieces`, each
+/// with the throughput at its start), the camera subpath `camera_len` segments long;
+/// `out(k, value)` receives each estimator's part.
+pub(super) fn gather(
+    pass: &Pass,
+    store: &BeamStore,
+    pieces: &[LightSegment],
+    camera_len: u32,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+    mut out: impl FnMut(Merge, Rgb),
+) {
+    if camera_len == 1 && !pass.s.merge_first {
+        return;
+    }
+    let (pb, bb) = (
+        pass.norms[Merge::PointBeam2d as usize] > 0.0,
+        pass.norms[Merge::BeamBeam1d as usize] > 0.0,
+    );
+    for c in pieces {
+        let Some((beam, m)) = query_beam(pass, c, rng) else {
+            continue;
+        };
+        let sigma = mis_sigma(pass, c.medium);
+        let q = Query {
+            c,
+            beam,
+            m,
+            sigma,
+            camera_len,
+        };
+        if pb {
+            out(
+                Merge::PointBeam2d,
+                c.beta * point_beam(pass, store, &q, rng, stats),
+            );
+        }
+        if bb {
+            out(
+                Merge::BeamBeam1d,
+                c.beta * beam_beam(pass, store, &q, rng, stats),
+            );
+        }
+    }
+}

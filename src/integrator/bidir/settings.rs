@@ -1,0 +1,398 @@
+//! What the bidirectional family takes: its technique sets, its parameters, and the
+//! extra images it can split its estimate into.
+
+use super::mis::Merge;
+use crate::integrator::common::params::check_radius;
+use crate::integrator::common::Heuristic;
+use serde::{Deserialize, Serialize};
+
+/// Which techniques an iteration uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Technique {
+    /// Light tracing: light subpaths splatted to the camera, no MIS.
+    Lt,
+    /// Bidirectional path tracing: every (s, t) connection.
+    Bpt,
+    /// Bidirectional photon mapping: merging at every non-specular camera vertex.
+    Bpm,
+    /// Connections and merging, all weighted together.
+    Vcm,
+    /// Unifying points, beams and paths (Křivánek et al. 2014): any subset of
+    /// connections, surface photons and the three volume estimators, under one MIS.
+    Upbp(Estimators),
+    /// The light pass alone, for estimators outside this family (virtual point and ray
+    /// lights): vertices (and segments, when kept) stored, nothing connected.
+    Store,
+}
+
+/// The techniques of `upbp`: connections (bidirectional path tracing) and the four
+/// merge estimators of [`Merge`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Estimators {
+    pub bpt: bool,
+    pub merge: [bool; Merge::COUNT],
+}
+
+impl Technique {
+    pub(super) fn connects(self) -> bool {
+        match self {
+            Technique::Bpt | Technique::Vcm => true,
+            Technique::Upbp(e) => e.bpt,
+            _ => false,
+        }
+    }
+
+    /// Whether estimator `k` is used (in scenes where it can sit).
+    pub(super) fn uses(self, k: Merge) -> bool {
+        match self {
+            Technique::Bpm | Technique::Vcm => matches!(k, Merge::Surface | Merge::Point3d),
+            Technique::Upbp(e) => e.merge[k as usize],
+            _ => false,
+        }
+    }
+
+    /// Light vertices are gathered by the surface or 3D point estimators.
+    pub(super) fn merges(self) -> bool {
+        self.uses(Merge::Surface) || self.uses(Merge::Point3d)
+    }
+
+    /// Light vertices are kept after the light pass.
+    pub(super) fn stores(self) -> bool {
+        self != Technique::Lt
+    }
+}
+
+/// One technique of `upbp`'s `techniques` parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpbpTechnique {
+    /// Every connection of bidirectional path tracing (light tracing included).
+    Bpt,
+    /// Photon points on surfaces, 2D kernel.
+    Surf,
+    /// Photon points at a camera point in a medium, 3D kernel.
+    Pp3d,
+    /// Photon points along a camera beam, 2D kernel.
+    Pb2d,
+    /// Photon beams along a camera beam, 1D kernel.
+    Bb1d,
+}
+
+impl UpbpTechnique {
+    pub const ALL: [UpbpTechnique; 5] = [
+        UpbpTechnique::Bpt,
+        UpbpTechnique::Surf,
+        UpbpTechnique::Pp3d,
+        UpbpTechnique::Pb2d,
+        UpbpTechnique::Bb1d,
+    ];
+
+    /// The layer name of `technique_layers`.
+    pub fn name(self) -> &'static str {
+        match self {
+            UpbpTechnique::Bpt => "bpt",
+            UpbpTechnique::Surf => "surf",
+            UpbpTechnique::Pp3d => "pp3d",
+            UpbpTechnique::Pb2d => "pb2d",
+            UpbpTechnique::Bb1d => "bb1d",
+        }
+    }
+}
+
+impl Estimators {
+    pub fn from_list(list: &[UpbpTechnique]) -> Self {
+        let mut e = Estimators {
+            bpt: false,
+            merge: [false; Merge::COUNT],
+        };
+        for t in list {
+            match t {
+                UpbpTechnique::Bpt => e.bpt = true,
+                UpbpTechnique::Surf => e.merge[Merge::Surface as usize] = true,
+                UpbpTechnique::Pp3d => e.merge[Merge::Point3d as usize] = true,
+                UpbpTechnique::Pb2d => e.merge[Merge::PointBeam2d as usize] = true,
+                UpbpTechnique::Bb1d => e.merge[Merge::BeamBeam1d as usize] = true,
+            }
+        }
+        e
+    }
+}
+
+/// Settings shared by `lt`, `bpt`, `bpm`, `vcm` and `upbp` (merging parameters only
+/// matter to the merging ones, beam parameters to `upbp`).
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `max_depth` | 64 | longest path in segments, as Mitsuba's `max_depth` (SmallVCM's max path length) |
+/// | `light_paths` | 1 | light subpaths per iteration, as a multiple of the pixel count |
+/// | `radius` | none | initial surface merge radius in scene units; overrides `radius_factor` |
+/// | `radius_factor` | 0.003 | initial surface merge radius as a fraction of the scene's bounding-sphere radius |
+/// | `alpha` | 0.75 | its reduction: r_i = r_0 / i^((1 - alpha) / 2) |
+/// | `medium_radius` | none | initial radius of merging in media (point x point 3D) in scene units; overrides `medium_radius_factor` |
+/// | `medium_radius_factor` | 0.02 | the same as a fraction of the scene's bounding-sphere radius |
+/// | `medium_alpha` | 4/7 | its reduction, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1) (Knaus and Zwicker; 4/7 balances variance and squared bias in 3D) |
+/// | `pb2d_radius`, `pb2d_radius_factor`, `pb2d_alpha` | none, 0.01, 2/3 | `upbp`'s point x beam 2D radius, as the above, r^2 schedule |
+/// | `bb1d_radius`, `bb1d_radius_factor`, `bb1d_alpha` | none, 0.005, 4/5 | `upbp`'s beam x beam 1D radius, as the above, r schedule |
+/// | `beam_paths` | 0.1 | `upbp`: the fraction of light subpaths whose segments through media become photon beams (SmallUPBP's `-pbc`) |
+/// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
+/// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
+/// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
+/// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
+/// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
+/// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
+/// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct BidirSettings {
+    pub max_depth: u32,
+    pub light_paths: f32,
+    pub radius: Option<f32>,
+    pub radius_factor: f32,
+    pub alpha: f32,
+    pub medium_radius: Option<f32>,
+    pub medium_radius_factor: f32,
+    pub medium_alpha: f32,
+    pub pb2d_radius: Option<f32>,
+    pub pb2d_radius_factor: f32,
+    pub pb2d_alpha: f32,
+    pub bb1d_radius: Option<f32>,
+    pub bb1d_radius_factor: f32,
+    pub bb1d_alpha: f32,
+    pub beam_paths: f32,
+    #[serde(deserialize_with = "de_techniques")]
+    pub techniques: Vec<UpbpTechnique>,
+    pub merge_first: bool,
+    pub russian_roulette: bool,
+    pub heuristic: Heuristic,
+    pub max_vertex_mib: f32,
+    pub technique_layers: bool,
+    pub strategy_images: u32,
+}
+
+impl Default for BidirSettings {
+    fn default() -> Self {
+        BidirSettings {
+            max_depth: 64,
+            light_paths: 1.0,
+            radius: None,
+            radius_factor: 0.003,
+            alpha: 0.75,
+            medium_radius: None,
+            medium_radius_factor: 0.02,
+            medium_alpha: 4.0 / 7.0,
+            pb2d_radius: None,
+            pb2d_radius_factor: 0.01,
+            pb2d_alpha: 2.0 / 3.0,
+            bb1d_radius: None,
+            bb1d_radius_factor: 0.005,
+            bb1d_alpha: 0.8,
+            beam_paths: 0.1,
+            techniques: UpbpTechnique::ALL.to_vec(),
+            merge_first: true,
+            russian_roulette: true,
+            heuristic: Heuristic::Balance,
+            max_vertex_mib: 2048.0,
+            technique_layers: false,
+            strategy_images: 0,
+        }
+    }
+}
+
+/// `techniques`: a list of names, or one string, `all` or names joined by `+` (for
+/// command lines and URLs, where a JSON list is awkward).
+fn de_techniques<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<UpbpTechnique>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Form {
+        List(Vec<UpbpTechnique>),
+        Joined(String),
+    }
+    match Form::deserialize(d)? {
+        Form::List(v) => Ok(v),
+        Form::Joined(s) if s == "all" => Ok(UpbpTechnique::ALL.to_vec()),
+        Form::Joined(s) => s
+            .split('+')
+            .map(|name| {
+                UpbpTechnique::ALL
+                    .into_iter()
+                    .find(|t| t.name() == name)
+                    .ok_or_else(|| {
+                        serde::de::Error::custom(format!(
+                            "unknown technique `{name}`: expected bpt, surf, pp3d, pb2d or bb1d"
+                        ))
+                    })
+            })
+            .collect(),
+    }
+}
+
+/// A radius reduction exponent in (0, 1], named.
+fn check_alpha(name: &str, alpha: f32) -> Result<(), String> {
+    if alpha > 0.0 && alpha <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} must be in (0, 1], got {alpha}"))
+    }
+}
+
+impl BidirSettings {
+    /// The technique this algorithm runs as (`upbp`'s from its `techniques`).
+    pub fn technique_of(&self, name: &str) -> Technique {
+        match name {
+            "lt" => Technique::Lt,
+            "bpt" => Technique::Bpt,
+            "bpm" => Technique::Bpm,
+            "vcm" => Technique::Vcm,
+            _ => Technique::Upbp(Estimators::from_list(&self.techniques)),
+        }
+    }
+
+    pub fn validate(&self, technique: Technique) -> Result<(), String> {
+        if self.max_depth == 0 {
+            return Err("max_depth must be at least 1".into());
+        }
+        if !(self.light_paths.is_finite() && self.light_paths > 0.0 && self.light_paths <= 64.0) {
+            return Err(format!(
+                "light_paths must be in (0, 64], got {}",
+                self.light_paths
+            ));
+        }
+        check_radius(self.radius, self.radius_factor)?;
+        check_alpha("alpha", self.alpha)?;
+        for (name, r, f, a) in [
+            (
+                "medium",
+                self.medium_radius,
+                self.medium_radius_factor,
+                self.medium_alpha,
+            ),
+            (
+                "pb2d",
+                self.pb2d_radius,
+                self.pb2d_radius_factor,
+                self.pb2d_alpha,
+            ),
+            (
+                "bb1d",
+                self.bb1d_radius,
+                self.bb1d_radius_factor,
+                self.bb1d_alpha,
+            ),
+        ] {
+            check_radius(r, f).map_err(|e| format!("{name}_{e}"))?;
+            check_alpha(&format!("{name}_alpha"), a)?;
+        }
+        if !(self.beam_paths > 0.0 && self.beam_paths <= 1.0) {
+            return Err(format!(
+                "beam_paths must be in (0, 1], got {}",
+                self.beam_paths
+            ));
+        }
+        if !(self.max_vertex_mib.is_finite() && self.max_vertex_mib > 0.0) {
+            return Err(format!(
+                "max_vertex_mib must be positive, got {}",
+                self.max_vertex_mib
+            ));
+        }
+        if self.strategy_images > MAX_STRATEGY_LENGTH {
+            return Err(format!(
+                "strategy_images covers path lengths up to {MAX_STRATEGY_LENGTH}, got {}",
+                self.strategy_images
+            ));
+        }
+        let upbp = matches!(technique, Technique::Upbp(_));
+        if self.technique_layers && !(upbp || technique == Technique::Vcm) {
+            return Err("technique_layers (one layer per technique) needs vcm or upbp".into());
+        }
+        if !self.merge_first && technique == Technique::Bpm {
+            return Err(
+                "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm"
+                    .into(),
+            );
+        }
+        if upbp {
+            self.check_techniques()?;
+        } else if self.techniques != UpbpTechnique::ALL {
+            return Err("techniques chooses upbp's techniques; use upbp".into());
+        }
+        Ok(())
+    }
+
+    fn check_techniques(&self) -> Result<(), String> {
+        if self.techniques.is_empty() {
+            return Err("techniques must name at least one of bpt, surf, pp3d, pb2d, bb1d".into());
+        }
+        for (i, t) in self.techniques.iter().enumerate() {
+            if self.techniques[..i].contains(t) {
+                return Err(format!("techniques names {} twice", t.name()));
+            }
+        }
+        if !self.merge_first && !self.techniques.contains(&UpbpTechnique::Bpt) {
+            return Err(
+                "merge_first: false without bpt leaves no technique for light seen after one bounce"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Longest path with per-strategy images (lengths 1..=8 give 44 layers).
+pub const MAX_STRATEGY_LENGTH: u32 = 8;
+
+/// Extra images a pass splits its estimate into.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Layers {
+    pub names: Vec<String>,
+    /// Split by connection strategy up to this path length (0: no).
+    strategies: u32,
+    /// Split by technique: connections in layer 0, merges in `merges[k]`.
+    techniques: bool,
+    merges: [u8; Merge::COUNT],
+}
+
+impl Layers {
+    pub(super) fn new(s: &BidirSettings, technique: Technique) -> Self {
+        let mut layers = Layers {
+            strategies: if s.technique_layers {
+                0
+            } else {
+                s.strategy_images
+            },
+            techniques: s.technique_layers,
+            ..Default::default()
+        };
+        if s.technique_layers {
+            if let Technique::Upbp(_) = technique {
+                // One layer per technique, whether used or not: bpt surf pp3d pb2d bb1d.
+                layers.names = UpbpTechnique::ALL.map(|t| t.name().to_string()).to_vec();
+                layers.merges = [1, 2, 3, 4];
+            } else {
+                layers.names = vec!["vc".to_string(), "vm".to_string()];
+                layers.merges = [1; Merge::COUNT];
+            }
+        } else {
+            for k in 1..=s.strategy_images {
+                let names = (0..=k).map(|light| format!("s{light}_t{}", k + 1 - light));
+                layers.names.extend(names);
+            }
+        }
+        layers
+    }
+
+    /// The layer of a connection with `s` light and `t` camera vertices.
+    #[inline]
+    pub fn connection(&self, s: u32, t: u32) -> Option<usize> {
+        if self.techniques {
+            return Some(0);
+        }
+        let k = s + t - 1;
+        (k >= 1 && k <= self.strategies).then(|| ((k - 1) * (k + 2) / 2 + s) as usize)
+    }
+
+    /// The layer of a merge by estimator `k`.
+    #[inline]
+    pub fn merge(&self, k: Merge) -> Option<usize> {
+        self.techniques.then_some(self.merges[k as usize] as usize)
+    }
+}
