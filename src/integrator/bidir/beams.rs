@@ -16,7 +16,7 @@
 use super::light_path::{path_segments, Chunk, LightVertex, MEDIUM_VERTEX};
 use super::mis::{self, Merge, Partial, Site, MIN_BEAM_SIN};
 use super::segments::{LightSegment, NO_AREA};
-use super::vertex::{mis_sigma, segment_sine, MediumPoint};
+use super::vertex::{mis_sigma, MediumPoint};
 use super::Pass;
 use crate::integrator::accel::{Lbvh, Point, PointBvh};
 use crate::integrator::ppb::beams::{collect, Beam, BeamForm};
@@ -138,7 +138,7 @@ impl Query<'_> {
         wl: Vec3,
         ph: f32,
     ) -> f32 {
-        let sin = segment_sine(self.beam.d, wl);
+        let sin = pass.mis.sine(self.beam.d, wl);
         let own = pass.mis.eta(k, self.sigma, sin);
         let all = pass.mis.merges(Site::Medium, self.sigma, sin, None);
         let qc = partial_at(pass, self.c, xc, tc, self.sigma);
@@ -235,10 +235,7 @@ pub(super) fn gather(
     if camera_len == 1 && !pass.s.merge_first {
         return;
     }
-    let (pb, bb) = (
-        pass.norms[Merge::PointBeam2d as usize] > 0.0,
-        pass.norms[Merge::BeamBeam1d as usize] > 0.0,
-    );
+    let (pb, bb) = (pass.uses(Merge::PointBeam2d), pass.uses(Merge::BeamBeam1d));
     for c in pieces {
         let Some((beam, m)) = query_beam(pass, c, rng) else {
             continue;

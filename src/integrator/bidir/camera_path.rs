@@ -6,7 +6,7 @@ use super::light_path::LightVertex;
 use super::media::{next_event, next_event_with, shadow, Event};
 use super::mis::{Merge, Site};
 use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
-use super::vertex::{segment_sine, Media, MediumPoint, Vertex};
+use super::vertex::{Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
@@ -145,9 +145,7 @@ impl<M: Media> CameraPass<'_, M> {
         let layers = self.slots(*pixel);
         let light_layer = |len: u32| pass.layers.connection(1, len + 1);
         let (event, tr) = if M::ON {
-            let beams = pass.norms[Merge::PointBeam2d as usize] > 0.0
-                || pass.norms[Merge::BeamBeam1d as usize] > 0.0;
-            if !beams {
+            if !pass.query_beams() {
                 next_event::<M>(scene, ray, walk, rng, stats, None)
             } else {
                 pieces.clear();
@@ -459,7 +457,7 @@ fn merge(
     surface: &Surface,
     stats: &mut RenderStats,
 ) -> Rgb {
-    if pass.norms[Merge::Surface as usize] == 0.0 {
+    if !pass.uses(Merge::Surface) {
         return Rgb::ZERO;
     }
     let mut sum = Rgb::ZERO;
@@ -506,10 +504,7 @@ fn merge_medium(
     m: &MediumPoint,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let Some(medium) = walk
-        .medium
-        .filter(|_| pass.norms[Merge::Point3d as usize] > 0.0)
-    else {
+    let Some(medium) = walk.medium.filter(|_| pass.uses(Merge::Point3d)) else {
         return Rgb::ZERO;
     };
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
@@ -536,11 +531,7 @@ fn merge_medium(
                 return;
             }
             let (dir, rev) = (ph * m.cont, ph * y.cont);
-            let sin = if pass.mis.beam_beam() {
-                segment_sine(m.wo, y.wo)
-            } else {
-                0.0
-            };
+            let sin = pass.mis.sine(m.wo, y.wo);
             let own = pass.mis.eta(Merge::Point3d, m.sigma, sin);
             let all = pass.mis.merges(Site::Medium, m.sigma, sin, None);
             let w = pass.mis.weight_merge(y.q, walk.q, (own, all), dir, rev);

@@ -215,10 +215,10 @@ pub(super) fn trace_light_paths(
     ws.surface.positions.clear();
     ws.medium.positions.clear();
     if pass.technique.merges() {
-        // Only the sites whose estimator is in use (a zero norm: not used).
+        // Only the sites whose estimator is in use.
         let keep = |site: Site| match site {
-            Site::Surface => pass.norms[Merge::Surface as usize] > 0.0,
-            Site::Medium => pass.norms[Merge::Point3d as usize] > 0.0,
+            Site::Surface => pass.uses(Merge::Surface),
+            Site::Medium => pass.uses(Merge::Point3d),
         };
         let vertices = || {
             let all = ws.chunks.iter().flat_map(|c| c.vertices.iter());

@@ -44,6 +44,7 @@
 //! that 1 / T stays finite under the power heuristic's squares.
 
 use crate::integrator::common::Heuristic;
+use crate::math::Vec3;
 
 /// Where a merge estimator can sit. Each site has its own kernel, whose normalisation
 /// eta (the kernel's support times the number of light subpaths) ranks merging there
@@ -206,10 +207,15 @@ impl Mis {
         }
     }
 
-    /// Whether the beam x beam estimator is used (only it needs the sines).
+    /// The sine between a vertex's two path segments along unit directions `a` and `b`,
+    /// as [`Mis::eta`] takes it: only beam x beam reads it, so 0 when that is not used.
     #[inline]
-    pub fn beam_beam(&self) -> bool {
-        self.merge[Merge::BeamBeam1d as usize] > 0.0
+    pub fn sine(&self, a: Vec3, b: Vec3) -> f32 {
+        if self.merge[Merge::BeamBeam1d as usize] > 0.0 {
+            a.cross(b).length().min(1.0)
+        } else {
+            0.0
+        }
     }
 
     /// M(x): the sum of Mis(eta_k(x)) over the estimators that can merge at a vertex x

@@ -68,6 +68,19 @@ pub(crate) struct Pass<'a> {
 }
 
 impl Pass<'_> {
+    /// Whether estimator `k` is used in this scene this iteration.
+    #[inline(always)]
+    pub fn uses(&self, k: Merge) -> bool {
+        self.norms[k as usize] > 0.0
+    }
+
+    /// Whether camera segments through media are query beams (`upbp`'s beam
+    /// estimators).
+    #[inline(always)]
+    pub fn query_beams(&self) -> bool {
+        self.uses(Merge::PointBeam2d) || self.uses(Merge::BeamBeam1d)
+    }
+
     /// Russian-roulette continuation probability at a vertex with material `m`.
     #[inline]
     pub fn continuation(&self, m: &Material) -> f32 {

@@ -110,19 +110,9 @@ impl MediumPoint<'_> {
     /// [`Mis::merges`](super::mis::Mis::merges)), `camera_len` as there.
     #[inline]
     pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
-        let sin = if pass.mis.beam_beam() {
-            segment_sine(self.wo, other)
-        } else {
-            0.0
-        };
+        let sin = pass.mis.sine(self.wo, other);
         pass.mis.merges(Site::Medium, self.sigma, sin, camera_len)
     }
-}
-
-/// The sine of the angle between two unit directions.
-#[inline]
-pub(crate) fn segment_sine(a: Vec3, b: Vec3) -> f32 {
-    a.cross(b).length().min(1.0)
 }
 
 /// The MIS factor D of a vertex in `medium` (mis.rs: sigma_t, left out as 1 for
