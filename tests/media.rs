@@ -517,3 +517,60 @@ fn lights_know_the_medium_they_emit_into() {
     assert_eq!(scene.medium_at(Vec3::new(0.0, 0.0, 0.5)), Some(0));
     assert_eq!(scene.medium_at(Vec3::new(0.0, 0.0, 1.5)), None);
 }
+
+/// An area light of radiance Le seen through purely absorbing media (sigma_t 0.5, no
+/// scattering): `infinite` fills the whole scene (the camera's medium), otherwise a
+/// null-bounded cube between z = 1 and 3. Returns the scene and the optical depth
+/// along the axis.
+fn light_through_ink(infinite: bool) -> (caustic::scene::Scene, f64) {
+    let ink = json!({"type": "homogeneous", "sigma_a": [0.5, 0.5, 0.5], "sigma_s": [0, 0, 0]});
+    let mut v = json!({
+        "format": 1,
+        "camera": {"look_at": {"origin": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0]}, "fov": 10},
+        "film": {"width": 8, "height": 8},
+        "materials": {"black": {"type": "diffuse", "reflectance": [0, 0, 0]},
+                      "boundary": {"type": "null"}},
+        "media": {"ink": ink},
+        "shapes": [{"type": "rectangle", "material": "black", "emission": {"radiance": [4, 4, 4]},
+                    "transform": {"rotate": [{"axis": [0, 1, 0], "angle": 180}], "scale": 3,
+                                  "translate": [0, 0, 5]}}]
+    });
+    if infinite {
+        v["camera"]["medium"] = json!("ink");
+    } else {
+        v["shapes"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"type": "cube", "material": "boundary",
+            "interior": "ink", "transform": {"translate": [0, 0, 2]}}));
+    }
+    (compile(v), if infinite { 2.5 } else { 1.0 })
+}
+
+/// Emission seen straight through a medium is the same in one sample for every
+/// algorithm: Le T, with T from the closed form rather than a free flight that either
+/// reaches the light (Le) or stops short (0); the only spread left is the pixel
+/// footprint's range of path lengths (rays up to 7.1 degrees off axis). (`lt` never
+/// sees an emitter directly: its paths start on the lights; `normals` and `albedo`
+/// are no estimates of radiance.)
+#[test]
+fn lights_seen_through_media_take_their_transmittance_in_one_sample() {
+    let le = 4.0f64;
+    for infinite in [false, true] {
+        let (scene, depth) = light_through_ink(infinite);
+        let cos_max = (7.1f64.to_radians()).cos();
+        let (hi, lo) = (le * (-depth).exp(), le * (-depth / cos_max).exp());
+        for &alg in caustic::integrator::ALGORITHMS
+            .iter()
+            .filter(|&&a| !["lt", "normals", "albedo"].contains(&a))
+        {
+            let (film, n) = render(&scene, &settings(alg, json!({})), 3, 1);
+            for (i, v) in channel(&film, n, 0).into_iter().enumerate() {
+                assert!(
+                    v >= lo * (1.0 - 1e-4) && v <= hi * (1.0 + 1e-4),
+                    "{alg}, infinite medium {infinite}: pixel {i} reads {v}, expected Le T in [{lo}, {hi}]"
+                );
+            }
+        }
+    }
+}

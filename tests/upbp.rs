@@ -45,22 +45,23 @@ fn volpath(scene: &Scene, regions: &[Rect]) -> Run {
     r
 }
 
-/// Each technique set agrees with volpath block by block.
-fn agree(scene: &Scene, sets: &[&[&str]], iterations: u64) {
+/// Each technique set agrees with volpath block by block, with query beams of
+/// `form`.
+fn agree_with(scene: &Scene, sets: &[&[&str]], iterations: u64, form: &str) {
     let regions = blocks(SIZE, SIZE, BLOCK);
     let vp = volpath(scene, &regions);
     for (k, set) in sets.iter().enumerate() {
-        let r = run(
-            scene,
-            &upbp(set, json!({})),
-            7 + k as u64,
-            iterations,
-            &regions,
-        );
+        let s = upbp(set, json!({ "query_beams": form }));
+        let r = run(scene, &s, 7 + k as u64, iterations, &regions);
         assert_eq!(r.dropped, 0, "upbp {set:?}: dropped samples");
-        eprintln!("upbp {set:?}:");
+        eprintln!("upbp {set:?}, {form} query beams:");
         assert_agree(&vp, &r, &regions);
     }
+}
+
+/// The same with the default (long) query beams.
+fn agree(scene: &Scene, sets: &[&[&str]], iterations: u64) {
+    agree_with(scene, sets, iterations, "long");
 }
 
 const ALL: &[&str] = &["bpt", "surf", "pp3d", "pb2d", "bb1d"];
@@ -78,6 +79,13 @@ fn every_complete_technique_set_agrees_with_volpath_in_fog() {
         &["bpt", "pb2d", "bb1d"],
     ];
     agree(&shipped("fog-cornell"), sets, 150);
+}
+
+/// Short query beams (to the camera's free-flight end) estimate the same image.
+#[test]
+fn short_query_beams_agree_with_volpath_too() {
+    let sets: &[&[&str]] = &[ALL, &["surf", "pb2d"], &["surf", "bb1d"]];
+    agree_with(&shipped("fog-cornell"), sets, 150, "short");
 }
 
 #[test]

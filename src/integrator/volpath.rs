@@ -13,7 +13,9 @@
 
 use super::common::camera::{roulette, sample_bsdf};
 use super::common::equiangular::EquiAngular;
-use super::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use super::common::medium_walk::{
+    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
+};
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
 use super::pixels::render_pixels;
@@ -227,8 +229,15 @@ impl VolPath {
                 on: equi && depth + 1 < self.s.max_depth,
                 l: Rgb::ZERO,
             };
+            let first = ray;
             let step = walk.next(scene, &mut ray, &mut gather, rng, stats);
             l += gather.l;
+            // The first segment's emission, in media from its transmittance instead
+            // (medium_walk::seen_emission).
+            let seen = depth == 0 && scene.has_media;
+            if seen && sees_emission(scene, &step) {
+                l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
+            }
             let (it, m) = match step {
                 Step::Surface(it, m) => (it, m),
                 Step::Scatter { seg, t, .. } => {
@@ -261,21 +270,18 @@ impl VolPath {
                     continue;
                 }
                 Step::Escaped => {
-                    l += walk.beta * escaped(scene, ray.d, specular, pdf_dir, self.s.heuristic);
+                    if !seen {
+                        let h = self.s.heuristic;
+                        l += walk.beta * escaped(scene, ray.d, specular, pdf_dir, h);
+                    }
                     break;
                 }
                 Step::End => break,
             };
-            l += walk.beta
-                * emitted(
-                    scene,
-                    &it,
-                    ray.d,
-                    prev_p,
-                    specular,
-                    pdf_dir,
-                    self.s.heuristic,
-                );
+            if !seen {
+                let h = self.s.heuristic;
+                l += walk.beta * emitted(scene, &it, ray.d, prev_p, specular, pdf_dir, h);
+            }
             if depth + 1 >= self.s.max_depth {
                 break;
             }

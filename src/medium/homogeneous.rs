@@ -30,6 +30,12 @@ impl Homogeneous {
         }
     }
 
+    /// Whether sigma_t is the same in every channel.
+    #[inline]
+    pub fn is_grey(&self) -> bool {
+        self.grey
+    }
+
     /// sigma_s / sigma_t per channel, zero where sigma_t is.
     #[inline]
     pub fn albedo(&self) -> Rgb {

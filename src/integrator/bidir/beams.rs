@@ -6,12 +6,20 @@
 //! [`super::mis`], with both subpaths' partial weights completed at the point the
 //! estimate stands for.
 //!
-//! Beams are short ([UPBP]'s photon beams, SmallUPBP's default for them): a camera
-//! segment's query beam ends where the camera's own free flight did, a photon beam
-//! where the light's did, each point weighted by T / P(the flight passes it) (1 in grey
-//! media), so the density of reaching a point is T, as the MIS assumes. Heterogeneous
-//! media have no closed-form P: there beams are long (to the surface, weight T by ratio
-//! tracking), which is still an unbiased estimate of the same MIS-weighted integral.
+//! Photon beams are short ([UPBP]'s choice and SmallUPBP's default for them): a beam
+//! ends where the light's free flight did, each point weighted by T / P(the flight
+//! passes it) (1 in grey media), so the density of reaching a point is T, as the MIS
+//! assumes. Query beams are long by default (SmallUPBP's default too): a camera
+//! segment gathers along its whole length to the next surface or null boundary,
+//! weighted by T, whether or not the camera's flight scattered on the way. Each
+//! segment the flight entered is covered once, so this is the expected value of the
+//! short query over the flight's distance (Rao-Blackwellised: same mean, never more
+//! variance), which is why the MIS weights stay the short beams' ones: MIS weights only
+//! have to sum to one over the techniques for each path, and the short-beam densities
+//! are one such partition. (SmallUPBP instead divides the query's density by the
+//! camera transmittance; left for later.) Heterogeneous media have no closed-form P:
+//! there both kinds are long (to the surface, weight T by ratio tracking), still an
+//! unbiased estimate of the same MIS-weighted integral.
 
 use super::light_path::{path_segments, Chunk, LightVertex, MEDIUM_VERTEX};
 use super::mis::{self, Merge, Partial, Site, MIN_BEAM_SIN};
@@ -108,7 +116,7 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> Par
 /// The camera's query beam along camera segment `c`, and the medium it is in.
 fn query_beam<'a>(pass: &'a Pass, c: &LightSegment, rng: &mut Rng) -> Option<(Beam, &'a Medium)> {
     let m = &pass.scene.media[c.medium as usize];
-    let b = Beam::new(pass.scene, c, BeamForm::Short, 1.0, rng.next_f32())?;
+    let b = Beam::new(pass.scene, c, pass.s.query_beams, 1.0, rng.next_f32())?;
     Some((b, m))
 }
 
@@ -120,6 +128,9 @@ struct Query<'a> {
     m: &'a Medium,
     sigma: f32,
     camera_len: u32,
+    /// In a homogeneous medium, the continuation probability and sigma_s, the same at
+    /// every point (read once per query rather than per merge).
+    uniform: Option<(f32, Rgb)>,
 }
 
 impl Query<'_> {
@@ -142,9 +153,27 @@ impl Query<'_> {
         let own = pass.mis.eta(k, self.sigma, sin);
         let all = pass.mis.merges(Site::Medium, self.sigma, sin, None);
         let qc = partial_at(pass, self.c, xc, tc, self.sigma);
-        let cam = MediumPoint::new(pass, self.c.medium, xc, -self.beam.d);
+        let cont_c = self.continuation(pass, xc);
         pass.mis
-            .weight_merge(ql, qc, (own, all), ph * cam.cont, ph * cont_l)
+            .weight_merge(ql, qc, (own, all), ph * cont_c, ph * cont_l)
+    }
+
+    /// The continuation probability of a vertex at x in the query's medium.
+    #[inline(always)]
+    fn continuation(&self, pass: &Pass, x: Vec3) -> f32 {
+        match self.uniform {
+            Some((cont, _)) => cont,
+            None => MediumPoint::new(pass, self.c.medium, x, -self.beam.d).cont,
+        }
+    }
+
+    /// sigma_s at x.
+    #[inline(always)]
+    fn sigma_s(&self, x: Vec3) -> Rgb {
+        match self.uniform {
+            Some((_, sigma_s)) => sigma_s,
+            None => self.m.sigma_s_at(x),
+        }
     }
 }
 
@@ -210,11 +239,11 @@ fn beam_beam(
         let s = &store.segments[b.seg as usize];
         let (xc, xl) = (c.o + c.d * tc, b.o + b.d * tb);
         let ql = partial_at(pass, s, xl, b.start + tb, q.sigma);
-        let cont_l = pass.medium_continuation(q.m.albedo_at(xl));
+        let cont_l = q.continuation(pass, xl);
         let w = q.weight(pass, Merge::BeamBeam1d, xc, tc, ql, cont_l, -b.d, ph);
         stats.merges += 1;
         let wc = c.weight_at(q.m, tc, rng);
-        let sigma_s = q.m.sigma_s_at(xc);
+        let sigma_s = q.sigma_s(xc);
         sum += b.beta * b.weight_at(q.m, tb, rng) * wc * sigma_s * (ph * w / (2.0 * r * sin));
     });
     sum
@@ -241,12 +270,17 @@ pub(super) fn gather(
             continue;
         };
         let sigma = mis_sigma(pass, c.medium);
+        let uniform = m.as_homogeneous().map(|h| {
+            let cont = pass.medium_continuation(h.albedo());
+            (cont, h.sigma_s)
+        });
         let q = Query {
             c,
             beam,
             m,
             sigma,
             camera_len,
+            uniform,
         };
         if pb {
             out(

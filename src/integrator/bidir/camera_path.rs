@@ -10,6 +10,7 @@ use super::vertex::{Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
+use crate::integrator::common::medium_walk::seen_emission;
 use crate::integrator::common::nee::pick_light;
 use crate::integrator::pixels::PathKernel;
 use crate::integrator::RenderStats;
@@ -144,6 +145,9 @@ impl<M: Media> CameraPass<'_, M> {
         } = p;
         let layers = self.slots(*pixel);
         let light_layer = |len: u32| pass.layers.connection(1, len + 1);
+        // In media the first segment's emission comes from its transmittance
+        // (medium_walk::seen_emission), not from the flight.
+        let seen = (M::ON && walk.len == 1).then_some((*ray, walk.medium));
         let (event, tr) = if M::ON {
             if !pass.query_beams() {
                 next_event::<M>(scene, ray, walk, rng, stats, None)
@@ -180,6 +184,13 @@ impl<M: Media> CameraPass<'_, M> {
             *pending = None;
             (event, 1.0)
         };
+        if let Some((first, medium)) = &seen {
+            if sees_emission(scene, &event) {
+                let v = seen_emission(scene, first, *medium, rng, stats);
+                record(layers, pass.layers.connection(0, 2), v);
+                *l += v;
+            }
+        }
         let v = match event {
             Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
             Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
@@ -189,9 +200,11 @@ impl<M: Media> CameraPass<'_, M> {
                     // infinity; there is no distance and no cosine (mis.rs).
                     walk.q = pass.mis.on_hit(walk.q, 1.0 / tr, 1.0);
                 }
-                let v = walk.throughput * escaped(pass, walk, ray.d);
-                record(layers, pass.layers.connection(0, walk.len + 1), v);
-                *l += v;
+                if seen.is_none() {
+                    let v = walk.throughput * escaped(pass, walk, ray.d);
+                    record(layers, pass.layers.connection(0, walk.len + 1), v);
+                    *l += v;
+                }
                 return false;
             }
             Event::End => return false,
@@ -203,7 +216,7 @@ impl<M: Media> CameraPass<'_, M> {
         };
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
-        if let Vertex::Surface { it, .. } = v {
+        if let (Vertex::Surface { it, .. }, None) = (v, &seen) {
             let e = walk.throughput * emitter_hit(pass, walk, it, ray.d, dist2);
             record(layers, pass.layers.connection(0, walk.len + 1), e);
             *l += e;
@@ -246,6 +259,16 @@ impl<M: Media> CameraPass<'_, M> {
         *ray = next;
         stats.rays += 1;
         true
+    }
+}
+
+/// Whether the first walk's outcome needs the seen emission (medium_walk::sees_emission).
+#[inline(always)]
+fn sees_emission(scene: &crate::scene::Scene, event: &Event) -> bool {
+    match event {
+        Event::Surface(it, _) => scene.area_light(it).is_some(),
+        Event::Escaped => !scene.env_lights.is_empty(),
+        Event::Medium(..) | Event::End => true,
     }
 }
 

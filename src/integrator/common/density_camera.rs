@@ -9,7 +9,9 @@
 //! bias is the volume kernel's.
 
 use super::camera::{roulette, sample_bsdf};
-use super::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use super::medium_walk::{
+    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
+};
 use super::nee::{direct_unweighted, Origin};
 use crate::geometry::{spawn_ray, Ray};
 use crate::integrator::RenderStats;
@@ -99,8 +101,16 @@ pub fn li<G: MediumGather>(
             counts,
             l: Rgb::ZERO,
         };
+        let first = ray;
         let step = walk.next(scene, &mut ray, &mut visit, rng, stats);
         l += visit.l;
+        // Estimates at flights leave the first segment's emission to the flight:
+        // from its transmittance instead (medium_walk::seen_emission). Otherwise the
+        // walk passes every segment with its transmittance already.
+        let seen = depth == 0 && scene.has_media && g.at_flights();
+        if seen && sees_emission(scene, &step) {
+            l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
+        }
         let (it, m) = match step {
             Step::Surface(it, m) => (it, m),
             // Only estimates made at flights sample them: the query ends the path.
@@ -111,14 +121,14 @@ pub fn li<G: MediumGather>(
                 break;
             }
             Step::Escaped => {
-                if specular && !scene.env_lights.is_empty() {
+                if specular && !seen && !scene.env_lights.is_empty() {
                     l += walk.beta * scene.env_radiance(ray.d);
                 }
                 break;
             }
             Step::End => break,
         };
-        if specular {
+        if specular && !seen {
             if let Some((_, area)) = scene.area_light(&it) {
                 l += walk.beta * area.le(it.ng, -ray.d);
             }

@@ -140,3 +140,64 @@ impl MediumWalk {
         Step::End
     }
 }
+
+/// The emission a camera ray sees straight ahead: the radiance of the first surface
+/// that scatters along `ray` (null boundaries crossed), or of the environment when it
+/// leaves the scene, times the transmittance of the media on the way (closed form, or
+/// ratio tracking in heterogeneous media).
+///
+/// Emission found by the camera's first segment has MIS weight 1 in every integrator,
+/// so this expected value can stand in for the free flight's all-or-nothing estimate
+/// of it (Le when the flight passes, 0 when it scatters first). Directly visible
+/// lights in fog are otherwise the noisiest pixels of an image and converge only with
+/// the iteration count, whatever the algorithm. Callers add it once per camera path,
+/// whenever the first flight did not already reach a surface that does not emit
+/// (there it is zero), and skip the first segment's own emission.
+pub fn seen_emission(
+    scene: &Scene,
+    ray: &Ray,
+    mut medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let mut ray = *ray;
+    let mut tr = Rgb::ONE;
+    stats.rays += 1;
+    for _ in 0..=MAX_NULL_CROSSINGS {
+        let hit = scene.hit(&ray);
+        if let Some(m) = medium {
+            // f32::MAX, not infinity: 0 x infinity would be NaN where sigma_t is 0.
+            let tmax = hit.as_ref().map_or(f32::MAX, |h| h.t);
+            tr *= scene.media[m as usize].transmittance(ray.o, ray.d, tmax, rng);
+            if tr == Rgb::ZERO {
+                return Rgb::ZERO;
+            }
+        }
+        let Some(hit) = hit else {
+            return tr * scene.env_radiance(ray.d);
+        };
+        let it = scene.interaction(&ray, &hit);
+        if !matches!(scene.material(&it), Material::Null) {
+            return match scene.area_light(&it) {
+                Some((_, area)) => tr * area.le(it.ng, -ray.d),
+                None => Rgb::ZERO,
+            };
+        }
+        medium = scene.medium_after(&it, ray.d, medium);
+        ray = spawn_ray(it.p, it.p_err, it.ng, ray.d);
+        stats.rays += 1;
+    }
+    Rgb::ZERO
+}
+
+/// Whether a camera path whose first walk ended in `step` must add
+/// [`seen_emission`]: when the flight stopped short of the first surface, or reached
+/// one that emits, or left the scene (see there).
+#[inline]
+pub fn sees_emission(scene: &Scene, step: &Step) -> bool {
+    match step {
+        Step::Surface(it, _) => scene.area_light(it).is_some(),
+        Step::Escaped => !scene.env_lights.is_empty(),
+        Step::Scatter { .. } | Step::End => true,
+    }
+}

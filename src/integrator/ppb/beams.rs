@@ -44,6 +44,9 @@ pub(crate) enum Weight {
     Long { cut: f32 },
     /// T(u) / sum_c p_c T_c(u) in a homogeneous medium.
     Short { p: Rgb },
+    /// The same in a grey medium, where it is exactly 1 (no transmittance to
+    /// evaluate per merge).
+    One,
 }
 
 /// One photon beam, or a piece of one: long beams are stored as pieces of bounded
@@ -89,14 +92,16 @@ impl Beam {
     ) -> Option<Self> {
         let m = &scene.media[s.medium as usize];
         let (len, weight) = match (form, m.as_homogeneous()) {
-            (BeamForm::Short, Some(_)) => {
+            (BeamForm::Short, Some(h)) => {
                 let len = s.t.min(s.tmax);
-                (
-                    len,
+                let weight = if h.is_grey() {
+                    Weight::One
+                } else {
                     Weight::Short {
                         p: channel_probabilities(s.beta),
-                    },
-                )
+                    }
+                };
+                (len, weight)
             }
             _ => {
                 let (len, cut) = extent(m, s.o, s.d, s.tmax, xi)?;
@@ -121,6 +126,7 @@ impl Beam {
     pub fn weight_at(&self, m: &Medium, u: f32, rng: &mut Rng) -> Rgb {
         let (origin, u) = (self.o - self.d * self.start, self.start + u);
         match self.weight {
+            Weight::One => Rgb::ONE,
             Weight::Short { p } => {
                 let tr = m.transmittance(origin, self.d, u, rng);
                 let pass = (p * tr).element_sum();
