@@ -9,7 +9,8 @@
 #
 #   deploy/scripts/bench-upbp.sh [OUT] [SECONDS] [REFERENCE] [SCENE...]
 #
-# UPBP is appended to every upbp entry (e.g. UPBP=:light_paths=0.25).
+# UPBP is appended to every upbp entry (e.g. UPBP=:light_paths=0.25); ALGS replaces
+# the list of algorithms; REFS=DIR reuses DIR/<scene>/reference.exr where it exists.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-bench-upbp}
@@ -25,10 +26,15 @@ algs="volpath,bpt,vpm,ppb,vcm,upbp$u"
 for t in surf+pp3d surf+pb2d surf+bb1d bpt; do
     algs="$algs,upbp:techniques=$t$u"
 done
+algs=${ALGS:-$algs}
 cargo build --release --quiet
 mkdir -p "$out"
 for scene in "${scenes[@]}"; do
+    reference=(--reference-from "volpath:$ref")
+    if [ -n "${REFS:-}" ] && [ -f "$REFS/$scene/reference.exr" ]; then
+        reference=(--reference "$REFS/$scene/reference.exr")
+    fi
     ./target/release/caustic bench "scenes/media/$scene.json" --algorithms "$algs" \
-        --time "$secs" --reference-from "volpath:$ref" -o "$out/$scene" \
+        --time "$secs" "${reference[@]}" -o "$out/$scene" \
         | tee "$out/$scene.txt"
 done

@@ -9,17 +9,17 @@
 //! Photon beams are short ([UPBP]'s choice and SmallUPBP's default for them): a beam
 //! ends where the light's free flight did, each point weighted by T / P(the flight
 //! passes it) (1 in grey media), so the density of reaching a point is T, as the MIS
-//! assumes. Query beams are long by default (SmallUPBP's default too): a camera
-//! segment gathers along its whole length to the next surface or null boundary,
-//! weighted by T, whether or not the camera's flight scattered on the way. Each
-//! segment the flight entered is covered once, so this is the expected value of the
-//! short query over the flight's distance (Rao-Blackwellised: same mean, never more
-//! variance), which is why the MIS weights stay the short beams' ones: MIS weights only
-//! have to sum to one over the techniques for each path, and the short-beam densities
-//! are one such partition. (SmallUPBP instead divides the query's density by the
-//! camera transmittance; left for later.) Heterogeneous media have no closed-form P:
-//! there both kinds are long (to the surface, weight T by ratio tracking), still an
-//! unbiased estimate of the same MIS-weighted integral.
+//! assumes. Query beams are short by default too, or long (`query_beams`, SmallUPBP's
+//! default): a camera segment then gathers along its whole length to the next surface
+//! or null boundary, weighted by T, whether or not the camera's flight scattered on
+//! the way. Each segment the flight entered is covered once, so this is the expected
+//! value of the short query over the flight's distance (Rao-Blackwellised: same mean,
+//! never more variance per iteration), which is why the MIS weights stay the short
+//! beams' ones: MIS weights only have to sum to one over the techniques for each path,
+//! and the short-beam densities are one such partition. (SmallUPBP instead divides the
+//! query's density by the camera transmittance; left for later.) Heterogeneous media
+//! have no closed-form P: there both kinds are long (to the surface, weight T by ratio
+//! tracking), still an unbiased estimate of the same MIS-weighted integral.
 
 use super::light_path::{path_segments, Chunk, LightVertex, MEDIUM_VERTEX};
 use super::mis::{self, Merge, Partial, Site, MIN_BEAM_SIN};

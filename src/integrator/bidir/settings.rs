@@ -134,7 +134,7 @@ impl Estimators {
 /// | `medium_alpha` | 4/7 | its reduction, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1) (Knaus and Zwicker; 4/7 balances variance and squared bias in 3D) |
 /// | `pb2d_radius`, `pb2d_radius_factor`, `pb2d_alpha` | none, 0.01, 2/3 | `upbp`'s point x beam 2D radius, as the above, r^2 schedule |
 /// | `bb1d_radius`, `bb1d_radius_factor`, `bb1d_alpha` | none, 0.005, 4/5 | `upbp`'s beam x beam 1D radius, as the above, r schedule |
-/// | `query_beams` | `long` | `upbp`: camera segments gather along their whole length to the next surface, weighted by transmittance (`long`, SmallUPBP's default: the expected value of `short` over the camera's free flight, so never noisier), or only up to where the camera's flight scattered (`short`); the MIS weights are the short beams' either way (beams.rs) |
+/// | `query_beams` | `short` | `upbp`: camera segments gather only up to where the camera's free flight scattered (`short`), or along their whole length to the next surface, weighted by transmittance (`long`, SmallUPBP's default: the expected value of `short` over the flight, so less variance per iteration, at a cost that grows with the optical depth of the segments); the MIS weights are the short beams' either way (beams.rs) |
 /// | `beam_paths` | 0.1 | `upbp`: the fraction of light subpaths whose segments through media become photon beams (SmallUPBP's `-pbc`) |
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
@@ -189,7 +189,7 @@ impl Default for BidirSettings {
             bb1d_radius: None,
             bb1d_radius_factor: 0.005,
             bb1d_alpha: 0.8,
-            query_beams: BeamForm::Long,
+            query_beams: BeamForm::Short,
             beam_paths: 0.1,
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
