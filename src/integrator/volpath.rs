@@ -235,7 +235,7 @@ impl VolPath {
             // The first segment's emission, in media from its transmittance instead
             // (medium_walk::seen_emission).
             let seen = depth == 0 && scene.has_media;
-            if seen && sees_emission(scene, &step) {
+            if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
                 l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
             }
             let (it, m) = match step {

@@ -10,7 +10,7 @@ use super::vertex::{Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
-use crate::integrator::common::medium_walk::seen_emission;
+use crate::integrator::common::medium_walk::{seen_emission, sees_emission};
 use crate::integrator::common::nee::pick_light;
 use crate::integrator::pixels::PathKernel;
 use crate::integrator::RenderStats;
@@ -185,7 +185,11 @@ impl<M: Media> CameraPass<'_, M> {
             (event, 1.0)
         };
         if let Some((first, medium)) = &seen {
-            if sees_emission(scene, &event) {
+            let surface = match &event {
+                Event::Surface(it, _) => Some(it),
+                _ => None,
+            };
+            if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
                 let v = seen_emission(scene, first, *medium, rng, stats);
                 record(layers, pass.layers.connection(0, 2), v);
                 *l += v;
@@ -259,16 +263,6 @@ impl<M: Media> CameraPass<'_, M> {
         *ray = next;
         stats.rays += 1;
         true
-    }
-}
-
-/// Whether the first walk's outcome needs the seen emission (medium_walk::sees_emission).
-#[inline(always)]
-fn sees_emission(scene: &crate::scene::Scene, event: &Event) -> bool {
-    match event {
-        Event::Surface(it, _) => scene.area_light(it).is_some(),
-        Event::Escaped => !scene.env_lights.is_empty(),
-        Event::Medium(..) | Event::End => true,
     }
 }
 

@@ -108,7 +108,7 @@ pub fn li<G: MediumGather>(
         // from its transmittance instead (medium_walk::seen_emission). Otherwise the
         // walk passes every segment with its transmittance already.
         let seen = depth == 0 && scene.has_media && g.at_flights();
-        if seen && sees_emission(scene, &step) {
+        if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
             l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
         }
         let (it, m) = match step {

@@ -190,14 +190,26 @@ pub fn seen_emission(
     Rgb::ZERO
 }
 
-/// Whether a camera path whose first walk ended in `step` must add
+/// Whether a camera path whose first walk ended at `surface` (None: it scattered in a
+/// medium, was absorbed or got lost), or left the scene (`escaped`), must add
 /// [`seen_emission`]: when the flight stopped short of the first surface, or reached
 /// one that emits, or left the scene (see there).
 #[inline]
-pub fn sees_emission(scene: &Scene, step: &Step) -> bool {
-    match step {
-        Step::Surface(it, _) => scene.area_light(it).is_some(),
-        Step::Escaped => !scene.env_lights.is_empty(),
-        Step::Scatter { .. } | Step::End => true,
+pub fn sees_emission(scene: &Scene, surface: Option<&Interaction>, escaped: bool) -> bool {
+    match surface {
+        Some(it) => scene.area_light(it).is_some(),
+        None if escaped => !scene.env_lights.is_empty(),
+        None => true,
+    }
+}
+
+impl Step<'_> {
+    /// The surface the walk reached, if it did.
+    #[inline]
+    pub fn surface(&self) -> Option<&Interaction> {
+        match self {
+            Step::Surface(it, _) => Some(it),
+            _ => None,
+        }
     }
 }
