@@ -520,21 +520,32 @@ fn lights_know_the_medium_they_emit_into() {
 
 /// An area light of radiance Le seen through purely absorbing media (sigma_t 0.5, no
 /// scattering): `infinite` fills the whole scene (the camera's medium), otherwise a
-/// null-bounded cube between z = 1 and 3. Returns the scene and the optical depth
-/// along the axis.
-fn light_through_ink(infinite: bool) -> (caustic::scene::Scene, f64) {
+/// null-bounded cube between z = 1 and 3. With `mirror`, the light sits behind the
+/// camera and a mirror at z = 2.5 turns the view back to it. Returns the scene and
+/// the optical depths along the axis before the mirror (0 without one) and on the
+/// segment that ends at the light.
+fn light_through_ink(infinite: bool, mirror: bool) -> (caustic::scene::Scene, f64, f64) {
     let ink = json!({"type": "homogeneous", "sigma_a": [0.5, 0.5, 0.5], "sigma_s": [0, 0, 0]});
     let mut v = json!({
         "format": 1,
         "camera": {"look_at": {"origin": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0]}, "fov": 10},
         "film": {"width": 8, "height": 8},
         "materials": {"black": {"type": "diffuse", "reflectance": [0, 0, 0]},
-                      "boundary": {"type": "null"}},
+                      "boundary": {"type": "null"}, "mirror": {"type": "mirror"}},
         "media": {"ink": ink},
         "shapes": [{"type": "rectangle", "material": "black", "emission": {"radiance": [4, 4, 4]},
                     "transform": {"rotate": [{"axis": [0, 1, 0], "angle": 180}], "scale": 3,
                                   "translate": [0, 0, 5]}}]
     });
+    if mirror {
+        v["shapes"][0]["transform"] = json!({"scale": 3, "translate": [0, 0, -2.5]});
+        v["shapes"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"type": "rectangle", "material": "mirror",
+            "transform": {"rotate": [{"axis": [0, 1, 0], "angle": 180}], "scale": 3,
+                          "translate": [0, 0, 2.5]}}));
+    }
     if infinite {
         v["camera"]["medium"] = json!("ink");
     } else {
@@ -544,26 +555,37 @@ fn light_through_ink(infinite: bool) -> (caustic::scene::Scene, f64) {
             .push(json!({"type": "cube", "material": "boundary",
             "interior": "ink", "transform": {"translate": [0, 0, 2]}}));
     }
-    (compile(v), if infinite { 2.5 } else { 1.0 })
+    let (first, last) = match (infinite, mirror) {
+        (true, false) => (0.0, 2.5),
+        (false, false) => (0.0, 1.0),
+        (true, true) => (1.25, 2.5),
+        (false, true) => (0.75, 0.75),
+    };
+    (compile(v), first, last)
+}
+
+/// The algorithms that estimate radiance seen by the camera: `lt` never sees an
+/// emitter directly (its paths start on the lights); `normals` and `albedo` are no
+/// estimates of radiance.
+fn seeing_algorithms() -> impl Iterator<Item = &'static str> {
+    caustic::integrator::ALGORITHMS
+        .iter()
+        .copied()
+        .filter(|a| !["lt", "normals", "albedo"].contains(a))
 }
 
 /// Emission seen straight through a medium is the same in one sample for every
 /// algorithm: Le T, with T from the closed form rather than a free flight that either
 /// reaches the light (Le) or stops short (0); the only spread left is the pixel
-/// footprint's range of path lengths (rays up to 7.1 degrees off axis). (`lt` never
-/// sees an emitter directly: its paths start on the lights; `normals` and `albedo`
-/// are no estimates of radiance.)
+/// footprint's range of path lengths (rays up to 7.1 degrees off axis).
 #[test]
 fn lights_seen_through_media_take_their_transmittance_in_one_sample() {
     let le = 4.0f64;
     for infinite in [false, true] {
-        let (scene, depth) = light_through_ink(infinite);
+        let (scene, _, depth) = light_through_ink(infinite, false);
         let cos_max = (7.1f64.to_radians()).cos();
         let (hi, lo) = (le * (-depth).exp(), le * (-depth / cos_max).exp());
-        for &alg in caustic::integrator::ALGORITHMS
-            .iter()
-            .filter(|&&a| !["lt", "normals", "albedo"].contains(&a))
-        {
+        for alg in seeing_algorithms() {
             let (film, n) = render(&scene, &settings(alg, json!({})), 3, 1);
             for (i, v) in channel(&film, n, 0).into_iter().enumerate() {
                 assert!(
@@ -571,6 +593,38 @@ fn lights_seen_through_media_take_their_transmittance_in_one_sample() {
                     "{alg}, infinite medium {infinite}: pixel {i} reads {v}, expected Le T in [{lo}, {hi}]"
                 );
             }
+        }
+    }
+}
+
+/// After delta bounces alone the camera path is the only technique that finds an
+/// emitter, so the segment that reaches it takes its transmittance too: a light seen
+/// in a mirror through ink reads, in one sample, either 0 (the free flight to the
+/// mirror stopped: methods that sample it) or Le T_light times at most T_mirror, never
+/// Le itself; and the mean over the pixels is Le T within four standard errors.
+#[test]
+fn lights_seen_in_a_mirror_through_media_take_their_transmittance() {
+    let le = 4.0f64;
+    let cos_max = (7.1f64.to_radians()).cos();
+    for infinite in [false, true] {
+        let (scene, first, last) = light_through_ink(infinite, true);
+        let hi = le * (-last).exp();
+        let lo = le * (-(first + last) / cos_max).exp();
+        let (mean_hi, mean_lo) = (le * (-(first + last)).exp(), lo);
+        for alg in seeing_algorithms() {
+            let (film, n) = render(&scene, &settings(alg, json!({})), 3, 1);
+            let v = channel(&film, n, 0);
+            for (i, &x) in v.iter().enumerate() {
+                assert!(
+                    x == 0.0 || (x >= lo * (1.0 - 1e-4) && x <= hi * (1.0 + 1e-4)),
+                    "{alg}, infinite medium {infinite}: pixel {i} reads {x}, expected 0 or within [{lo}, {hi}]"
+                );
+            }
+            let (mean, se) = mean_se(&v);
+            assert!(
+                mean >= mean_lo - 4.0 * se && mean <= mean_hi + 4.0 * se,
+                "{alg}, infinite medium {infinite}: mean {mean} +- {se}, expected Le T in [{mean_lo}, {mean_hi}]"
+            );
         }
     }
 }

@@ -229,14 +229,15 @@ impl VolPath {
                 on: equi && depth + 1 < self.s.max_depth,
                 l: Rgb::ZERO,
             };
-            let first = ray;
+            let (first, beta, medium) = (ray, walk.beta, walk.medium);
             let step = walk.next(scene, &mut ray, &mut gather, rng, stats);
             l += gather.l;
-            // The first segment's emission, in media from its transmittance instead
+            // Emission with MIS weight 1 (seen directly or after a delta bounce), in
+            // media from the segment's transmittance instead of the flight
             // (medium_walk::seen_emission).
-            let seen = depth == 0 && scene.has_media;
+            let seen = specular && scene.has_media;
             if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
-                l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
+                l += beta * seen_emission(scene, &first, medium, rng, stats);
             }
             let (it, m) = match step {
                 Step::Surface(it, m) => (it, m),

@@ -145,9 +145,10 @@ impl<M: Media> CameraPass<'_, M> {
         } = p;
         let layers = self.slots(*pixel);
         let light_layer = |len: u32| pass.layers.connection(1, len + 1);
-        // In media the first segment's emission comes from its transmittance
-        // (medium_walk::seen_emission), not from the flight.
-        let seen = (M::ON && walk.len == 1).then_some((*ray, walk.medium));
+        // In media, emission that only the camera subpath can find (seen directly or
+        // after delta bounces alone: MIS weight 1) comes from the segment's
+        // transmittance (medium_walk::seen_emission), not from the flight.
+        let seen = (M::ON && walk.specular).then_some((*ray, walk.medium, walk.throughput));
         let (event, tr) = if M::ON {
             if !pass.query_beams() {
                 next_event::<M>(scene, ray, walk, rng, stats, None)
@@ -184,14 +185,14 @@ impl<M: Media> CameraPass<'_, M> {
             *pending = None;
             (event, 1.0)
         };
-        if let Some((first, medium)) = &seen {
+        if let Some((first, medium, throughput)) = &seen {
             let surface = match &event {
                 Event::Surface(it, _) => Some(it),
                 _ => None,
             };
             if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
-                let v = seen_emission(scene, first, *medium, rng, stats);
-                record(layers, pass.layers.connection(0, 2), v);
+                let v = *throughput * seen_emission(scene, first, *medium, rng, stats);
+                record(layers, pass.layers.connection(0, walk.len + 1), v);
                 *l += v;
             }
         }

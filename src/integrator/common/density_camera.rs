@@ -101,15 +101,16 @@ pub fn li<G: MediumGather>(
             counts,
             l: Rgb::ZERO,
         };
-        let first = ray;
+        let (first, beta, medium) = (ray, walk.beta, walk.medium);
         let step = walk.next(scene, &mut ray, &mut visit, rng, stats);
         l += visit.l;
-        // Estimates at flights leave the first segment's emission to the flight:
-        // from its transmittance instead (medium_walk::seen_emission). Otherwise the
-        // walk passes every segment with its transmittance already.
-        let seen = depth == 0 && scene.has_media && g.at_flights();
+        // Estimates at flights leave the emission seen directly or after a delta
+        // bounce to the flight: from its transmittance instead
+        // (medium_walk::seen_emission). Otherwise the walk passes every segment with
+        // its transmittance already.
+        let seen = specular && scene.has_media && g.at_flights();
         if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
-            l += seen_emission(scene, &first, scene.camera_medium, rng, stats);
+            l += beta * seen_emission(scene, &first, medium, rng, stats);
         }
         let (it, m) = match step {
             Step::Surface(it, m) => (it, m),
