@@ -146,6 +146,24 @@ impl Film {
         }
     }
 
+    /// Each layer's name, iteration count and sums.
+    pub fn layer_sums(&self) -> impl Iterator<Item = (&str, u64, &[[f64; 3]])> {
+        self.layers
+            .iter()
+            .map(|l| (l.name.as_str(), l.iterations, l.sums.as_slice()))
+    }
+
+    /// Adds a whole layer (e.g. from saved sums). Panics if `sums` does not hold one
+    /// value per pixel.
+    pub fn push_layer(&mut self, name: &str, iterations: u64, sums: Vec<[f64; 3]>) {
+        assert_eq!(sums.len(), self.sums.len(), "Film::push_layer: wrong size");
+        self.layers.push(Layer {
+            name: name.to_string(),
+            iterations,
+            sums,
+        });
+    }
+
     /// Each layer's mean image.
     pub fn layer_images(&self) -> Vec<(String, Image)> {
         self.layers

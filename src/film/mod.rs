@@ -7,6 +7,7 @@
 mod accum;
 mod atomic;
 mod error;
+mod exact;
 mod exr_io;
 mod hdr_io;
 mod image;
@@ -16,6 +17,7 @@ mod png_io;
 pub use accum::{is_valid_sample, tiles, Film, Tile, TileBuffer};
 pub use atomic::write_bytes_atomic;
 pub use error::{FilmError, MAX_PIXELS};
+pub use exact::{ExactError, ExactSums};
 pub use exr_io::{
     decode_exr, decode_exr_layer, encode_exr, encode_exr_layers, read_exr, read_exr_layer,
     read_exr_named, write_exr, write_exr_layers,

@@ -1,0 +1,393 @@
+//! Exact, order-free sums of iteration films, so that a job's image does not depend on
+//! how its iterations were grouped or in which order the groups were added: the same
+//! bits whether one process ran them in sequence or a pool of workers ran ranges of
+//! them (issue 22, DESIGN.md "Scale-out").
+//!
+//! f64 addition is not associative, so (a + b) + c and a + (b + c) may differ in the
+//! last bit. Each iteration's film (its own sums from zero, deterministic by the random
+//! number rule) is therefore rounded once to fixed point, 2^-[`FRAC_BITS`] units in an
+//! i128, and from then on only integers are added: exact, associative and commutative.
+//! The rounding is the same wherever the iteration ran, so every grouping agrees.
+//!
+//! Range: magnitudes below 2^-65 (2.7e-20) round to zero, and an iteration's pixel sum
+//! must stay below [`LIMIT`] (2^62, 4.6e18); a value beyond it is dropped and counted
+//! like a non-finite sample. Totals have 2^127 of room: 2^65 such iterations.
+
+use super::accum::Film;
+use super::image::pixel_count;
+use thiserror::Error;
+
+/// Fraction bits of the fixed-point sums.
+pub const FRAC_BITS: i32 = 64;
+/// Largest magnitude one iteration may add to one pixel channel.
+pub const LIMIT: f64 = 4.611_686_018_427_388e18; // 2^62
+
+/// Exact per-pixel sums of whole iterations, with the layers they carry.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExactSums {
+    width: u32,
+    height: u32,
+    sums: Vec<[i128; 3]>,
+    dropped: u64,
+    layers: Vec<ExactLayer>,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct ExactLayer {
+    name: String,
+    iterations: u64,
+    sums: Vec<[i128; 3]>,
+}
+
+/// Why bytes are not an [`ExactSums`].
+#[derive(Debug, Error, PartialEq, Eq)]
+pub enum ExactError {
+    #[error("exact sums: {0}")]
+    Malformed(&'static str),
+    #[error("exact sums of a {0}x{1} film cannot take a {2}x{3} one")]
+    Size(u32, u32, u32, u32),
+}
+
+const MAGIC: &[u8; 8] = b"CAUSTEX1";
+
+impl ExactSums {
+    pub fn new(width: u32, height: u32) -> Self {
+        ExactSums {
+            width,
+            height,
+            sums: vec![[0; 3]; pixel_count(width, height)],
+            dropped: 0,
+            layers: Vec::new(),
+        }
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Samples dropped by the films added so far, and values beyond [`LIMIT`].
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Adds a film holding whole iterations: its sums are rounded to fixed point and
+    /// its layers added by name with their iteration counts.
+    pub fn add_film(&mut self, film: &Film) -> Result<(), ExactError> {
+        self.check_size(film.width(), film.height())?;
+        self.dropped += film.dropped();
+        self.dropped += add_rounded(&mut self.sums, film.sums());
+        for (name, iterations, sums) in film.layer_sums() {
+            let k = self.layer(name);
+            self.layers[k].iterations += iterations;
+            self.dropped += add_rounded(&mut self.layers[k].sums, sums);
+        }
+        Ok(())
+    }
+
+    /// Adds another set of exact sums (e.g. a worker's range): exact, so the order of
+    /// merges never shows in the result.
+    pub fn merge(&mut self, other: &ExactSums) -> Result<(), ExactError> {
+        self.check_size(other.width, other.height)?;
+        self.dropped += other.dropped;
+        add_exact(&mut self.sums, &other.sums);
+        for l in &other.layers {
+            let k = self.layer(&l.name);
+            self.layers[k].iterations += l.iterations;
+            add_exact(&mut self.layers[k].sums, &l.sums);
+        }
+        Ok(())
+    }
+
+    /// The sums as a film (rounded to f64 once, here), layers included.
+    pub fn to_film(&self) -> Film {
+        let mut film = Film::from_parts(self.width, self.height, to_f64(&self.sums), self.dropped);
+        for l in &self.layers {
+            film.push_layer(&l.name, l.iterations, to_f64(&l.sums));
+        }
+        film
+    }
+
+    /// Little-endian bytes: magic, size, dropped, sums, then each layer's name,
+    /// iteration count and sums.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(32 + 48 * self.sums.len() * (1 + self.layers.len()));
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&self.width.to_le_bytes());
+        out.extend_from_slice(&self.height.to_le_bytes());
+        out.extend_from_slice(&self.dropped.to_le_bytes());
+        out.extend_from_slice(&(self.layers.len() as u32).to_le_bytes());
+        put_sums(&mut out, &self.sums);
+        for l in &self.layers {
+            out.extend_from_slice(&(l.name.len() as u32).to_le_bytes());
+            out.extend_from_slice(l.name.as_bytes());
+            out.extend_from_slice(&l.iterations.to_le_bytes());
+            put_sums(&mut out, &l.sums);
+        }
+        out
+    }
+
+    /// Reads what [`ExactSums::encode`] wrote; any truncation or excess is an error.
+    pub fn decode(bytes: &[u8]) -> Result<ExactSums, ExactError> {
+        let mut r = Reader(bytes);
+        if r.take(8)? != MAGIC {
+            return Err(ExactError::Malformed("not exact sums (magic)"));
+        }
+        let (width, height) = (r.u32()?, r.u32()?);
+        let n = (width as usize)
+            .checked_mul(height as usize)
+            .filter(|&n| n as u64 <= super::MAX_PIXELS)
+            .ok_or(ExactError::Malformed("film size out of range"))?;
+        let dropped = r.u64()?;
+        let count = r.u32()?;
+        let sums = r.sums(n)?;
+        let mut layers = Vec::new();
+        for _ in 0..count {
+            let len = r.u32()? as usize;
+            let name = std::str::from_utf8(r.take(len)?)
+                .map_err(|_| ExactError::Malformed("layer name is not UTF-8"))?
+                .to_string();
+            let iterations = r.u64()?;
+            let sums = r.sums(n)?;
+            layers.push(ExactLayer {
+                name,
+                iterations,
+                sums,
+            });
+        }
+        if !r.0.is_empty() {
+            return Err(ExactError::Malformed("bytes after the last layer"));
+        }
+        Ok(ExactSums {
+            width,
+            height,
+            sums,
+            dropped,
+            layers,
+        })
+    }
+
+    fn check_size(&self, w: u32, h: u32) -> Result<(), ExactError> {
+        if (w, h) != (self.width, self.height) {
+            return Err(ExactError::Size(self.width, self.height, w, h));
+        }
+        Ok(())
+    }
+
+    /// Index of layer `name`, created empty on first use.
+    fn layer(&mut self, name: &str) -> usize {
+        if let Some(k) = self.layers.iter().position(|l| l.name == name) {
+            return k;
+        }
+        self.layers.push(ExactLayer {
+            name: name.to_string(),
+            iterations: 0,
+            sums: vec![[0; 3]; self.sums.len()],
+        });
+        self.layers.len() - 1
+    }
+}
+
+/// One value in fixed point, or None beyond [`LIMIT`] (or not finite).
+#[inline]
+fn to_fixed(x: f64) -> Option<i128> {
+    // Scaling by a power of two is exact; rounding happens once, in the cast.
+    (x.abs() < LIMIT).then(|| (x * 2f64.powi(FRAC_BITS)).round() as i128)
+}
+
+/// Adds rounded values, returning how many were out of range (those pixels' channels
+/// are left as they were).
+fn add_rounded(sums: &mut [[i128; 3]], values: &[[f64; 3]]) -> u64 {
+    let mut out = 0;
+    for (s, v) in sums.iter_mut().zip(values) {
+        for c in 0..3 {
+            match to_fixed(v[c]) {
+                Some(q) => s[c] += q,
+                None => out += 1,
+            }
+        }
+    }
+    out
+}
+
+fn add_exact(sums: &mut [[i128; 3]], other: &[[i128; 3]]) {
+    for (s, o) in sums.iter_mut().zip(other) {
+        for c in 0..3 {
+            s[c] += o[c];
+        }
+    }
+}
+
+fn to_f64(sums: &[[i128; 3]]) -> Vec<[f64; 3]> {
+    let unit = 2f64.powi(-FRAC_BITS);
+    sums.iter()
+        .map(|s| [s[0] as f64 * unit, s[1] as f64 * unit, s[2] as f64 * unit])
+        .collect()
+}
+
+fn put_sums(out: &mut Vec<u8>, sums: &[[i128; 3]]) {
+    for s in sums {
+        for c in s {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+}
+
+struct Reader<'a>(&'a [u8]);
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], ExactError> {
+        if self.0.len() < n {
+            return Err(ExactError::Malformed("truncated"));
+        }
+        let (head, rest) = self.0.split_at(n);
+        self.0 = rest;
+        Ok(head)
+    }
+
+    fn u32(&mut self) -> Result<u32, ExactError> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap()))
+    }
+
+    fn u64(&mut self) -> Result<u64, ExactError> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
+    }
+
+    fn sums(&mut self, n: usize) -> Result<Vec<[i128; 3]>, ExactError> {
+        let bytes = self.take(
+            n.checked_mul(48)
+                .ok_or(ExactError::Malformed("too large"))?,
+        )?;
+        Ok(bytes
+            .chunks_exact(48)
+            .map(|c| {
+                let v = |k: usize| i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap());
+                [v(0), v(1), v(2)]
+            })
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3 as Rgb;
+
+    /// A film of one "iteration": values spread over many binades, as radiance is.
+    fn iteration(seed: u64, layer: bool) -> Film {
+        let mut film = Film::new(5, 4);
+        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for i in 0..20 {
+            let e = (next() * 40.0 - 20.0) as i32;
+            let v = next() as f32 * 2f32.powi(e);
+            film.add_index(i, Rgb::new(v, v * 0.3, next() as f32));
+            if layer {
+                let k = film.begin_layer("bpt");
+                film.add_layer_index(k, i, Rgb::splat(v));
+            }
+        }
+        film
+    }
+
+    #[test]
+    fn any_grouping_and_order_gives_the_same_bits() {
+        let films: Vec<Film> = (0..12).map(|i| iteration(i, i % 3 != 0)).collect();
+        let mut sequential = ExactSums::new(5, 4);
+        for f in &films {
+            sequential.add_film(f).unwrap();
+        }
+        // Ranges [0, 5), [5, 7), [7, 12), merged last to first.
+        let mut merged = ExactSums::new(5, 4);
+        for range in [7..12, 5..7, 0..5] {
+            let mut part = ExactSums::new(5, 4);
+            for f in &films[range] {
+                part.add_film(f).unwrap();
+            }
+            merged.merge(&part).unwrap();
+        }
+        assert_eq!(merged, sequential);
+        // The plain f64 way does depend on the grouping here (why this module exists).
+        let mut a = films[0].clone();
+        for f in &films[1..] {
+            a.merge(f);
+        }
+        let mut b = films[11].clone();
+        for f in films[..11].iter().rev() {
+            b.merge(f);
+        }
+        assert_ne!(a.sums(), b.sums());
+    }
+
+    #[test]
+    fn the_film_it_gives_matches_the_f64_sums_to_rounding() {
+        let films: Vec<Film> = (0..6).map(|i| iteration(i, true)).collect();
+        let mut exact = ExactSums::new(5, 4);
+        let mut plain = films[0].clone();
+        exact.add_film(&films[0]).unwrap();
+        for f in &films[1..] {
+            exact.add_film(f).unwrap();
+            plain.merge(f);
+        }
+        let film = exact.to_film();
+        for (x, y) in film.sums().iter().zip(plain.sums()) {
+            for c in 0..3 {
+                let tol = 1e-15 * y[c].abs() + 6.0 * 2f64.powi(-65);
+                assert!((x[c] - y[c]).abs() <= tol, "{} vs {}", x[c], y[c]);
+            }
+        }
+        let (layers, plain_layers) = (film.layer_images(), plain.layer_images());
+        assert_eq!(layers.len(), 1);
+        assert_eq!(layers[0].0, plain_layers[0].0);
+        let (m, p) = (layers[0].1.mean(), plain_layers[0].1.mean());
+        assert!((m - p).abs().max_element() <= 1e-6 * p.abs().max_element());
+        assert_eq!(film.dropped(), plain.dropped());
+    }
+
+    #[test]
+    fn values_beyond_the_limit_are_dropped_and_counted() {
+        let mut film = Film::new(2, 1);
+        film.add_index(0, Rgb::new(1e19, 1.0, 0.0));
+        film.add_index(1, Rgb::new(3.0e-20, 2.0e-20, 0.0));
+        let mut exact = ExactSums::new(2, 1);
+        exact.add_film(&film).unwrap();
+        assert_eq!(exact.dropped(), 1);
+        let back = exact.to_film();
+        assert_eq!(back.sums()[0], [0.0, 1.0, 0.0]);
+        // 3e-20 is just over one unit of 2^-64 (5.4e-20) / 2: rounds to one unit;
+        // 2e-20 to zero.
+        assert_eq!(back.sums()[1], [2f64.powi(-64), 0.0, 0.0]);
+    }
+
+    #[test]
+    fn bytes_round_trip_and_reject_damage() {
+        let mut exact = ExactSums::new(5, 4);
+        exact.add_film(&iteration(3, true)).unwrap();
+        exact.add_film(&iteration(4, false)).unwrap();
+        let bytes = exact.encode();
+        assert_eq!(ExactSums::decode(&bytes).unwrap(), exact);
+        for cut in [0, 7, 30, bytes.len() - 1] {
+            assert!(ExactSums::decode(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+        let mut long = bytes.clone();
+        long.push(0);
+        assert!(ExactSums::decode(&long).is_err());
+        let mut huge = bytes.clone();
+        huge[8..16].copy_from_slice(&[0xff; 8]);
+        assert!(ExactSums::decode(&huge).is_err());
+    }
+
+    #[test]
+    fn films_of_another_size_are_refused() {
+        let mut exact = ExactSums::new(5, 4);
+        assert_eq!(
+            exact.add_film(&Film::new(4, 5)),
+            Err(ExactError::Size(5, 4, 4, 5))
+        );
+        assert!(exact.merge(&ExactSums::new(1, 1)).is_err());
+    }
+}
