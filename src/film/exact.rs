@@ -187,26 +187,58 @@ impl ExactSums {
     }
 }
 
-/// One value in fixed point, or None beyond [`LIMIT`] (or not finite).
+/// One value in fixed point, round(x 2^64) with halves away from zero, or None beyond
+/// [`LIMIT`] (or not finite). From the bits: x = m 2^(e - 1075) with a 53-bit integer
+/// m, so x 2^64 is m shifted, with no float-to-i128 cast (a slow library call, which
+/// cost 11% of a 1-spp path-traced iteration).
 #[inline]
 fn to_fixed(x: f64) -> Option<i128> {
-    // Scaling by a power of two is exact; rounding happens once, in the cast.
-    (x.abs() < LIMIT).then(|| (x * 2f64.powi(FRAC_BITS)).round() as i128)
+    // NaN fails this too.
+    if x.is_nan() || x.abs() >= LIMIT {
+        return None;
+    }
+    let bits = x.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    if exp == 0 {
+        // Zero or subnormal: far below one unit.
+        return Some(0);
+    }
+    let m = ((bits & ((1 << 52) - 1)) | (1 << 52)) as i128;
+    let shift = exp - 1075 + FRAC_BITS;
+    let magnitude = match shift {
+        s if s >= 0 => m << s,
+        s if s > -64 => (m + (1 << (-s - 1))) >> -s,
+        _ => 0,
+    };
+    Some(if bits >> 63 == 1 {
+        -magnitude
+    } else {
+        magnitude
+    })
 }
+
+/// Pixels per parallel task when rounding a film in.
+const CHUNK: usize = 1 << 14;
 
 /// Adds rounded values, returning how many were out of range (those pixels' channels
 /// are left as they were).
 fn add_rounded(sums: &mut [[i128; 3]], values: &[[f64; 3]]) -> u64 {
-    let mut out = 0;
-    for (s, v) in sums.iter_mut().zip(values) {
-        for c in 0..3 {
-            match to_fixed(v[c]) {
-                Some(q) => s[c] += q,
-                None => out += 1,
+    use rayon::prelude::*;
+    sums.par_chunks_mut(CHUNK)
+        .zip(values.par_chunks(CHUNK))
+        .map(|(sums, values)| {
+            let mut out = 0;
+            for (s, v) in sums.iter_mut().zip(values) {
+                for c in 0..3 {
+                    match to_fixed(v[c]) {
+                        Some(q) => s[c] += q,
+                        None => out += 1,
+                    }
+                }
             }
-        }
-    }
-    out
+            out
+        })
+        .sum()
 }
 
 fn add_exact(sums: &mut [[i128; 3]], other: &[[i128; 3]]) {
@@ -346,6 +378,31 @@ mod tests {
         let (m, p) = (layers[0].1.mean(), plain_layers[0].1.mean());
         assert!((m - p).abs().max_element() <= 1e-6 * p.abs().max_element());
         assert_eq!(film.dropped(), plain.dropped());
+    }
+
+    #[test]
+    fn fixed_point_from_the_bits_is_the_rounded_product() {
+        let reference = |x: f64| (x * 2f64.powi(FRAC_BITS)).round() as i128;
+        let mut values = vec![0.0, -0.0, 1.0, -1.5, 2f64.powi(-65), 2f64.powi(-66), 3e-20];
+        values.extend([LIMIT * 0.999_999, -LIMIT * 0.5, 1e-300, f64::MIN_POSITIVE]);
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..100_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            // Random bits over every binade from 2^-80 to 2^61, either sign.
+            let e = (s % 142) as i32 - 80;
+            let m = 1.0 + (s >> 12) as f64 / (1u64 << 52) as f64;
+            values.push(if s & 1 == 1 { -m } else { m } * 2f64.powi(e));
+        }
+        // Exact halves of one unit round away from zero.
+        values.extend([2.5 * 2f64.powi(-64), -2.5 * 2f64.powi(-64)]);
+        for x in values {
+            assert_eq!(to_fixed(x), Some(reference(x)), "{x:e}");
+        }
+        for x in [LIMIT, -LIMIT, f64::INFINITY, f64::NAN] {
+            assert_eq!(to_fixed(x), None);
+        }
     }
 
     #[test]

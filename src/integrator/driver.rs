@@ -2,7 +2,7 @@
 //! benchmarks and the tests (the server schedules iterations itself).
 
 use super::{Integrator, RenderStats};
-use crate::film::Film;
+use crate::film::{ExactSums, Film};
 use crate::scene::Scene;
 use std::time::{Duration, Instant};
 
@@ -58,4 +58,31 @@ impl RenderOutcome {
     pub fn image(&self) -> crate::film::Image {
         self.film.to_image(1.0 / self.iterations.max(1) as f64)
     }
+}
+
+/// Adds iteration `iteration` to a job's exact sums (`film::exact`), which is what
+/// makes its image independent of how iterations are grouped into batches, ranges and
+/// workers. An independent iteration renders into the cleared `scratch` film, which
+/// is then rounded into `sums`; a chained integrator keeps its running totals in
+/// `scratch`, which `sums` then holds instead. `scratch` and `sums` have the scene's
+/// film size.
+pub fn iterate_exact(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    seed: u64,
+    iteration: u64,
+    scratch: &mut Film,
+    sums: &mut ExactSums,
+) -> RenderStats {
+    let chained = integrator.chained();
+    if !chained {
+        scratch.clear();
+    }
+    let stats = integrator.iterate(scene, seed, iteration, scratch);
+    if chained {
+        *sums = ExactSums::new(scratch.width(), scratch.height());
+    }
+    sums.add_film(scratch)
+        .expect("iterate_exact: scratch film and sums of different sizes");
+    stats
 }

@@ -108,6 +108,13 @@ pub trait Integrator: Send + Sync {
     fn load_state(&self, _bytes: &[u8]) -> Result<(), String> {
         Ok(())
     }
+
+    /// Whether `iterate` rewrites the film with the job's running totals (SPPM)
+    /// instead of adding one iteration's samples to it; such iterations run in order,
+    /// on one film (`driver::iterate_exact`).
+    fn chained(&self) -> bool {
+        false
+    }
 }
 
 /// Every algorithm's settings, tagged by `algorithm`. Unknown fields are errors.

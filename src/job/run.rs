@@ -14,7 +14,8 @@ use super::failpoint;
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::JobError;
-use crate::film::{self, Film, Image};
+use crate::film::{self, ExactSums, Film, Image};
+use crate::integrator::driver::iterate_exact;
 use crate::integrator::{Integrator, RenderStats};
 use crate::scene::Scene;
 use std::path::PathBuf;
@@ -29,7 +30,10 @@ const BATCH: Duration = Duration::from_millis(250);
 pub struct Runtime {
     scene: Arc<Scene>,
     integrator: Box<dyn Integrator>,
-    film: Film,
+    /// The job's exact sums (`film::exact`): what its images and checkpoints hold.
+    sums: ExactSums,
+    /// The film iterations render into (`driver::iterate_exact`).
+    scratch: Film,
     samples: u64,
     reference: Option<Image>,
     /// Seconds per iteration, smoothed.
@@ -40,12 +44,19 @@ pub struct Runtime {
 impl Runtime {
     /// The exact state to resume from after `status.iteration` iterations.
     pub fn checkpoint(&self, status: &JobStatus) -> Checkpoint {
+        // A chained integrator's own film is what it resumes on.
+        let film = if self.integrator.chained() {
+            self.scratch.clone()
+        } else {
+            self.sums.to_film()
+        };
         Checkpoint {
             iteration: status.iteration,
             elapsed_s: status.elapsed_s,
             samples: self.samples,
-            film: self.film.clone(),
+            film,
             state: self.integrator.save_state(),
+            exact: Some(self.sums.clone()),
         }
     }
 }
@@ -150,7 +161,8 @@ fn start(
     // Rows and snapshots past the checkpoint came from iterations that run again.
     truncate_log(&dir, at)?;
     disk::drop_snapshots_after(&dir, at);
-    let (film, samples, elapsed) = match checkpoint {
+    let (w, h) = (scene.width(), scene.height());
+    let (sums, scratch, samples, elapsed) = match checkpoint {
         Some(c) => {
             if let Some(state) = &c.state {
                 // An unusable state is not fatal: the integrator then starts its
@@ -159,13 +171,23 @@ fn start(
                     tracing::warn!(job = %status.id, "checkpoint state not restored: {e}");
                 }
             }
-            (c.film, c.samples, c.elapsed_s)
+            let sums = match c.exact.filter(|e| e.size() == (w, h)) {
+                Some(e) => e,
+                // Written before exact sums: resumes from the f64 sums, rounded once.
+                None => {
+                    let mut e = ExactSums::new(w, h);
+                    e.add_film(&c.film)
+                        .map_err(|e| JobError::Internal(e.to_string()))?;
+                    e
+                }
+            };
+            (sums, c.film, c.samples, c.elapsed_s)
         }
-        None => (Film::new(scene.width(), scene.height()), 0, 0.0),
+        None => (ExactSums::new(w, h), Film::new(w, h), 0, 0.0),
     };
     status.iteration = at;
     status.elapsed_s = elapsed;
-    status.dropped = film.dropped();
+    status.dropped = sums.dropped();
     status.last_rmse = read_log(&dir)
         .last()
         .filter(|r| r.iteration == at)
@@ -173,7 +195,8 @@ fn start(
     Ok(Box::new(Runtime {
         integrator,
         scene,
-        film,
+        sums,
+        scratch,
         samples,
         reference,
         per_iter: 0.0,
@@ -249,9 +272,14 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<
     let start = Instant::now();
     let mut stats = RenderStats::default();
     for _ in 0..n {
-        stats += rt
-            .integrator
-            .iterate(&rt.scene, spec.seed, status.iteration, &mut rt.film);
+        stats += iterate_exact(
+            &rt.scene,
+            rt.integrator.as_ref(),
+            spec.seed,
+            status.iteration,
+            &mut rt.scratch,
+            &mut rt.sums,
+        );
         status.iteration += 1;
     }
     let secs = start.elapsed().as_secs_f64();
@@ -263,11 +291,11 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<
     rt.samples += stats.samples;
     status.elapsed_s += secs;
     status.samples_per_s = stats.samples as f64 / secs.max(1e-9);
-    let new_drops = rt.film.dropped() - status.dropped;
-    status.dropped = rt.film.dropped();
+    let new_drops = rt.sums.dropped() - status.dropped;
+    status.dropped = rt.sums.dropped();
     count(ctx, &stats, n, secs, new_drops);
     status.eta_s = eta(status, rt.per_iter);
-    let figures = batch_figures(&stats, n, secs, rt.film.sums().len());
+    let figures = batch_figures(&stats, n, secs, rt.scratch.sums().len());
     ctx.emit(super::events::Event::Progress {
         job: status.id.clone(),
         iteration: status.iteration,
@@ -309,8 +337,9 @@ fn count(ctx: &Context, stats: &RenderStats, n: u64, secs: f64, new_drops: u64) 
 /// no longer needs (the checkpoint unless kept, `latest.*`, which `final.*` replaces).
 fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), JobError> {
     let dir = ctx.job_dir(&status.id);
-    let img = rt.film.to_image(1.0 / status.iteration.max(1) as f64);
-    let layers = rt.film.layer_images();
+    let film = rt.sums.to_film();
+    let img = film.to_image(1.0 / status.iteration.max(1) as f64);
+    let layers = film.layer_images();
     let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
     failpoint::hit("final-exr", status.iteration);
     film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
@@ -366,7 +395,7 @@ fn snapshot(
 ) -> Result<(), JobError> {
     let dir = ctx.job_dir(&status.id);
     let it = status.iteration;
-    let img = rt.film.to_image(1.0 / it.max(1) as f64);
+    let img = rt.sums.to_film().to_image(1.0 / it.max(1) as f64);
     failpoint::hit("snapshot-exr", it);
     film::write_exr(dir.snapshot(it, "exr"), &img)?;
     failpoint::hit("snapshot-png", it);

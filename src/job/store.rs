@@ -4,7 +4,7 @@
 
 use super::spec::JobStatus;
 use super::JobError;
-use crate::film::{write_bytes_atomic, Film};
+use crate::film::{write_bytes_atomic, ExactSums, Film};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -75,10 +75,12 @@ impl JobDir {
     }
 }
 
-/// The state a job resumes from: the film's exact f64 sums after `iteration`
-/// iterations, so a resumed job finishes bit-identical to an uninterrupted one, and
-/// the integrator's own state for algorithms whose iterations are not independent
-/// (SPPM's per-pixel statistics; see `Integrator::save_state`).
+/// The state a job resumes from after `iteration` iterations: the job's exact sums
+/// (`film::ExactSums`, layers included), so a resumed job finishes bit-identical to an
+/// uninterrupted one; the same sums as an f64 film (what checkpoints held before exact
+/// sums existed, and what such old checkpoints resume from, to rounding); and the
+/// integrator's own state for algorithms whose iterations are not independent (SPPM's
+/// per-pixel statistics; see `Integrator::save_state`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Checkpoint {
     pub iteration: u64,
@@ -86,6 +88,7 @@ pub struct Checkpoint {
     pub samples: u64,
     pub film: Film,
     pub state: Option<Vec<u8>>,
+    pub exact: Option<ExactSums>,
 }
 
 const MAGIC: &[u8; 8] = b"CAUSTCK1";
@@ -100,9 +103,11 @@ pub struct CheckpointHeader {
     pub elapsed_s: f64,
     pub samples: u64,
 }
-/// Tags the optional integrator-state section after the film (absent in checkpoints
-/// written before it existed, which still load, with no state).
+/// Tags the optional sections after the film, each tag followed by its length in
+/// bytes: the integrator's state and the exact sums (both absent in checkpoints written
+/// before they existed, which still load without them).
 const STATE_TAG: &[u8; 8] = b"INTSTATE";
+const EXACT_TAG: &[u8; 8] = b"EXACTSUM";
 
 impl Checkpoint {
     pub fn encode(&self) -> Vec<u8> {
@@ -121,9 +126,10 @@ impl Checkpoint {
             }
         }
         if let Some(state) = &self.state {
-            out.extend_from_slice(STATE_TAG);
-            out.extend_from_slice(&(state.len() as u64).to_le_bytes());
-            out.extend_from_slice(state);
+            put_section(&mut out, STATE_TAG, state);
+        }
+        if let Some(exact) = &self.exact {
+            put_section(&mut out, EXACT_TAG, &exact.encode());
         }
         out
     }
@@ -138,20 +144,23 @@ impl Checkpoint {
         let (w, h) = (u32_at(8), u32_at(12));
         let n = w as usize * h as usize;
         let film_end = head.checked_add(n.checked_mul(24)?)?;
-        let state = match bytes.len().checked_sub(film_end)? {
-            0 => None,
-            rest => {
-                let t = &bytes[film_end..];
-                if rest < 16 || &t[..8] != STATE_TAG {
-                    return None;
+        let (mut state, mut exact) = (None, None);
+        let mut rest = bytes.get(film_end..)?;
+        while !rest.is_empty() {
+            let (tag, body, after) = take_section(rest)?;
+            match tag {
+                t if t == STATE_TAG && state.is_none() => state = Some(body.to_vec()),
+                t if t == EXACT_TAG && exact.is_none() => {
+                    let e = ExactSums::decode(body).ok()?;
+                    if e.size() != (w, h) {
+                        return None;
+                    }
+                    exact = Some(e);
                 }
-                let len = u64::from_le_bytes(t[8..16].try_into().unwrap());
-                if len != (rest - 16) as u64 {
-                    return None;
-                }
-                Some(t[16..].to_vec())
+                _ => return None,
             }
-        };
+            rest = after;
+        }
         let sums = bytes[head..film_end]
             .chunks_exact(24)
             .map(|c| {
@@ -165,6 +174,7 @@ impl Checkpoint {
             samples: u64_at(32),
             film: Film::from_parts(w, h, sums, u64_at(40)),
             state,
+            exact,
         })
     }
 
@@ -355,6 +365,21 @@ fn has_current_header(path: &Path) -> bool {
     first.trim_end() == LOG_HEADER
 }
 
+/// Appends a tagged section: tag, length, bytes.
+fn put_section(out: &mut Vec<u8>, tag: &[u8; 8], body: &[u8]) {
+    out.extend_from_slice(tag);
+    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    out.extend_from_slice(body);
+}
+
+/// Splits off one tagged section: (tag, body, what follows); None if truncated.
+fn take_section(bytes: &[u8]) -> Option<(&[u8], &[u8], &[u8])> {
+    let tag = bytes.get(..8)?;
+    let len = u64::from_le_bytes(bytes.get(8..16)?.try_into().unwrap());
+    let end = 16usize.checked_add(usize::try_from(len).ok()?)?;
+    Some((tag, bytes.get(16..end)?, &bytes[end..]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -370,6 +395,7 @@ mod tests {
             samples: 99,
             film,
             state: None,
+            exact: None,
         };
         let back = Checkpoint::decode(&c.encode()).unwrap();
         assert_eq!(c, back);
@@ -388,6 +414,21 @@ mod tests {
             ..c
         };
         assert_eq!(Checkpoint::decode(&empty.encode()).unwrap(), empty);
+        // With exact sums after the state; their size must be the film's.
+        let mut exact = ExactSums::new(3, 2);
+        exact.add_film(&with.film).unwrap();
+        let full = Checkpoint {
+            exact: Some(exact),
+            ..with.clone()
+        };
+        let bytes = full.encode();
+        assert_eq!(Checkpoint::decode(&bytes).unwrap(), full);
+        assert!(Checkpoint::decode(&bytes[..bytes.len() - 1]).is_none());
+        let wrong = Checkpoint {
+            exact: Some(ExactSums::new(2, 3)),
+            ..with
+        };
+        assert!(Checkpoint::decode(&wrong.encode()).is_none());
     }
 
     #[test]

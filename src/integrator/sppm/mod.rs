@@ -707,6 +707,10 @@ impl Integrator for PhotonMapper {
         stats
     }
 
+    fn chained(&self) -> bool {
+        true
+    }
+
     fn save_state(&self) -> Option<Vec<u8>> {
         let guard = self.inner.lock().unwrap_or_else(|e| e.into_inner());
         guard.state.as_ref().map(|s| s.encode(self.variant))

@@ -133,6 +133,7 @@ mod tests {
             samples: 120,
             film: Film::new(2, 2),
             state: None,
+            exact: None,
         }
         .write(&ahead)
         .unwrap();
