@@ -16,7 +16,7 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     let command = Cli::parse().command;
-    if !matches!(command, Command::Serve(_)) {
+    if !matches!(command, Command::Serve(_) | Command::Worker(_)) {
         quiet_broken_pipe();
     }
     match command {
@@ -28,6 +28,7 @@ fn main() -> Result<()> {
             None => bench::bench(&a),
         }),
         Command::Serve(a) => serve::serve(a),
+        Command::Worker(a) => serve::worker(a),
         Command::Submit(a) => client::submit(a),
         Command::Watch(a) => client::watch(a),
         Command::Jobs(a) => client::jobs(a),

@@ -37,6 +37,9 @@ pub enum Command {
     Bench(BenchArgs),
     /// Run the render server (REST and gRPC) on a local data directory.
     Serve(ServeArgs),
+    /// Render work units for a server started with --nats: pull iteration ranges from
+    /// the NATS JetStream work queue, render them, return their sums.
+    Worker(WorkerArgs),
     /// Submit a render job to a server (uploading a local scene file first).
     ///
     /// Prints the job id. Exit status with --watch: 0 completed, 1 failed or
@@ -231,6 +234,31 @@ pub struct ServeArgs {
     /// connections too) and a body may pause before the server gives up on it.
     #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
     pub request_timeout: f64,
+    /// Coordinate a pool of `caustic worker` processes through this NATS server (with
+    /// JetStream) instead of rendering here: nats://host:4222, credentials as
+    /// nats://TOKEN@host:4222 or nats://USER:PASSWORD@host:4222.
+    #[arg(long, env = "CAUSTIC_NATS", hide_env_values = true, value_name = "URL")]
+    pub nats: Option<String>,
+}
+
+#[derive(Args)]
+pub struct WorkerArgs {
+    /// The NATS server the coordinator (`caustic serve --nats`) uses, with the same
+    /// credentials form.
+    #[arg(long, env = "CAUSTIC_NATS", hide_env_values = true, value_name = "URL")]
+    pub nats: String,
+    /// Render threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Name shown for this worker (default: host name and process id).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Where fetched scenes are kept.
+    #[arg(long, default_value = "caustic-worker-cache")]
+    pub cache_dir: PathBuf,
+    /// Largest scene bundle accepted, in MiB.
+    #[arg(long, default_value_t = 256)]
+    pub max_scene_mib: u64,
 }
 
 #[derive(Args)]

@@ -1,6 +1,6 @@
 //! `caustic serve`: the REST and gRPC servers over one service until Ctrl-C.
 
-use super::args::ServeArgs;
+use super::args::{ServeArgs, WorkerArgs};
 use anyhow::{bail, Context, Result};
 use std::time::Duration;
 
@@ -19,6 +19,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
     }
     config.header_timeout = Duration::from_secs_f64(a.request_timeout);
     config.body_timeout = config.header_timeout;
+    config.nats = a.nats.clone();
     let svc = caustic::job::Service::start(config)?;
     let rt = tokio::runtime::Runtime::new()?;
     let result = rt.block_on(async {
@@ -103,4 +104,24 @@ async fn stop_signal() {
     }
     #[cfg(not(unix))]
     let _ = tokio::signal::ctrl_c().await;
+}
+
+/// `caustic worker`: renders work units until stopped.
+pub fn worker(a: WorkerArgs) -> Result<()> {
+    let name = a.name.unwrap_or_else(|| {
+        let host = std::fs::read_to_string("/etc/hostname").unwrap_or_default();
+        format!("{}-{}", host.trim(), std::process::id())
+    });
+    eprintln!(
+        "caustic worker {name} on {}",
+        caustic::job::remote::redact(&a.nats)
+    );
+    caustic::job::remote::worker::run(caustic::job::remote::worker::WorkerOptions {
+        url: a.nats,
+        name,
+        threads: a.threads.unwrap_or(0),
+        cache_dir: a.cache_dir,
+        max_scene: a.max_scene_mib << 20,
+    })?;
+    Ok(())
 }

@@ -29,12 +29,14 @@ pub fn render(
     halt: Halt,
     mut progress: impl FnMut(u64, Duration),
 ) -> RenderOutcome {
-    let mut film = Film::new(scene.width(), scene.height());
+    let (w, h) = (scene.width(), scene.height());
+    // Exact sums, as jobs keep them: the same image, bit for bit, as a server job.
+    let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
     let mut stats = RenderStats::default();
     let start = Instant::now();
     let mut i = 0u64;
     loop {
-        stats += integrator.iterate(scene, seed, i, &mut film);
+        stats += iterate_exact(scene, integrator, seed, i, &mut scratch, &mut sums);
         i += 1;
         let elapsed = start.elapsed();
         progress(i, elapsed);
@@ -46,7 +48,7 @@ pub fn render(
         }
     }
     RenderOutcome {
-        film,
+        film: sums.to_film(),
         iterations: i,
         elapsed: start.elapsed(),
         stats,

@@ -3,6 +3,7 @@
 //! the jobs' runtimes; keeping this apart lets `run` work without the table.
 
 use super::events::{Event, Sender};
+use super::remote::coordinator::NatsExecutor;
 use super::scenes::SceneStore;
 use super::store::JobDir;
 use crate::integrator::Settings;
@@ -32,6 +33,8 @@ pub struct Context {
     pub scenes: Arc<SceneStore>,
     pub data_dir: PathBuf,
     pub metrics: Metrics,
+    /// Where iterations run when not in this process: a pool of workers over NATS.
+    pub remote: Option<Arc<NatsExecutor>>,
 }
 
 impl Context {

@@ -11,12 +11,13 @@
 use super::context::{Context, JobSettings};
 use super::disk;
 use super::failpoint;
+use super::remote::ranges::{remote_batch, RemoteJob};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::JobError;
 use crate::film::{self, ExactSums, Film, Image};
 use crate::integrator::driver::iterate_exact;
-use crate::integrator::{Integrator, RenderStats};
+use crate::integrator::{Integrator, RenderStats, Settings};
 use crate::scene::Scene;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -29,11 +30,15 @@ const BATCH: Duration = Duration::from_millis(250);
 /// Live state of an active job: everything needed to run its next iterations.
 pub struct Runtime {
     scene: Arc<Scene>,
+    /// What `integrator` was built from, for work units sent to other processes.
+    pub(super) settings: Settings,
     integrator: Box<dyn Integrator>,
     /// The job's exact sums (`film::exact`): what its images and checkpoints hold.
-    sums: ExactSums,
+    pub(super) sums: ExactSums,
     /// The film iterations render into (`driver::iterate_exact`).
     scratch: Film,
+    /// Ranges out with a pool of workers, when the server has one.
+    pub(super) remote: Option<RemoteJob>,
     samples: u64,
     reference: Option<Image>,
     /// Seconds per iteration, smoothed.
@@ -133,7 +138,7 @@ pub fn write_status(ctx: &Context, status: &JobStatus) -> Result<(), JobError> {
 }
 
 /// Whether a job at its current iteration, time and error has met its halt rule.
-fn halt_reached(status: &JobStatus) -> bool {
+pub(super) fn halt_reached(status: &JobStatus) -> bool {
     let h = &status.spec.halt;
     let by_count = h.max_iterations().is_some_and(|m| status.iteration >= m);
     let by_time = h.time_s.is_some_and(|t| status.elapsed_s >= t);
@@ -194,9 +199,11 @@ fn start(
         .and_then(|r| r.rmse);
     Ok(Box::new(Runtime {
         integrator,
+        settings,
         scene,
         sums,
         scratch,
+        remote: None,
         samples,
         reference,
         per_iter: 0.0,
@@ -246,12 +253,13 @@ pub fn reference_path(data_dir: &std::path::Path, id: &str) -> Result<PathBuf, J
     Ok(data_dir.join("references").join(format!("{id}.exr")))
 }
 
-/// How many iterations the next batch runs: about [`BATCH`] of work, never past the
-/// iteration limit, and ending on the next snapshot iteration so snapshots land
+/// How many iterations the next batch (or work unit) from `iteration` runs: about
+/// `target` of work at `per_iter` seconds each (1 while that is unknown), never past
+/// the iteration limit, and ending on the next snapshot iteration so snapshots land
 /// exactly.
-fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64) -> u64 {
+pub(super) fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64, target: Duration) -> u64 {
     let mut n = if per_iter > 0.0 {
-        (BATCH.as_secs_f64() / per_iter).floor().max(1.0) as u64
+        (target.as_secs_f64() / per_iter).floor().max(1.0) as u64
     } else {
         1
     };
@@ -268,26 +276,20 @@ fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64) -> u64 {
 /// Runs one batch, writes snapshots that fall due, and reports whether the job is done.
 fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
     let spec = status.spec.clone();
-    let n = batch_len(&spec, status.iteration, rt.per_iter);
     let start = Instant::now();
-    let mut stats = RenderStats::default();
-    for _ in 0..n {
-        stats += iterate_exact(
-            &rt.scene,
-            rt.integrator.as_ref(),
-            spec.seed,
-            status.iteration,
-            &mut rt.scratch,
-            &mut rt.sums,
-        );
-        status.iteration += 1;
-    }
-    let secs = start.elapsed().as_secs_f64();
-    rt.per_iter = if rt.per_iter > 0.0 {
-        0.7 * rt.per_iter + 0.3 * secs / n as f64
-    } else {
-        secs / n as f64
+    let remote = ctx.remote.as_ref().filter(|_| !rt.integrator.chained());
+    let (n, stats) = match remote {
+        Some(ex) => remote_batch(ctx, ex, status, rt)?,
+        None => local_batch(status, rt),
     };
+    let secs = start.elapsed().as_secs_f64();
+    if n > 0 {
+        rt.per_iter = if rt.per_iter > 0.0 {
+            0.7 * rt.per_iter + 0.3 * secs / n as f64
+        } else {
+            secs / n as f64
+        };
+    }
     rt.samples += stats.samples;
     status.elapsed_s += secs;
     status.samples_per_s = stats.samples as f64 / secs.max(1e-9);
@@ -319,6 +321,24 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<
         write_status(ctx, status)?;
     }
     Ok(done)
+}
+
+/// About [`BATCH`] of iterations, rendered here.
+fn local_batch(status: &mut JobStatus, rt: &mut Runtime) -> (u64, RenderStats) {
+    let n = batch_len(&status.spec, status.iteration, rt.per_iter, BATCH);
+    let mut stats = RenderStats::default();
+    for _ in 0..n {
+        stats += iterate_exact(
+            &rt.scene,
+            rt.integrator.as_ref(),
+            status.spec.seed,
+            status.iteration,
+            &mut rt.scratch,
+            &mut rt.sums,
+        );
+        status.iteration += 1;
+    }
+    (n, stats)
 }
 
 /// Adds a batch to the server's counters.

@@ -192,6 +192,24 @@ impl SceneStore {
         Ok(())
     }
 
+    /// Scene `id` as a tar of its stored directory, for workers that fetch it by id
+    /// (`remote`); None for a built-in scene, which every binary has.
+    pub fn bundle(&self, id: &str) -> Result<Option<Vec<u8>>, JobError> {
+        Self::check_id(id)?;
+        if Self::builtin(id).is_some() {
+            return Ok(None);
+        }
+        let dir = self.scene_dir(id);
+        if !dir.join("scene.json").exists() {
+            return Err(JobError::NotFound(format!("scene {id}")));
+        }
+        let mut tar = tar::Builder::new(Vec::new());
+        tar.append_dir_all(".", &dir)
+            .and_then(|()| tar.into_inner())
+            .map(Some)
+            .map_err(|e| JobError::io(&dir, e))
+    }
+
     pub fn exists(&self, id: &str) -> bool {
         Self::check_id(id).is_ok()
             && (Self::builtin(id).is_some() || self.scene_dir(id).join("scene.json").exists())

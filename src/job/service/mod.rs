@@ -17,6 +17,7 @@ use super::store::{Checkpoint, JobDir};
 use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
+use crate::job::remote::coordinator::NatsExecutor;
 use recover::recover;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -41,6 +42,9 @@ pub struct ServiceConfig {
     /// headers on an open connection (idle ones included) before it is closed.
     pub body_timeout: std::time::Duration,
     pub header_timeout: std::time::Duration,
+    /// A NATS server whose pool of `caustic worker`s renders the iterations (None:
+    /// this process renders them).
+    pub nats: Option<String>,
 }
 
 impl ServiceConfig {
@@ -54,6 +58,7 @@ impl ServiceConfig {
             retention: Retention::default(),
             body_timeout: std::time::Duration::from_secs(30),
             header_timeout: std::time::Duration::from_secs(30),
+            nats: None,
         }
     }
 
@@ -99,6 +104,12 @@ impl Service {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
         }
         let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
+        let remote = match &config.nats {
+            Some(url) => Some(Arc::new(
+                NatsExecutor::connect(url).map_err(|e| JobError::Internal(e.to_string()))?,
+            )),
+            None => None,
+        };
         let leftovers = disk::clean_leftovers(dir);
         if leftovers > 0 {
             tracing::info!(
@@ -113,6 +124,7 @@ impl Service {
                 scenes,
                 data_dir: dir.clone(),
                 metrics: Metrics::default(),
+                remote,
             },
             table: Mutex::new(recover(dir)),
             wake: Condvar::new(),

@@ -1,0 +1,199 @@
+//! The coordinator's side: publishes scenes and work units, collects the workers'
+//! answers, and fetches ranges' exact sums. The scheduler thread calls it
+//! synchronously; it runs its own small tokio runtime, so the render core and the
+//! scheduler stay free of async (DESIGN.md "Rules of the house").
+
+use super::{connect, setup, Done, RemoteError, Unit, DONE_STREAM, RESULTS_BUCKET, SCENES_BUCKET};
+use crate::film::ExactSums;
+use async_nats::jetstream::consumer::{pull, AckPolicy};
+use async_nats::jetstream::stream::Stream;
+use async_nats::jetstream::Context as Js;
+use futures::StreamExt;
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::Duration;
+use tokio::io::AsyncReadExt;
+
+/// Durable consumer of the workers' answers.
+const COORDINATOR: &str = "caustic-coordinator";
+
+/// Answers received, by job, until the job's runner takes them.
+#[derive(Default)]
+struct Inbox {
+    by_job: Mutex<HashMap<String, Vec<Done>>>,
+    arrived: Condvar,
+}
+
+pub struct NatsExecutor {
+    rt: tokio::runtime::Runtime,
+    js: Js,
+    units: Stream,
+    inbox: Arc<Inbox>,
+    /// Scenes already in the object store.
+    published: Mutex<HashSet<String>>,
+}
+
+impl NatsExecutor {
+    /// Connects, creates the streams and buckets, and starts collecting answers.
+    pub fn connect(url: &str) -> Result<NatsExecutor, RemoteError> {
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("nats")
+            .enable_all()
+            .build()
+            .map_err(RemoteError::nats)?;
+        let inbox = Arc::new(Inbox::default());
+        let (js, units) = rt.block_on(async {
+            let (_client, js) = connect(url, "caustic-coordinator").await?;
+            let units = setup(&js).await?;
+            let done = js
+                .get_stream(DONE_STREAM)
+                .await
+                .map_err(RemoteError::nats)?;
+            let consumer = done
+                .get_or_create_consumer(
+                    COORDINATOR,
+                    pull::Config {
+                        durable_name: Some(COORDINATOR.into()),
+                        ack_policy: AckPolicy::Explicit,
+                        ..Default::default()
+                    },
+                )
+                .await
+                .map_err(RemoteError::nats)?;
+            let messages = consumer.messages().await.map_err(RemoteError::nats)?;
+            tokio::spawn(collect(messages, inbox.clone()));
+            Ok::<_, RemoteError>((js, units))
+        })?;
+        Ok(NatsExecutor {
+            rt,
+            js,
+            units,
+            inbox,
+            published: Mutex::new(HashSet::new()),
+        })
+    }
+
+    /// Makes scene `id` available to workers: `bundle` is its tar, None for a
+    /// built-in scene (every worker has those).
+    pub fn publish_scene(&self, id: &str, bundle: Option<Vec<u8>>) -> Result<(), RemoteError> {
+        let Some(bytes) = bundle else {
+            return Ok(());
+        };
+        if self.published.lock().expect("published").contains(id) {
+            return Ok(());
+        }
+        self.rt.block_on(async {
+            let bucket = self
+                .js
+                .get_object_store(SCENES_BUCKET)
+                .await
+                .map_err(RemoteError::nats)?;
+            if bucket.info(id).await.is_err() {
+                bucket
+                    .put(id, &mut bytes.as_slice())
+                    .await
+                    .map_err(RemoteError::nats)?;
+            }
+            Ok::<_, RemoteError>(())
+        })?;
+        self.published.lock().expect("published").insert(id.into());
+        Ok(())
+    }
+
+    /// Publishes one unit on the work queue.
+    pub fn publish(&self, unit: &Unit) -> Result<(), RemoteError> {
+        let body = serde_json::to_vec(unit).map_err(RemoteError::nats)?;
+        self.rt.block_on(async {
+            self.js
+                .publish(unit.subject(), body.into())
+                .await
+                .map_err(RemoteError::nats)?
+                .await
+                .map_err(RemoteError::nats)?;
+            Ok(())
+        })
+    }
+
+    /// Withdraws the job's units still waiting in the queue (a unit already with a
+    /// worker still finishes; its answer is then ignored or dropped).
+    pub fn withdraw(&self, job: &str) -> Result<(), RemoteError> {
+        let subject = format!("caustic.units.{job}");
+        self.rt.block_on(async {
+            self.units
+                .purge()
+                .filter(subject)
+                .await
+                .map_err(RemoteError::nats)?;
+            Ok(())
+        })
+    }
+
+    /// [`NatsExecutor::withdraw`] without waiting, from any thread (also from async
+    /// code, where blocking on this executor's runtime is not allowed).
+    pub fn withdraw_later(&self, job: &str) {
+        let (units, subject) = (self.units.clone(), format!("caustic.units.{job}"));
+        self.rt.spawn(async move {
+            if let Err(e) = units.purge().filter(subject).await {
+                tracing::warn!("withdrawing units: {e}");
+            }
+        });
+    }
+
+    /// The job's answers that arrived, waiting up to `timeout` for the first one.
+    pub fn take(&self, job: &str, timeout: Duration) -> Vec<Done> {
+        let mut map = self.inbox.by_job.lock().expect("inbox");
+        if map.get(job).is_none_or(Vec::is_empty) {
+            map = self
+                .inbox
+                .arrived
+                .wait_timeout(map, timeout)
+                .expect("inbox")
+                .0;
+        }
+        map.remove(job).unwrap_or_default()
+    }
+
+    /// A range's exact sums, removed from the object store once read.
+    pub fn fetch(&self, object: &str) -> Result<ExactSums, RemoteError> {
+        self.rt.block_on(async {
+            let bucket = self
+                .js
+                .get_object_store(RESULTS_BUCKET)
+                .await
+                .map_err(RemoteError::nats)?;
+            let mut o = bucket.get(object).await.map_err(RemoteError::nats)?;
+            let mut bytes = Vec::new();
+            o.read_to_end(&mut bytes).await.map_err(RemoteError::nats)?;
+            let _ = bucket.delete(object).await;
+            ExactSums::decode(&bytes).map_err(RemoteError::nats)
+        })
+    }
+
+    /// Deletes a result that will not be used (a stale or duplicate answer).
+    pub fn discard(&self, object: &str) {
+        self.rt.block_on(async {
+            if let Ok(bucket) = self.js.get_object_store(RESULTS_BUCKET).await {
+                let _ = bucket.delete(object).await;
+            }
+        });
+    }
+}
+
+/// Files each answer under its job, acknowledging it: from here on the coordinator
+/// owns it (an answer lost in a coordinator crash only means the range is rendered
+/// again after the job resumes from its checkpoint).
+async fn collect(mut messages: pull::Stream, inbox: Arc<Inbox>) {
+    while let Some(m) = messages.next().await {
+        let Ok(m) = m else { continue };
+        match serde_json::from_slice::<Done>(&m.payload) {
+            Ok(done) => {
+                let mut map = inbox.by_job.lock().expect("inbox");
+                map.entry(done.job.clone()).or_default().push(done);
+                inbox.arrived.notify_all();
+            }
+            Err(e) => tracing::warn!("ignoring a malformed answer: {e}"),
+        }
+        let _ = m.ack().await;
+    }
+}

@@ -1,0 +1,180 @@
+//! Iterations rendered by a pool of `caustic worker` processes over NATS JetStream
+//! (DESIGN.md "Scale-out"): what the coordinator and the workers say to each other.
+//!
+//! - Work units are contiguous iteration ranges of a job, JSON [`Unit`]s published on
+//!   the work-queue stream [`UNITS_STREAM`] (subject `caustic.units.<job>`), pulled one
+//!   at a time by the workers through the shared durable consumer [`WORKERS`]. A unit
+//!   that is not acknowledged within its ack wait (its worker died) is delivered again;
+//!   a worker keeps a long unit alive with in-progress acknowledgements.
+//! - Scenes travel by content id: the coordinator puts a stored scene's bundle (a tar
+//!   of its directory) into the object store [`SCENES_BUCKET`] under its id; a worker
+//!   fetches it once, validates it as an upload, compiles it and keeps it. Built-in
+//!   scenes are in every binary and never travel.
+//! - A worker renders a range with `driver::iterate_exact`, puts the range's exact
+//!   sums into [`RESULTS_BUCKET`], publishes a [`Done`] on the stream [`DONE_STREAM`]
+//!   (subject `caustic.done.<job>`) and only then acknowledges the unit. A worker that
+//!   dies in between leaves a range rendered twice, which the coordinator counts once.
+//! - The coordinator adds ranges in index order from the job's checkpoint on. Since
+//!   the sums are exact, the image is the in-process one bit for bit.
+
+pub mod coordinator;
+pub mod ranges;
+pub mod worker;
+
+use crate::integrator::{RenderStats, Settings};
+use serde::{Deserialize, Serialize};
+use std::time::Duration;
+
+pub const UNITS_STREAM: &str = "CAUSTIC_UNITS";
+pub const DONE_STREAM: &str = "CAUSTIC_DONE";
+pub const WORKERS: &str = "caustic-workers";
+pub const SCENES_BUCKET: &str = "caustic-scenes";
+pub const RESULTS_BUCKET: &str = "caustic-results";
+/// How long a delivered unit may go without an acknowledgement (of progress or of
+/// completion) before it is delivered to another worker.
+pub const ACK_WAIT: Duration = Duration::from_secs(10);
+/// Deliveries of one unit before its job fails: a range that kills every worker that
+/// tries it must not go round for ever.
+pub const MAX_DELIVERIES: i64 = 5;
+
+/// One range of iterations to render.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Unit {
+    pub job: String,
+    /// Changes whenever the coordinator restarts the job's stream of units (start,
+    /// resume after pause or restart), so results of older units are told apart.
+    pub generation: u64,
+    pub scene: String,
+    pub settings: Settings,
+    pub seed: u64,
+    pub first: u64,
+    pub end: u64,
+}
+
+/// A worker's answer for a unit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Done {
+    pub job: String,
+    pub generation: u64,
+    pub first: u64,
+    pub end: u64,
+    pub worker: String,
+    /// Name of the range's exact sums in [`RESULTS_BUCKET`]; None with `error`.
+    pub object: Option<String>,
+    /// Why the range could not be rendered (the job fails with it).
+    pub error: Option<String>,
+    pub stats: RenderStats,
+    pub seconds: f64,
+}
+
+impl Unit {
+    pub fn subject(&self) -> String {
+        format!("caustic.units.{}", self.job)
+    }
+
+    /// The name of this range's result object.
+    pub fn object_name(&self) -> String {
+        format!(
+            "{}.{}.{}-{}",
+            self.job, self.generation, self.first, self.end
+        )
+    }
+}
+
+/// Errors of the NATS executor and worker, in words for the operator.
+#[derive(Debug, thiserror::Error)]
+pub enum RemoteError {
+    #[error("NATS at {url}: {msg}")]
+    Connect { url: String, msg: String },
+    #[error("NATS: {0}")]
+    Nats(String),
+}
+
+impl RemoteError {
+    pub fn nats(e: impl std::fmt::Display) -> RemoteError {
+        RemoteError::Nats(e.to_string())
+    }
+}
+
+/// Connects to `url` (credentials as `nats://user:password@host` or
+/// `nats://token@host`) and returns the JetStream context.
+pub async fn connect(
+    url: &str,
+    name: &str,
+) -> Result<(async_nats::Client, async_nats::jetstream::Context), RemoteError> {
+    // No retries on the first connection: a wrong address or credential is an error
+    // now, not a silent wait (a supervisor restarts the process); later drops of the
+    // connection are retried for ever.
+    let client = async_nats::ConnectOptions::new()
+        .name(name)
+        .max_reconnects(None)
+        .connection_timeout(Duration::from_secs(5))
+        .connect(url)
+        .await
+        .map_err(|e| RemoteError::Connect {
+            url: redact(url),
+            msg: e.to_string(),
+        })?;
+    let js = async_nats::jetstream::new(client.clone());
+    Ok((client, js))
+}
+
+/// `url` without its credentials, for messages.
+pub fn redact(url: &str) -> String {
+    match (url.find("://"), url.rfind('@')) {
+        (Some(s), Some(at)) if at > s => format!("{}***{}", &url[..s + 3], &url[at..]),
+        _ => url.to_string(),
+    }
+}
+
+/// The streams and buckets, created if missing (both sides call this; creation is
+/// idempotent). Returns the units stream.
+pub async fn setup(
+    js: &async_nats::jetstream::Context,
+) -> Result<async_nats::jetstream::stream::Stream, RemoteError> {
+    let units = work_queue(js, UNITS_STREAM, "caustic.units.>").await?;
+    work_queue(js, DONE_STREAM, "caustic.done.>").await?;
+    for bucket in [SCENES_BUCKET, RESULTS_BUCKET] {
+        if js.get_object_store(bucket).await.is_err() {
+            js.create_object_store(async_nats::jetstream::object_store::Config {
+                bucket: bucket.into(),
+                storage: async_nats::jetstream::stream::StorageType::File,
+                ..Default::default()
+            })
+            .await
+            .map_err(RemoteError::nats)?;
+        }
+    }
+    Ok(units)
+}
+
+/// A work-queue stream on file storage (a message goes once it is acknowledged, and
+/// survives a restart of the NATS server until then).
+async fn work_queue(
+    js: &async_nats::jetstream::Context,
+    name: &str,
+    subjects: &str,
+) -> Result<async_nats::jetstream::stream::Stream, RemoteError> {
+    use async_nats::jetstream::stream::{Config, RetentionPolicy, StorageType};
+    js.get_or_create_stream(Config {
+        name: name.into(),
+        subjects: vec![subjects.into()],
+        retention: RetentionPolicy::WorkQueue,
+        storage: StorageType::File,
+        ..Default::default()
+    })
+    .await
+    .map_err(RemoteError::nats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn credentials_never_reach_messages() {
+        assert_eq!(redact("nats://s3cret@host:4222"), "nats://***@host:4222");
+        assert_eq!(redact("nats://u:p@h"), "nats://***@h");
+        assert_eq!(redact("nats://host:4222"), "nats://host:4222");
+    }
+}

@@ -1,0 +1,260 @@
+//! `caustic worker`: pulls work units one at a time, renders them on its own thread
+//! pool, returns each range's exact sums, and only then acknowledges (module notes in
+//! `remote`).
+
+use super::{connect, setup, Done, RemoteError, Unit, ACK_WAIT, MAX_DELIVERIES, WORKERS};
+use crate::film::{ExactSums, Film};
+use crate::integrator::driver::iterate_exact;
+use crate::integrator::RenderStats;
+use crate::job::scenes::SceneStore;
+use crate::scene::Scene;
+use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
+use async_nats::jetstream::{AckKind, Context as Js, Message};
+use futures::StreamExt;
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// What a worker is started with.
+pub struct WorkerOptions {
+    pub url: String,
+    pub name: String,
+    /// Render threads (0: one per core).
+    pub threads: usize,
+    /// Where fetched scenes are unpacked.
+    pub cache_dir: PathBuf,
+    /// Largest scene bundle accepted, in bytes.
+    pub max_scene: u64,
+}
+
+/// Runs the worker until the process is stopped (or NATS refuses it).
+pub fn run(opts: WorkerOptions) -> Result<(), RemoteError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .thread_name(|i| format!("render-{i}"))
+        .build()
+        .map_err(RemoteError::nats)?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(RemoteError::nats)?;
+    rt.block_on(serve(opts, Arc::new(pool)))
+}
+
+struct Worker {
+    name: String,
+    js: Js,
+    pool: Arc<rayon::ThreadPool>,
+    store: SceneStore,
+    scenes: HashMap<String, Arc<Scene>>,
+}
+
+async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), RemoteError> {
+    let (_client, js) = connect(&opts.url, &opts.name).await?;
+    let units = setup(&js).await?;
+    let consumer: PullConsumer = units
+        .get_or_create_consumer(
+            WORKERS,
+            pull::Config {
+                durable_name: Some(WORKERS.into()),
+                ack_policy: AckPolicy::Explicit,
+                ack_wait: ACK_WAIT,
+                ..Default::default()
+            },
+        )
+        .await
+        .map_err(RemoteError::nats)?;
+    let store = SceneStore::new(&opts.cache_dir, opts.max_scene).map_err(RemoteError::nats)?;
+    tracing::info!(worker = %opts.name, threads = pool.current_num_threads(), "worker ready");
+    let mut w = Worker {
+        name: opts.name,
+        js,
+        pool,
+        store,
+        scenes: HashMap::new(),
+    };
+    loop {
+        let batch = consumer
+            .fetch()
+            .max_messages(1)
+            .expires(Duration::from_secs(5))
+            .messages()
+            .await;
+        let mut batch = match batch {
+            Ok(b) => b,
+            Err(e) => {
+                tracing::warn!("fetching a unit: {e}");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+                continue;
+            }
+        };
+        while let Some(msg) = batch.next().await {
+            match msg {
+                Ok(msg) => w.handle(msg).await,
+                Err(e) => tracing::warn!("receiving a unit: {e}"),
+            }
+        }
+    }
+}
+
+impl Worker {
+    async fn handle(&mut self, msg: Message) {
+        let unit: Unit = match serde_json::from_slice(&msg.payload) {
+            Ok(u) => u,
+            Err(e) => {
+                // Not ours to render, ever: terminate it rather than see it again.
+                tracing::warn!("dropping a malformed unit: {e}");
+                let _ = msg.ack_with(AckKind::Term).await;
+                return;
+            }
+        };
+        let delivered = msg.info().map(|i| i.delivered).unwrap_or(1);
+        let outcome = if delivered > MAX_DELIVERIES {
+            Err(format!(
+                "iterations {}..{} were handed out {} times without a result (workers died rendering them)",
+                unit.first,
+                unit.end,
+                delivered - 1
+            ))
+        } else {
+            self.render(&unit, Arc::new(msg.clone())).await
+        };
+        let done = match outcome {
+            Ok((object, stats, seconds)) => self.done(&unit, Some(object), None, stats, seconds),
+            Err(e) => self.done(&unit, None, Some(e), RenderStats::default(), 0.0),
+        };
+        match self.publish_done(&unit, &done).await {
+            Ok(()) => {
+                if let Err(e) = msg.double_ack().await {
+                    tracing::warn!("acknowledging {}: {e}", unit.object_name());
+                }
+            }
+            // Not acknowledged: the unit comes back after its ack wait.
+            Err(e) => tracing::warn!("returning {}: {e}", unit.object_name()),
+        }
+    }
+
+    fn done(
+        &self,
+        unit: &Unit,
+        object: Option<String>,
+        error: Option<String>,
+        stats: RenderStats,
+        seconds: f64,
+    ) -> Done {
+        Done {
+            job: unit.job.clone(),
+            generation: unit.generation,
+            first: unit.first,
+            end: unit.end,
+            worker: self.name.clone(),
+            object,
+            error,
+            stats,
+            seconds,
+        }
+    }
+
+    /// Renders the range, keeping the unit alive meanwhile, and stores its sums.
+    async fn render(
+        &mut self,
+        unit: &Unit,
+        msg: Arc<Message>,
+    ) -> Result<(String, RenderStats, f64), String> {
+        let scene = self.scene(&unit.scene).await?;
+        let alive = tokio::spawn(async move {
+            loop {
+                tokio::time::sleep(ACK_WAIT / 3).await;
+                let _ = msg.ack_with(AckKind::Progress).await;
+            }
+        });
+        let (pool, u) = (self.pool.clone(), unit.clone());
+        let rendered =
+            tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u))).await;
+        alive.abort();
+        let (sums, stats, seconds) = rendered.map_err(|e| format!("render task: {e}"))?;
+        let name = unit.object_name();
+        let bucket = self
+            .js
+            .get_object_store(super::RESULTS_BUCKET)
+            .await
+            .map_err(|e| e.to_string())?;
+        bucket
+            .put(name.as_str(), &mut sums.encode().as_slice())
+            .await
+            .map_err(|e| format!("storing the result: {e}"))?;
+        Ok((name, stats, seconds))
+    }
+
+    async fn publish_done(&self, unit: &Unit, done: &Done) -> Result<(), String> {
+        let body = serde_json::to_vec(done).map_err(|e| e.to_string())?;
+        self.js
+            .publish(format!("caustic.done.{}", unit.job), body.into())
+            .await
+            .map_err(|e| e.to_string())?
+            .await
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    /// The compiled scene of content id `id`: cached, built in, or fetched once.
+    async fn scene(&mut self, id: &str) -> Result<Arc<Scene>, String> {
+        if let Some(s) = self.scenes.get(id) {
+            return Ok(s.clone());
+        }
+        let local = if self.store.exists(id) {
+            id.to_string()
+        } else {
+            let bytes = self.fetch_scene(id).await?;
+            self.store.upload(&bytes).map_err(|e| e.client_message())?
+        };
+        let scene = self
+            .store
+            .compiled(&local)
+            .map_err(|e| e.client_message())?;
+        self.scenes.insert(id.to_string(), scene.clone());
+        Ok(scene)
+    }
+
+    async fn fetch_scene(&self, id: &str) -> Result<Vec<u8>, String> {
+        use tokio::io::AsyncReadExt;
+        let bucket = self
+            .js
+            .get_object_store(super::SCENES_BUCKET)
+            .await
+            .map_err(|e| e.to_string())?;
+        let mut object = bucket
+            .get(id)
+            .await
+            .map_err(|e| format!("scene {id} is not in the object store: {e}"))?;
+        let mut bytes = Vec::new();
+        object
+            .read_to_end(&mut bytes)
+            .await
+            .map_err(|e| format!("reading scene {id}: {e}"))?;
+        Ok(bytes)
+    }
+}
+
+/// Iterations `unit.first..unit.end`, in order, from fresh state: the range's exact
+/// sums, its work counters and its seconds.
+pub fn render_range(scene: &Scene, unit: &Unit) -> (ExactSums, RenderStats, f64) {
+    let integrator = unit.settings.build();
+    let (w, h) = (scene.width(), scene.height());
+    let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
+    let mut stats = RenderStats::default();
+    let start = Instant::now();
+    for i in unit.first..unit.end {
+        stats += iterate_exact(
+            scene,
+            integrator.as_ref(),
+            unit.seed,
+            i,
+            &mut scratch,
+            &mut sums,
+        );
+    }
+    (sums, stats, start.elapsed().as_secs_f64())
+}
