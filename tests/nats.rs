@@ -143,6 +143,96 @@ fn a_pool_of_workers_renders_the_in_process_image_bit_for_bit() {
     let job = completed(&coord, &id);
     assert_eq!(job["iteration"], 40);
     assert!(final_pixels(&coord, &id) == in_process(24, 40));
+    // Both listed, with their threads and the iterations they did (heartbeats come
+    // every 2 s).
+    std::thread::sleep(Duration::from_millis(2500));
+    let workers = listed(&coord);
+    let names: Vec<&str> = workers
+        .iter()
+        .map(|w| w["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["w1", "w2"]);
+    assert!(workers
+        .iter()
+        .all(|w| w["threads"] == 1 && w["current_job"].is_null()));
+    let done: u64 = workers
+        .iter()
+        .map(|w| w["iterations_done"].as_u64().unwrap())
+        .sum();
+    assert!(done >= 40, "{workers:?}");
+    let (code, metrics) = coord.get("/metrics");
+    assert_eq!(code, 200);
+    let metrics = String::from_utf8(metrics).unwrap();
+    assert!(
+        metrics.contains("caustic_worker_ranges_total{worker=\"w1\"}"),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("caustic_worker_threads{worker=\"w2\"} 1"),
+        "{metrics}"
+    );
+    // An in-process server has no pool.
+    assert!(listed(&TestServer::start(None)).is_empty());
+}
+
+/// Waits until the first ranges of job `id` are in: from then on per-iteration times
+/// are known and units last about 2 s.
+fn wait_for_ranges(s: &TestServer, id: &str) {
+    let start = Instant::now();
+    while s.get_json(&format!("/v1/jobs/{id}")).1["iteration"].as_u64() < Some(3) {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no ranges came back"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn listed(s: &TestServer) -> Vec<Value> {
+    let (code, v) = s.get_json("/v1/workers");
+    assert_eq!(code, 200, "{v}");
+    v.as_array().unwrap().clone()
+}
+
+fn worker_field(s: &TestServer, name: &str, field: &str) -> u64 {
+    listed(s)
+        .iter()
+        .find(|w| w["name"] == name)
+        .and_then(|w| w[field].as_u64())
+        .unwrap_or(0)
+}
+
+/// A paused job hands out no more ranges (its queued units are withdrawn); a worker
+/// that joins late takes work after the resume; the image is still the in-process one.
+#[test]
+fn pause_stops_the_pool_and_a_late_worker_joins_after_resume() {
+    let nats = Nats::start(None);
+    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
+    let cache = tempfile::tempdir().unwrap();
+    let _early = worker(&nats.url(None), "early", cache.path());
+    let (size, spp) = (48, 1200);
+    let id = submit(&coord, size, spp);
+    wait_for_ranges(&coord, &id);
+    let (code, job) = coord.post_json(&format!("/v1/jobs/{id}/pause"), &json!({}));
+    assert_eq!(code, 200, "{job}");
+    assert_eq!(job["state"], "paused");
+    // The unit in hand (about 2 s) finishes; then the worker stays idle.
+    std::thread::sleep(Duration::from_secs(5));
+    let idle = worker_field(&coord, "early", "iterations_done");
+    std::thread::sleep(Duration::from_secs(5));
+    assert_eq!(worker_field(&coord, "early", "iterations_done"), idle);
+    let _late = worker(&nats.url(None), "late", cache.path());
+    let (code, job) = coord.post_json(&format!("/v1/jobs/{id}/resume"), &json!({}));
+    assert_eq!(code, 200, "{job}");
+    let job = completed(&coord, &id);
+    assert_eq!(job["iteration"], spp);
+    std::thread::sleep(Duration::from_millis(2500));
+    assert!(
+        worker_field(&coord, "late", "ranges_done") > 0,
+        "{:?}",
+        listed(&coord)
+    );
+    assert!(final_pixels(&coord, &id) == in_process(size, spp));
 }
 
 /// A worker killed (SIGKILL) in the middle of its ranges: they are delivered again
@@ -157,14 +247,7 @@ fn a_worker_killed_mid_range_loses_nothing_and_counts_nothing_twice() {
     let (size, spp) = (48, 400);
     let id = submit(&coord, size, spp);
     // Once some ranges are in, the victim always holds a unit of about 2 s.
-    let start = Instant::now();
-    while coord.get_json(&format!("/v1/jobs/{id}")).1["iteration"].as_u64() < Some(3) {
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "no ranges came back"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_ranges(&coord, &id);
     first.0.kill().unwrap();
     first.0.wait().unwrap();
     let at_kill = coord.get_json(&format!("/v1/jobs/{id}")).1["iteration"]

@@ -4,6 +4,7 @@
 use super::error::ApiError;
 use crate::api::{ErrorBody, ErrorDetail, JobUrls, JobView};
 use crate::api::{SweepRow, SweepTable};
+use crate::job::remote::WorkerInfo;
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
 use crate::job::store::LogRow;
@@ -111,6 +112,7 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         .route("/jobs/{id}/events", get(events))
         .route("/sweeps", post(create_sweep))
         .route("/sweeps/{id}", get(get_sweep))
+        .route("/workers", get(workers))
         .route("/openapi.json", get(openapi))
         .layer(DefaultBodyLimit::max(limits.json))
         .merge(uploads);
@@ -513,6 +515,11 @@ async fn get_sweep(
     Ok(Json(table).into_response())
 }
 
+#[utoipa::path(get, path = "/v1/workers", description = "The workers of a pool (`caustic serve --nats`): name, threads, latest heartbeat, ranges and iterations rendered, the job of the range in hand. Empty when the server renders in-process.", responses((status = 200, body = Vec<WorkerInfo>)))]
+async fn workers(State(svc): State<Svc>) -> ApiResult<impl IntoResponse> {
+    Ok(Json(blocking(&svc, |s| s.workers()).await?))
+}
+
 #[utoipa::path(get, path = "/metrics", description = "Prometheus metrics.", responses((status = 200, content_type = "text/plain", body = String)))]
 async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
     let text = blocking(&svc, |s| Ok(s.metrics())).await?;
@@ -552,9 +559,11 @@ async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
         events,
         create_sweep,
         get_sweep,
+        workers,
         metrics
     ),
     components(schemas(
+        WorkerInfo,
         JobSpec,
         JobStatus,
         JobView,

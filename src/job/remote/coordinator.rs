@@ -3,7 +3,10 @@
 //! synchronously; it runs its own small tokio runtime, so the render core and the
 //! scheduler stay free of async (DESIGN.md "Rules of the house").
 
-use super::{connect, setup, Done, RemoteError, Unit, DONE_STREAM, RESULTS_BUCKET, SCENES_BUCKET};
+use super::{
+    connect, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, RESULTS_BUCKET,
+    SCENES_BUCKET, WORKERS_BUCKET,
+};
 use crate::film::ExactSums;
 use async_nats::jetstream::consumer::{pull, AckPolicy};
 use async_nats::jetstream::stream::Stream;
@@ -152,6 +155,43 @@ impl NatsExecutor {
                 .0;
         }
         map.remove(job).unwrap_or_default()
+    }
+
+    /// The workers that reported within the heartbeats' time to live, by name.
+    pub fn workers(&self) -> Result<Vec<WorkerInfo>, RemoteError> {
+        let js = self.js.clone();
+        self.run(async move {
+            let kv = js
+                .get_key_value(WORKERS_BUCKET)
+                .await
+                .map_err(RemoteError::nats)?;
+            let mut keys = kv.keys().await.map_err(RemoteError::nats)?;
+            let mut out = Vec::new();
+            while let Some(k) = keys.next().await {
+                let Ok(k) = k else { continue };
+                if let Ok(Some(v)) = kv.get(k).await {
+                    if let Ok(info) = serde_json::from_slice::<WorkerInfo>(&v) {
+                        out.push(info);
+                    }
+                }
+            }
+            out.sort_by(|a, b| a.name.cmp(&b.name));
+            Ok(out)
+        })
+    }
+
+    /// Runs `f` on this executor's runtime and waits for it from any thread, also one
+    /// inside another tokio runtime (the HTTP server's blocking pool), where
+    /// `block_on` is not allowed.
+    fn run<T: Send + 'static>(
+        &self,
+        f: impl std::future::Future<Output = T> + Send + 'static,
+    ) -> T {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.rt.spawn(async move {
+            let _ = tx.send(f.await);
+        });
+        rx.recv().expect("NATS runtime stopped")
     }
 
     /// A range's exact sums, removed from the object store once read.

@@ -29,6 +29,11 @@ pub const UNITS_STREAM: &str = "CAUSTIC_UNITS";
 pub const DONE_STREAM: &str = "CAUSTIC_DONE";
 pub const WORKERS: &str = "caustic-workers";
 pub const SCENES_BUCKET: &str = "caustic-scenes";
+/// Key-value bucket of worker heartbeats, key = worker name.
+pub const WORKERS_BUCKET: &str = "caustic-workers";
+/// How often a worker reports; a worker silent for [`WORKER_TTL`] drops out of lists.
+pub const HEARTBEAT: Duration = Duration::from_secs(2);
+pub const WORKER_TTL: Duration = Duration::from_secs(30);
 pub const RESULTS_BUCKET: &str = "caustic-results";
 /// How long a delivered unit may go without an acknowledgement (of progress or of
 /// completion) before it is delivered to another worker.
@@ -79,6 +84,19 @@ impl Unit {
             self.job, self.generation, self.first, self.end
         )
     }
+}
+
+/// What a worker reports about itself (`GET /v1/workers`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct WorkerInfo {
+    pub name: String,
+    pub threads: usize,
+    /// Unix seconds of the latest heartbeat.
+    pub last_heartbeat: f64,
+    pub ranges_done: u64,
+    pub iterations_done: u64,
+    /// The job of the range it renders now.
+    pub current_job: Option<String>,
 }
 
 /// Errors of the NATS executor and worker, in words for the operator.
@@ -134,6 +152,15 @@ pub async fn setup(
 ) -> Result<async_nats::jetstream::stream::Stream, RemoteError> {
     let units = work_queue(js, UNITS_STREAM, "caustic.units.>").await?;
     work_queue(js, DONE_STREAM, "caustic.done.>").await?;
+    if js.get_key_value(WORKERS_BUCKET).await.is_err() {
+        js.create_key_value(async_nats::jetstream::kv::Config {
+            bucket: WORKERS_BUCKET.into(),
+            max_age: WORKER_TTL,
+            ..Default::default()
+        })
+        .await
+        .map_err(RemoteError::nats)?;
+    }
     for bucket in [SCENES_BUCKET, RESULTS_BUCKET] {
         if js.get_object_store(bucket).await.is_err() {
             js.create_object_store(async_nats::jetstream::object_store::Config {

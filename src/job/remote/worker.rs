@@ -2,7 +2,10 @@
 //! pool, returns each range's exact sums, and only then acknowledges (module notes in
 //! `remote`).
 
-use super::{connect, setup, Done, RemoteError, Unit, ACK_WAIT, MAX_DELIVERIES, WORKERS};
+use super::{
+    connect, setup, Done, RemoteError, Unit, WorkerInfo, ACK_WAIT, HEARTBEAT, MAX_DELIVERIES,
+    WORKERS, WORKERS_BUCKET,
+};
 use crate::film::{ExactSums, Film};
 use crate::integrator::driver::iterate_exact;
 use crate::integrator::RenderStats;
@@ -13,7 +16,7 @@ use async_nats::jetstream::{AckKind, Context as Js, Message};
 use futures::StreamExt;
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// What a worker is started with.
@@ -45,6 +48,8 @@ pub fn run(opts: WorkerOptions) -> Result<(), RemoteError> {
 
 struct Worker {
     name: String,
+    /// What the heartbeat task reports.
+    info: Arc<Mutex<WorkerInfo>>,
     js: Js,
     pool: Arc<rayon::ThreadPool>,
     store: SceneStore,
@@ -68,8 +73,15 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         .map_err(RemoteError::nats)?;
     let store = SceneStore::new(&opts.cache_dir, opts.max_scene).map_err(RemoteError::nats)?;
     tracing::info!(worker = %opts.name, threads = pool.current_num_threads(), "worker ready");
+    let info = Arc::new(Mutex::new(WorkerInfo {
+        name: opts.name.clone(),
+        threads: pool.current_num_threads(),
+        ..Default::default()
+    }));
+    tokio::spawn(heartbeat(js.clone(), info.clone()));
     let mut w = Worker {
         name: opts.name,
+        info,
         js,
         pool,
         store,
@@ -170,11 +182,18 @@ impl Worker {
                 let _ = msg.ack_with(AckKind::Progress).await;
             }
         });
+        self.info.lock().expect("info").current_job = Some(unit.job.clone());
         let (pool, u) = (self.pool.clone(), unit.clone());
         let rendered =
             tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u))).await;
         alive.abort();
         let (sums, stats, seconds) = rendered.map_err(|e| format!("render task: {e}"))?;
+        {
+            let mut info = self.info.lock().expect("info");
+            info.current_job = None;
+            info.ranges_done += 1;
+            info.iterations_done += unit.end - unit.first;
+        }
         let name = unit.object_name();
         let bucket = self
             .js
@@ -236,6 +255,39 @@ impl Worker {
             .map_err(|e| format!("reading scene {id}: {e}"))?;
         Ok(bytes)
     }
+}
+
+/// Reports `info` every [`HEARTBEAT`] under the worker's name (it expires when the
+/// worker stops reporting).
+async fn heartbeat(js: Js, info: Arc<Mutex<WorkerInfo>>) {
+    let kv = match js.get_key_value(WORKERS_BUCKET).await {
+        Ok(kv) => kv,
+        Err(e) => return tracing::warn!("no heartbeat bucket: {e}"),
+    };
+    loop {
+        let (key, body) = {
+            let mut i = info.lock().expect("info");
+            i.last_heartbeat = crate::job::spec::unix_now();
+            (key_of(&i.name), serde_json::to_vec(&*i).unwrap_or_default())
+        };
+        if let Err(e) = kv.put(key, body.into()).await {
+            tracing::warn!("heartbeat: {e}");
+        }
+        tokio::time::sleep(HEARTBEAT).await;
+    }
+}
+
+/// A key-value key for a worker name (keys allow letters, digits and `-_=.`).
+fn key_of(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_=".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// Iterations `unit.first..unit.end`, in order, from fresh state: the range's exact

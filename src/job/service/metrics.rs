@@ -1,6 +1,7 @@
 //! The Prometheus text exposition of the job table and the render counters.
 
 use super::Service;
+use crate::job::remote::WorkerInfo;
 use crate::job::spec::JobState;
 use std::sync::atomic::Ordering;
 
@@ -88,6 +89,55 @@ impl Service {
         out.push_str(&format!(
             "# HELP caustic_render_seconds_total Time spent rendering.\n# TYPE caustic_render_seconds_total counter\ncaustic_render_seconds_total {secs:.3}\n"
         ));
+        self.worker_metrics(&mut out);
         out
     }
+
+    /// Per-worker figures of a pool (nothing in-process).
+    fn worker_metrics(&self, out: &mut String) {
+        let Ok(workers) = self.workers() else {
+            return;
+        };
+        let series: [Series; 4] = [
+            (
+                "caustic_worker_threads",
+                "gauge",
+                "Render threads of a pool worker.",
+                |w| w.threads.to_string(),
+            ),
+            (
+                "caustic_worker_ranges_total",
+                "counter",
+                "Iteration ranges a pool worker rendered.",
+                |w| w.ranges_done.to_string(),
+            ),
+            (
+                "caustic_worker_iterations_total",
+                "counter",
+                "Iterations a pool worker rendered.",
+                |w| w.iterations_done.to_string(),
+            ),
+            (
+                "caustic_worker_last_heartbeat_seconds",
+                "gauge",
+                "Unix time of a pool worker's latest heartbeat.",
+                |w| format!("{:.3}", w.last_heartbeat),
+            ),
+        ];
+        for (name, kind, help, value) in series {
+            out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
+            for w in &workers {
+                let label = w.name.replace('\\', "\\\\").replace('"', "\\\"");
+                out.push_str(&format!("{name}{{worker=\"{label}\"}} {}\n", value(w)));
+            }
+        }
+    }
 }
+
+/// A per-worker metric: name, type, help, and its value for one worker.
+type Series = (
+    &'static str,
+    &'static str,
+    &'static str,
+    fn(&WorkerInfo) -> String,
+);

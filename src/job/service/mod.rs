@@ -411,6 +411,15 @@ impl Service {
         }
     }
 
+    /// The workers of the pool (`caustic serve --nats`), as they last reported; empty
+    /// when this process renders the iterations itself.
+    pub fn workers(&self) -> Result<Vec<crate::job::remote::WorkerInfo>, JobError> {
+        match &self.shared.ctx.remote {
+            Some(ex) => ex.workers().map_err(|e| JobError::Internal(e.to_string())),
+            None => Ok(Vec::new()),
+        }
+    }
+
     /// Writes the checkpoint of a job held in memory between batches and drops its
     /// render state, so that a pause or cancel keeps every iteration rendered.
     fn set_aside(&self, id: &str) -> Result<(), JobError> {
