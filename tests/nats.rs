@@ -40,42 +40,62 @@ impl Drop for Proc {
 }
 
 struct Nats {
-    _proc: Proc,
+    proc: Option<Proc>,
     port: u16,
-    _dir: tempfile::TempDir,
+    auth: Option<String>,
+    dir: tempfile::TempDir,
 }
 
 impl Nats {
     /// JetStream with file storage on a free loopback port; `auth` sets a token.
     fn start(auth: Option<&str>) -> Nats {
-        let dir = tempfile::tempdir().unwrap();
         let port = std::net::TcpListener::bind("127.0.0.1:0")
             .unwrap()
             .local_addr()
             .unwrap()
             .port();
+        let mut nats = Nats {
+            proc: None,
+            port,
+            auth: auth.map(String::from),
+            dir: tempfile::tempdir().unwrap(),
+        };
+        nats.run();
+        nats
+    }
+
+    fn run(&mut self) {
         let mut cmd = Command::new(nats_server_bin());
-        cmd.args(["-js", "-a", "127.0.0.1", "-p", &port.to_string(), "-sd"])
-            .arg(dir.path())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null());
-        if let Some(t) = auth {
+        cmd.args([
+            "-js",
+            "-a",
+            "127.0.0.1",
+            "-p",
+            &self.port.to_string(),
+            "-sd",
+        ])
+        .arg(self.dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+        if let Some(t) = &self.auth {
             cmd.args(["--auth", t]);
         }
-        let proc = Proc(cmd.spawn().expect("starting nats-server"));
+        self.proc = Some(Proc(cmd.spawn().expect("starting nats-server")));
         let start = Instant::now();
-        while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        while TcpStream::connect(("127.0.0.1", self.port)).is_err() {
             assert!(
                 start.elapsed() < Duration::from_secs(20),
                 "nats-server did not start"
             );
             std::thread::sleep(Duration::from_millis(50));
         }
-        Nats {
-            _proc: proc,
-            port,
-            _dir: dir,
-        }
+    }
+
+    /// Kills the server (SIGKILL) and starts it again on its port and storage.
+    fn restart(&mut self) {
+        drop(self.proc.take());
+        std::thread::sleep(Duration::from_millis(500));
+        self.run();
     }
 
     fn url(&self, token: Option<&str>) -> String {
@@ -255,6 +275,27 @@ fn a_worker_killed_mid_range_loses_nothing_and_counts_nothing_twice() {
         .unwrap();
     assert!(at_kill < spp, "the job ended before the kill");
     let _second = worker(&nats.url(None), "survivor", cache.path());
+    let job = completed(&coord, &id);
+    assert_eq!(job["iteration"], spp);
+    assert!(final_pixels(&coord, &id) == in_process(size, spp));
+}
+
+/// The NATS server killed and restarted mid-job (JetStream file storage): units and
+/// answers wait in it, every process reconnects, and the job completes with the
+/// in-process image.
+#[test]
+fn a_nats_server_restarted_mid_job_loses_nothing() {
+    let mut nats = Nats::start(None);
+    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
+    let cache = tempfile::tempdir().unwrap();
+    let _w = [
+        worker(&nats.url(None), "w1", cache.path()),
+        worker(&nats.url(None), "w2", cache.path()),
+    ];
+    let (size, spp) = (48, 600);
+    let id = submit(&coord, size, spp);
+    wait_for_ranges(&coord, &id);
+    nats.restart();
     let job = completed(&coord, &id);
     assert_eq!(job["iteration"], spp);
     assert!(final_pixels(&coord, &id) == in_process(size, spp));

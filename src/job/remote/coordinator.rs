@@ -8,7 +8,7 @@ use super::{
     SCENES_BUCKET, WORKERS_BUCKET,
 };
 use crate::film::ExactSums;
-use async_nats::jetstream::consumer::{pull, AckPolicy};
+use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
 use async_nats::jetstream::stream::Stream;
 use async_nats::jetstream::Context as Js;
 use futures::StreamExt;
@@ -64,8 +64,7 @@ impl NatsExecutor {
                 )
                 .await
                 .map_err(RemoteError::nats)?;
-            let messages = consumer.messages().await.map_err(RemoteError::nats)?;
-            tokio::spawn(collect(messages, inbox.clone()));
+            tokio::spawn(collect(consumer, inbox.clone()));
             Ok::<_, RemoteError>((js, units))
         })?;
         Ok(NatsExecutor {
@@ -222,18 +221,31 @@ impl NatsExecutor {
 
 /// Files each answer under its job, acknowledging it: from here on the coordinator
 /// owns it (an answer lost in a coordinator crash only means the range is rendered
-/// again after the job resumes from its checkpoint).
-async fn collect(mut messages: pull::Stream, inbox: Arc<Inbox>) {
-    while let Some(m) = messages.next().await {
-        let Ok(m) = m else { continue };
-        match serde_json::from_slice::<Done>(&m.payload) {
-            Ok(done) => {
-                let mut map = inbox.by_job.lock().expect("inbox");
-                map.entry(done.job.clone()).or_default().push(done);
-                inbox.arrived.notify_all();
+/// again after the job resumes from its checkpoint). Starts over when the stream of
+/// messages ends (the NATS server went away).
+async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>) {
+    loop {
+        match consumer.messages().await {
+            Ok(mut messages) => {
+                while let Some(m) = messages.next().await {
+                    let Ok(m) = m else { continue };
+                    file(&inbox, &m.payload);
+                    let _ = m.ack().await;
+                }
             }
-            Err(e) => tracing::warn!("ignoring a malformed answer: {e}"),
+            Err(e) => tracing::warn!("answers: {e}"),
         }
-        let _ = m.ack().await;
+        tokio::time::sleep(Duration::from_secs(1)).await;
+    }
+}
+
+fn file(inbox: &Inbox, payload: &[u8]) {
+    match serde_json::from_slice::<Done>(payload) {
+        Ok(done) => {
+            let mut map = inbox.by_job.lock().expect("inbox");
+            map.entry(done.job.clone()).or_default().push(done);
+            inbox.arrived.notify_all();
+        }
+        Err(e) => tracing::warn!("ignoring a malformed answer: {e}"),
     }
 }

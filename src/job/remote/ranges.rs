@@ -32,6 +32,8 @@ pub struct RemoteJob {
     next: u64,
     /// Answers ahead of the added prefix, by first iteration.
     pending: BTreeMap<u64, (u64, ExactSums, RenderStats)>,
+    /// Answers whose sums could not be fetched yet.
+    unfetched: Vec<Done>,
     /// A worker's seconds per iteration, from the latest answer (0: none yet).
     per_iter: f64,
 }
@@ -50,26 +52,33 @@ pub fn remote_batch(
     status: &mut JobStatus,
     rt: &mut Runtime,
 ) -> Result<(u64, RenderStats), JobError> {
-    let failed = |e: super::RemoteError| JobError::Internal(e.to_string());
     if rt.remote.is_none() {
         // Units of an earlier run of this job (before a restart or a pause) go.
-        ex.withdraw(&status.id).map_err(failed)?;
         let bundle = ctx.scenes.bundle(&status.spec.scene)?;
-        ex.publish_scene(&status.spec.scene, bundle)
-            .map_err(failed)?;
+        let ready = ex
+            .withdraw(&status.id)
+            .and_then(|()| ex.publish_scene(&status.spec.scene, bundle));
+        if let Err(e) = ready {
+            return Ok(unreachable_for_now(e));
+        }
         rt.remote = Some(RemoteJob {
             ex: ex.clone(),
             job: status.id.clone(),
             generation: (unix_now() * 1e6) as u64,
             next: status.iteration,
             pending: BTreeMap::new(),
+            unfetched: Vec::new(),
             per_iter: 0.0,
         });
     }
     let settings = rt.settings.clone();
     let r = rt.remote.as_mut().expect("remote job");
-    top_up(r, status, &settings).map_err(failed)?;
-    for done in ex.take(&status.id, WAIT) {
+    if let Err(e) = top_up(r, status, &settings) {
+        tracing::warn!(job = %status.id, "publishing units: {e}");
+    }
+    let mut answers = std::mem::take(&mut r.unfetched);
+    answers.extend(ex.take(&status.id, WAIT));
+    for done in answers {
         file(r, status, done)?;
     }
     let (mut n, mut stats) = (0, RenderStats::default());
@@ -82,6 +91,14 @@ pub fn remote_batch(
         stats += s;
     }
     Ok((n, stats))
+}
+
+/// A batch that waited for NATS to answer again (a restarting server is no reason to
+/// fail a job: units and results wait in its file storage).
+fn unreachable_for_now(e: super::RemoteError) -> (u64, RenderStats) {
+    tracing::warn!("{e}; trying again");
+    std::thread::sleep(WAIT);
+    (0, RenderStats::default())
 }
 
 /// Publishes units until [`AHEAD`] of them wait beyond the added prefix, within the
@@ -133,9 +150,17 @@ fn file(r: &mut RemoteJob, status: &JobStatus, done: Done) -> Result<(), JobErro
         r.ex.discard(&object);
         return Ok(());
     }
-    let sums =
-        r.ex.fetch(&object)
-            .map_err(|e| JobError::Internal(e.to_string()))?;
+    let sums = match r.ex.fetch(&object) {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::warn!(job = %status.id, "fetching {object}: {e}; trying again");
+            r.unfetched.push(Done {
+                object: Some(object),
+                ..done
+            });
+            return Ok(());
+        }
+    };
     r.per_iter = done.seconds / (done.end - done.first).max(1) as f64;
     r.pending.insert(done.first, (done.end, sums, done.stats));
     Ok(())

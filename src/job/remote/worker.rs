@@ -124,7 +124,7 @@ impl Worker {
         };
         let delivered = msg.info().map(|i| i.delivered).unwrap_or(1);
         let outcome = if delivered > MAX_DELIVERIES {
-            Err(format!(
+            Outcome::Failed(format!(
                 "iterations {}..{} were handed out {} times without a result (workers died rendering them)",
                 unit.first,
                 unit.end,
@@ -134,8 +134,16 @@ impl Worker {
             self.render(&unit, Arc::new(msg.clone())).await
         };
         let done = match outcome {
-            Ok((object, stats, seconds)) => self.done(&unit, Some(object), None, stats, seconds),
-            Err(e) => self.done(&unit, None, Some(e), RenderStats::default(), 0.0),
+            Outcome::Rendered(object, stats, seconds) => {
+                self.done(&unit, Some(object), None, stats, seconds)
+            }
+            Outcome::Failed(e) => self.done(&unit, None, Some(e), RenderStats::default(), 0.0),
+            Outcome::Transient(e) => {
+                // Not acknowledged: the unit comes back after its ack wait, to this
+                // worker or another, once NATS answers again.
+                tracing::warn!("{}: {e}; the unit will come back", unit.object_name());
+                return;
+            }
         };
         match self.publish_done(&unit, &done).await {
             Ok(()) => {
@@ -170,12 +178,11 @@ impl Worker {
     }
 
     /// Renders the range, keeping the unit alive meanwhile, and stores its sums.
-    async fn render(
-        &mut self,
-        unit: &Unit,
-        msg: Arc<Message>,
-    ) -> Result<(String, RenderStats, f64), String> {
-        let scene = self.scene(&unit.scene).await?;
+    async fn render(&mut self, unit: &Unit, msg: Arc<Message>) -> Outcome {
+        let scene = match self.scene(&unit.scene).await {
+            Ok(s) => s,
+            Err(e) => return e,
+        };
         let alive = tokio::spawn(async move {
             loop {
                 tokio::time::sleep(ACK_WAIT / 3).await;
@@ -187,24 +194,27 @@ impl Worker {
         let rendered =
             tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u))).await;
         alive.abort();
-        let (sums, stats, seconds) = rendered.map_err(|e| format!("render task: {e}"))?;
-        {
-            let mut info = self.info.lock().expect("info");
-            info.current_job = None;
-            info.ranges_done += 1;
-            info.iterations_done += unit.end - unit.first;
-        }
+        self.info.lock().expect("info").current_job = None;
+        let (sums, stats, seconds) = match rendered {
+            Ok(r) => r,
+            // A panic in the render core: a bug that this range will hit again.
+            Err(e) => return Outcome::Failed(format!("render task: {e}")),
+        };
         let name = unit.object_name();
-        let bucket = self
-            .js
-            .get_object_store(super::RESULTS_BUCKET)
-            .await
-            .map_err(|e| e.to_string())?;
-        bucket
-            .put(name.as_str(), &mut sums.encode().as_slice())
-            .await
-            .map_err(|e| format!("storing the result: {e}"))?;
-        Ok((name, stats, seconds))
+        let stored = async {
+            let bucket = self.js.get_object_store(super::RESULTS_BUCKET).await?;
+            bucket
+                .put(name.as_str(), &mut sums.encode().as_slice())
+                .await?;
+            Ok::<_, Box<dyn std::error::Error + Send + Sync>>(())
+        };
+        if let Err(e) = stored.await {
+            return Outcome::Transient(format!("storing the result: {e}"));
+        }
+        let mut info = self.info.lock().expect("info");
+        info.ranges_done += 1;
+        info.iterations_done += unit.end - unit.first;
+        Outcome::Rendered(name, stats, seconds)
     }
 
     async fn publish_done(&self, unit: &Unit, done: &Done) -> Result<(), String> {
@@ -218,21 +228,25 @@ impl Worker {
         Ok(())
     }
 
-    /// The compiled scene of content id `id`: cached, built in, or fetched once.
-    async fn scene(&mut self, id: &str) -> Result<Arc<Scene>, String> {
+    /// The compiled scene of content id `id`: cached, built in, or fetched once. A
+    /// scene that does not validate fails the job; one that cannot be fetched now is
+    /// tried again when the unit comes back.
+    async fn scene(&mut self, id: &str) -> Result<Arc<Scene>, Outcome> {
         if let Some(s) = self.scenes.get(id) {
             return Ok(s.clone());
         }
         let local = if self.store.exists(id) {
             id.to_string()
         } else {
-            let bytes = self.fetch_scene(id).await?;
-            self.store.upload(&bytes).map_err(|e| e.client_message())?
+            let bytes = self.fetch_scene(id).await.map_err(Outcome::Transient)?;
+            self.store
+                .upload(&bytes)
+                .map_err(|e| Outcome::Failed(e.client_message()))?
         };
         let scene = self
             .store
             .compiled(&local)
-            .map_err(|e| e.client_message())?;
+            .map_err(|e| Outcome::Failed(e.client_message()))?;
         self.scenes.insert(id.to_string(), scene.clone());
         Ok(scene)
     }
@@ -255,6 +269,16 @@ impl Worker {
             .map_err(|e| format!("reading scene {id}: {e}"))?;
         Ok(bytes)
     }
+}
+
+/// What became of a unit.
+enum Outcome {
+    /// Rendered; its sums are stored under this name.
+    Rendered(String, RenderStats, f64),
+    /// It cannot be rendered (its job fails with this).
+    Failed(String),
+    /// NATS did not answer: left unacknowledged, to come back.
+    Transient(String),
 }
 
 /// Reports `info` every [`HEARTBEAT`] under the worker's name (it expires when the
