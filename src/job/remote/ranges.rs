@@ -83,9 +83,11 @@ pub fn remote_batch(
     }
     let (mut n, mut stats) = (0, RenderStats::default());
     while let Some((end, sums, s)) = r.pending.remove(&status.iteration) {
+        let started = std::time::Instant::now();
         rt.sums
             .merge(&sums)
             .map_err(|e| JobError::Internal(e.to_string()))?;
+        tracing::debug!(job = %status.id, merge_s = started.elapsed().as_secs_f64(), "range added");
         n += end - status.iteration;
         status.iteration = end;
         stats += s;
@@ -150,6 +152,7 @@ fn file(r: &mut RemoteJob, status: &JobStatus, done: Done) -> Result<(), JobErro
         r.ex.discard(&object);
         return Ok(());
     }
+    let started = std::time::Instant::now();
     let sums = match r.ex.fetch(&object) {
         Ok(s) => s,
         Err(e) => {
@@ -161,6 +164,8 @@ fn file(r: &mut RemoteJob, status: &JobStatus, done: Done) -> Result<(), JobErro
             return Ok(());
         }
     };
+    // The per-range cost of the coordinator, for the scaling model (README).
+    tracing::debug!(job = %status.id, %object, fetch_s = started.elapsed().as_secs_f64(), "range fetched");
     r.per_iter = done.seconds / (done.end - done.first).max(1) as f64;
     r.pending.insert(done.first, (done.end, sums, done.stats));
     Ok(())
