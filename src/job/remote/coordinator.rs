@@ -4,18 +4,17 @@
 //! scheduler stay free of async (DESIGN.md "Rules of the house").
 
 use super::{
-    connect, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, RESULTS_BUCKET,
-    SCENES_BUCKET, WORKERS_BUCKET,
+    connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, WORKERS_BUCKET,
 };
 use crate::film::ExactSums;
 use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
+use async_nats::jetstream::object_store::ObjectStore;
 use async_nats::jetstream::stream::Stream;
 use async_nats::jetstream::Context as Js;
 use futures::StreamExt;
 use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
-use tokio::io::AsyncReadExt;
 
 /// Durable consumer of the workers' answers.
 const COORDINATOR: &str = "caustic-coordinator";
@@ -31,6 +30,8 @@ pub struct NatsExecutor {
     rt: tokio::runtime::Runtime,
     js: Js,
     units: Stream,
+    scenes: ObjectStore,
+    results: ObjectStore,
     inbox: Arc<Inbox>,
     /// Scenes already in the object store.
     published: Mutex<HashSet<String>>,
@@ -46,9 +47,9 @@ impl NatsExecutor {
             .build()
             .map_err(RemoteError::nats)?;
         let inbox = Arc::new(Inbox::default());
-        let (js, units) = rt.block_on(async {
+        let (js, handles) = rt.block_on(async {
             let (_client, js) = connect(url, "caustic-coordinator").await?;
-            let units = setup(&js).await?;
+            let handles = setup(&js).await?;
             let done = js
                 .get_stream(DONE_STREAM)
                 .await
@@ -65,12 +66,14 @@ impl NatsExecutor {
                 .await
                 .map_err(RemoteError::nats)?;
             tokio::spawn(collect(consumer, inbox.clone()));
-            Ok::<_, RemoteError>((js, units))
+            Ok::<_, RemoteError>((js, handles))
         })?;
         Ok(NatsExecutor {
             rt,
             js,
-            units,
+            units: handles.units,
+            scenes: handles.scenes,
+            results: handles.results,
             inbox,
             published: Mutex::new(HashSet::new()),
         })
@@ -86,13 +89,8 @@ impl NatsExecutor {
             return Ok(());
         }
         self.rt.block_on(async {
-            let bucket = self
-                .js
-                .get_object_store(SCENES_BUCKET)
-                .await
-                .map_err(RemoteError::nats)?;
-            if bucket.info(id).await.is_err() {
-                bucket
+            if self.scenes.info(id).await.is_err() {
+                self.scenes
                     .put(id, &mut bytes.as_slice())
                     .await
                     .map_err(RemoteError::nats)?;
@@ -196,15 +194,8 @@ impl NatsExecutor {
     /// A range's exact sums, removed from the object store once read.
     pub fn fetch(&self, object: &str) -> Result<ExactSums, RemoteError> {
         self.rt.block_on(async {
-            let bucket = self
-                .js
-                .get_object_store(RESULTS_BUCKET)
-                .await
-                .map_err(RemoteError::nats)?;
-            let mut o = bucket.get(object).await.map_err(RemoteError::nats)?;
-            let mut bytes = Vec::new();
-            o.read_to_end(&mut bytes).await.map_err(RemoteError::nats)?;
-            let _ = bucket.delete(object).await;
+            let bytes = read_object(&self.results, object).await?;
+            let _ = self.results.delete(object).await;
             ExactSums::decode(&bytes).map_err(RemoteError::nats)
         })
     }
@@ -212,9 +203,7 @@ impl NatsExecutor {
     /// Deletes a result that will not be used (a stale or duplicate answer).
     pub fn discard(&self, object: &str) {
         self.rt.block_on(async {
-            if let Ok(bucket) = self.js.get_object_store(RESULTS_BUCKET).await {
-                let _ = bucket.delete(object).await;
-            }
+            let _ = self.results.delete(object).await;
         });
     }
 }

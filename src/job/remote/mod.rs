@@ -22,6 +22,7 @@ pub mod ranges;
 pub mod worker;
 
 use crate::integrator::{RenderStats, Settings};
+use async_nats::jetstream::object_store::ObjectStore;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -145,11 +146,16 @@ pub fn redact(url: &str) -> String {
     }
 }
 
+/// What both sides use: the units stream and the two object stores.
+pub struct Handles {
+    pub units: async_nats::jetstream::stream::Stream,
+    pub scenes: ObjectStore,
+    pub results: ObjectStore,
+}
+
 /// The streams and buckets, created if missing (both sides call this; creation is
-/// idempotent). Returns the units stream.
-pub async fn setup(
-    js: &async_nats::jetstream::Context,
-) -> Result<async_nats::jetstream::stream::Stream, RemoteError> {
+/// idempotent).
+pub async fn setup(js: &async_nats::jetstream::Context) -> Result<Handles, RemoteError> {
     let units = work_queue(js, UNITS_STREAM, "caustic.units.>").await?;
     work_queue(js, DONE_STREAM, "caustic.done.>").await?;
     if js.get_key_value(WORKERS_BUCKET).await.is_err() {
@@ -161,18 +167,39 @@ pub async fn setup(
         .await
         .map_err(RemoteError::nats)?;
     }
-    for bucket in [SCENES_BUCKET, RESULTS_BUCKET] {
-        if js.get_object_store(bucket).await.is_err() {
-            js.create_object_store(async_nats::jetstream::object_store::Config {
-                bucket: bucket.into(),
-                storage: async_nats::jetstream::stream::StorageType::File,
-                ..Default::default()
-            })
-            .await
-            .map_err(RemoteError::nats)?;
-        }
+    Ok(Handles {
+        units,
+        scenes: object_store(js, SCENES_BUCKET).await?,
+        results: object_store(js, RESULTS_BUCKET).await?,
+    })
+}
+
+async fn object_store(
+    js: &async_nats::jetstream::Context,
+    bucket: &str,
+) -> Result<ObjectStore, RemoteError> {
+    if let Ok(store) = js.get_object_store(bucket).await {
+        return Ok(store);
     }
-    Ok(units)
+    js.create_object_store(async_nats::jetstream::object_store::Config {
+        bucket: bucket.into(),
+        storage: async_nats::jetstream::stream::StorageType::File,
+        ..Default::default()
+    })
+    .await
+    .map_err(RemoteError::nats)
+}
+
+/// The whole of object `name`.
+pub async fn read_object(store: &ObjectStore, name: &str) -> Result<Vec<u8>, RemoteError> {
+    use tokio::io::AsyncReadExt;
+    let mut object = store.get(name).await.map_err(RemoteError::nats)?;
+    let mut bytes = Vec::new();
+    object
+        .read_to_end(&mut bytes)
+        .await
+        .map_err(RemoteError::nats)?;
+    Ok(bytes)
 }
 
 /// A work-queue stream on file storage (a message goes once it is acknowledged, and

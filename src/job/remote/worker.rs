@@ -3,8 +3,8 @@
 //! `remote`).
 
 use super::{
-    connect, setup, Done, RemoteError, Unit, WorkerInfo, ACK_WAIT, HEARTBEAT, MAX_DELIVERIES,
-    WORKERS, WORKERS_BUCKET,
+    connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, ACK_WAIT, HEARTBEAT,
+    MAX_DELIVERIES, WORKERS, WORKERS_BUCKET,
 };
 use crate::film::{ExactSums, Film};
 use crate::integrator::driver::iterate_exact;
@@ -12,6 +12,7 @@ use crate::integrator::RenderStats;
 use crate::job::scenes::SceneStore;
 use crate::scene::Scene;
 use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
+use async_nats::jetstream::object_store::ObjectStore;
 use async_nats::jetstream::{AckKind, Context as Js, Message};
 use futures::StreamExt;
 use std::collections::HashMap;
@@ -51,6 +52,8 @@ struct Worker {
     /// What the heartbeat task reports.
     info: Arc<Mutex<WorkerInfo>>,
     js: Js,
+    /// The scenes and results object stores.
+    buckets: (ObjectStore, ObjectStore),
     pool: Arc<rayon::ThreadPool>,
     store: SceneStore,
     scenes: HashMap<String, Arc<Scene>>,
@@ -58,8 +61,9 @@ struct Worker {
 
 async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), RemoteError> {
     let (_client, js) = connect(&opts.url, &opts.name).await?;
-    let units = setup(&js).await?;
-    let consumer: PullConsumer = units
+    let handles = setup(&js).await?;
+    let consumer: PullConsumer = handles
+        .units
         .get_or_create_consumer(
             WORKERS,
             pull::Config {
@@ -83,6 +87,7 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         name: opts.name,
         info,
         js,
+        buckets: (handles.scenes, handles.results),
         pool,
         store,
         scenes: HashMap::new(),
@@ -201,14 +206,12 @@ impl Worker {
             Err(e) => return Outcome::Failed(format!("render task: {e}")),
         };
         let name = unit.object_name();
-        let stored = async {
-            let bucket = self.js.get_object_store(super::RESULTS_BUCKET).await?;
-            bucket
-                .put(name.as_str(), &mut sums.encode().as_slice())
-                .await?;
-            Ok::<_, Box<dyn std::error::Error + Send + Sync>>(())
-        };
-        if let Err(e) = stored.await {
+        let stored = self
+            .buckets
+            .1
+            .put(name.as_str(), &mut sums.encode().as_slice())
+            .await;
+        if let Err(e) = stored {
             return Outcome::Transient(format!("storing the result: {e}"));
         }
         let mut info = self.info.lock().expect("info");
@@ -238,7 +241,9 @@ impl Worker {
         let local = if self.store.exists(id) {
             id.to_string()
         } else {
-            let bytes = self.fetch_scene(id).await.map_err(Outcome::Transient)?;
+            let bytes = read_object(&self.buckets.0, id)
+                .await
+                .map_err(|e| Outcome::Transient(format!("scene {id}: {e}")))?;
             self.store
                 .upload(&bytes)
                 .map_err(|e| Outcome::Failed(e.client_message()))?
@@ -249,25 +254,6 @@ impl Worker {
             .map_err(|e| Outcome::Failed(e.client_message()))?;
         self.scenes.insert(id.to_string(), scene.clone());
         Ok(scene)
-    }
-
-    async fn fetch_scene(&self, id: &str) -> Result<Vec<u8>, String> {
-        use tokio::io::AsyncReadExt;
-        let bucket = self
-            .js
-            .get_object_store(super::SCENES_BUCKET)
-            .await
-            .map_err(|e| e.to_string())?;
-        let mut object = bucket
-            .get(id)
-            .await
-            .map_err(|e| format!("scene {id} is not in the object store: {e}"))?;
-        let mut bytes = Vec::new();
-        object
-            .read_to_end(&mut bytes)
-            .await
-            .map_err(|e| format!("reading scene {id}: {e}"))?;
-        Ok(bytes)
     }
 }
 
