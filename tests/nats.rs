@@ -108,26 +108,60 @@ impl Nats {
 
 /// A `caustic worker` with one render thread and its own scene cache.
 fn worker(url: &str, name: &str, cache: &Path) -> Proc {
-    Proc(
-        Command::new(env!("CARGO_BIN_EXE_caustic"))
-            .args(["worker", "--nats", url, "--threads", "1", "--name", name])
-            .arg("--cache-dir")
-            .arg(cache.join(name))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("starting caustic worker"),
-    )
+    worker_with(url, name, cache, |_| {})
+}
+
+fn worker_with(url: &str, name: &str, cache: &Path, f: impl FnOnce(&mut Command)) -> Proc {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_caustic"));
+    cmd.args(["worker", "--nats", url, "--threads", "1", "--name", name])
+        .arg("--cache-dir")
+        .arg(cache.join(name))
+        .env_remove("CAUSTIC_FAILPOINT")
+        .env_remove("CAUSTIC_ACK_WAIT_S")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    f(&mut cmd);
+    Proc(cmd.spawn().expect("starting caustic worker"))
+}
+
+/// A coordinator in this process and two one-thread workers, `w1` and `w2`.
+struct Pool {
+    coord: TestServer,
+    _workers: [Proc; 2],
+    _cache: tempfile::TempDir,
+}
+
+fn pool(nats: &Nats) -> Pool {
+    let cache = tempfile::tempdir().unwrap();
+    Pool {
+        coord: TestServer::start_with(None, |c| c.nats = Some(nats.url(None))),
+        _workers: [
+            worker(&nats.url(None), "w1", cache.path()),
+            worker(&nats.url(None), "w2", cache.path()),
+        ],
+        _cache: cache,
+    }
 }
 
 /// Uploads the foggy test scene and submits a bpt job of `spp` iterations on it.
 fn submit(s: &TestServer, size: u32, spp: u64) -> String {
-    let (code, info) = s.post_bytes("/v1/scenes", foggy_scene(size).to_string().as_bytes());
-    assert_eq!(code, 201, "{info}");
-    let spec = json!({"scene": info["id"], "algorithm": "bpt", "halt": {"spp": spp},
-                      "seed": 5, "snapshot_every": {"iterations": 1000000}});
-    let (code, job) = s.post_json("/v1/jobs", &spec);
-    assert_eq!(code, 201, "{job}");
+    submit_to(&s.url, size, spp, "bpt", 1_000_000)
+}
+
+/// Submits a job of `algorithm` over `spp` iterations of the foggy scene, uploaded to
+/// the server at `url`, with a snapshot (and checkpoint) every `every` iterations.
+fn submit_to(url: &str, size: u32, spp: u64, algorithm: &str, every: u64) -> String {
+    let upload = ureq::post(&format!("{url}/v1/scenes"))
+        .set("Content-Type", "application/json")
+        .send_bytes(foggy_scene(size).to_string().as_bytes());
+    let (code, info) = respond(upload);
+    assert_eq!(code, 201, "{}", String::from_utf8_lossy(&info));
+    let info: Value = serde_json::from_slice(&info).unwrap();
+    let spec = json!({"scene": info["id"], "algorithm": algorithm, "halt": {"spp": spp},
+                      "seed": 5, "snapshot_every": {"iterations": every}});
+    let (code, job) = respond(ureq::post(&format!("{url}/v1/jobs")).send_json(spec));
+    assert_eq!(code, 201, "{}", String::from_utf8_lossy(&job));
+    let job: Value = serde_json::from_slice(&job).unwrap();
     job["id"].as_str().unwrap().to_string()
 }
 
@@ -144,8 +178,12 @@ fn completed(s: &TestServer, id: &str) -> Value {
 
 /// The same job in this process, for comparison.
 fn in_process(size: u32, spp: u64) -> Vec<glam::Vec3> {
+    in_process_with(size, spp, "bpt")
+}
+
+fn in_process_with(size: u32, spp: u64, algorithm: &str) -> Vec<glam::Vec3> {
     let local = TestServer::start(None);
-    let id = submit(&local, size, spp);
+    let id = submit_to(&local.url, size, spp, algorithm, 1_000_000);
     completed(&local, &id);
     final_pixels(&local, &id)
 }
@@ -153,12 +191,8 @@ fn in_process(size: u32, spp: u64) -> Vec<glam::Vec3> {
 #[test]
 fn a_pool_of_workers_renders_the_in_process_image_bit_for_bit() {
     let nats = Nats::start(None);
-    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
-    let cache = tempfile::tempdir().unwrap();
-    let _w = [
-        worker(&nats.url(None), "w1", cache.path()),
-        worker(&nats.url(None), "w2", cache.path()),
-    ];
+    let pool = pool(&nats);
+    let coord = pool.coord;
     let id = submit(&coord, 24, 40);
     let job = completed(&coord, &id);
     assert_eq!(job["iteration"], 40);
@@ -286,12 +320,8 @@ fn a_worker_killed_mid_range_loses_nothing_and_counts_nothing_twice() {
 #[test]
 fn a_nats_server_restarted_mid_job_loses_nothing() {
     let mut nats = Nats::start(None);
-    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
-    let cache = tempfile::tempdir().unwrap();
-    let _w = [
-        worker(&nats.url(None), "w1", cache.path()),
-        worker(&nats.url(None), "w2", cache.path()),
-    ];
+    let pool = pool(&nats);
+    let coord = pool.coord;
     let (size, spp) = (48, 600);
     let id = submit(&coord, size, spp);
     wait_for_ranges(&coord, &id);
@@ -316,4 +346,134 @@ fn a_worker_with_a_wrong_or_missing_credential_is_refused() {
         assert!(err.contains("authorization"), "{err}");
         assert!(!err.contains("wrong@"), "the credential is printed: {err}");
     }
+}
+
+/// sppm's iterations continue each other: the pool runs them as one ordered chain,
+/// the job's checkpoint travelling with each unit, and the image is the in-process
+/// one bit for bit. While it runs, its status counts the workers serving it.
+#[test]
+fn a_chained_sppm_job_runs_in_order_on_the_pool_bit_for_bit() {
+    let nats = Nats::start(None);
+    let pool = pool(&nats);
+    let coord = pool.coord;
+    let (size, spp) = (24, 40);
+    let id = submit_to(&coord.url, size, spp, "sppm", 1_000_000);
+    let mut serving = 0;
+    let start = Instant::now();
+    loop {
+        let job = coord.get_json(&format!("/v1/jobs/{id}")).1;
+        serving = serving.max(job["workers"].as_u64().unwrap_or(0));
+        if job["state"] != "running" && job["state"] != "queued" {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "{job}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let job = completed(&coord, &id);
+    assert_eq!(job["iteration"], spp);
+    assert!(job.get("workers").is_none(), "{job}");
+    assert!((1..=2).contains(&serving), "{serving}");
+    std::thread::sleep(Duration::from_millis(2500));
+    let ranges: u64 = listed(&coord)
+        .iter()
+        .map(|w| w["ranges_done"].as_u64().unwrap())
+        .sum();
+    assert!(ranges >= 2, "the chain did not go through the pool");
+    assert!(final_pixels(&coord, &id) == in_process_with(size, spp, "sppm"));
+}
+
+fn job_at(url: &str, id: &str) -> Value {
+    let (code, body) = respond(ureq::get(&format!("{url}/v1/jobs/{id}")).call());
+    assert_eq!(code, 200);
+    serde_json::from_slice(&body).unwrap()
+}
+
+/// The coordinator killed (SIGKILL) mid-job and started again on its data directory:
+/// the job resumes from its last checkpoint with a new generation of units, answers
+/// of the old one are ignored, and no range is added twice (the image would differ).
+#[test]
+fn a_coordinator_restarted_mid_job_resumes_and_adds_nothing_twice() {
+    let nats = Nats::start(None);
+    let url = nats.url(None);
+    let data = tempfile::tempdir().unwrap();
+    let mut coord = ServerProcess::start(data.path(), &["--nats", &url]);
+    let cache = tempfile::tempdir().unwrap();
+    let _w = [
+        worker(&url, "w1", cache.path()),
+        worker(&url, "w2", cache.path()),
+    ];
+    let (size, spp) = (48, 600);
+    let id = submit_to(&coord.url, size, spp, "bpt", 40);
+    let start = Instant::now();
+    while job_at(&coord.url, &id)["iteration"].as_u64() < Some(120) {
+        assert!(start.elapsed() < Duration::from_secs(90), "no progress");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    coord.kill();
+    let coord = ServerProcess::start(data.path(), &["--nats", &url]);
+    let resumed = job_at(&coord.url, &id);
+    assert!(
+        resumed["iteration"].as_u64().unwrap().is_multiple_of(40),
+        "{resumed}"
+    );
+    let job = loop {
+        let job = job_at(&coord.url, &id);
+        if job["state"] != "running" && job["state"] != "queued" {
+            break job;
+        }
+        assert!(start.elapsed() < Duration::from_secs(180), "{job}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(job["state"], "completed", "{job}");
+    assert_eq!(job["iteration"], spp);
+    let log = std::fs::read_to_string(data.path().join("jobs").join(&id).join("log.csv")).unwrap();
+    let its: Vec<u64> = log
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(its.windows(2).all(|w| w[0] < w[1]), "{log}");
+    let path = data.path().join("jobs").join(&id).join("final.exr");
+    let pixels = caustic::film::read_exr(&path).unwrap().pixels().to_vec();
+    assert!(pixels == in_process(size, spp));
+}
+
+/// A range that kills every worker that takes it (an abort at its start, as a crash
+/// in the render core would) goes round a bounded number of times; then the job
+/// fails with a message that says why.
+#[test]
+fn a_range_that_kills_every_worker_fails_its_job_after_five_deliveries() {
+    let nats = Nats::start(None);
+    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
+    let cache = tempfile::tempdir().unwrap();
+    let id = submit(&coord, 24, 40);
+    let start = Instant::now();
+    let (mut current, mut started): (Option<Proc>, u32) = (None, 0);
+    let job = loop {
+        let job = coord.get_json(&format!("/v1/jobs/{id}")).1;
+        if job["state"] == "failed" || job["state"] == "completed" {
+            break job;
+        }
+        assert!(start.elapsed() < Duration::from_secs(90), "{job}");
+        let dead = current
+            .as_mut()
+            .is_none_or(|p| p.0.try_wait().unwrap().is_some());
+        if dead {
+            let name = format!("k{started}");
+            current = Some(worker_with(&nats.url(None), &name, cache.path(), |c| {
+                c.env("CAUSTIC_FAILPOINT", "unit@0")
+                    .env("CAUSTIC_ACK_WAIT_S", "1");
+            }));
+            started += 1;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(job["state"], "failed", "{job}");
+    let error = job["error"].as_str().unwrap();
+    assert!(
+        error.contains("iterations 0..") && error.contains("handed out 5 times"),
+        "{error}"
+    );
+    // Five deliveries killed five workers; the sixth answered with the failure.
+    assert!(started >= 6, "{started}");
 }

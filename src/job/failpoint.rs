@@ -6,8 +6,9 @@
 //! iteration may be left out: the first time the point is reached). Points, in the
 //! order a job's last snapshot writes them: `snapshot-exr`, `snapshot-png`,
 //! `latest-exr`, `latest-png`, `log`, `checkpoint`, `final-exr`, `final-png`,
-//! `status`. The variable is read once; without it every check is one load of a
-//! static.
+//! `status`; and in `caustic worker`, `unit` (iteration = the unit's first), just
+//! before a work unit renders. The variable is read once; without it every check is
+//! one load of a static.
 
 use std::sync::OnceLock;
 

@@ -66,6 +66,33 @@ impl Runtime {
     }
 }
 
+impl Runtime {
+    /// Whether the job's iterations continue each other (`Integrator::chained`).
+    pub(super) fn chained(&self) -> bool {
+        self.integrator.chained()
+    }
+
+    /// Continues from checkpoint `c` of a chained job, rendered elsewhere up to
+    /// `c.iteration`: its state, film and sums replace the job's.
+    pub(super) fn adopt(&mut self, c: Checkpoint) -> Result<(), JobError> {
+        let (w, h) = (self.scene.width(), self.scene.height());
+        let exact = c.exact.filter(|e| e.size() == (w, h));
+        let (Some(exact), true) = (exact, c.film.width() == w && c.film.height() == h) else {
+            return Err(JobError::Internal(
+                "a worker's checkpoint has the wrong size".into(),
+            ));
+        };
+        if let Some(state) = &c.state {
+            self.integrator
+                .load_state(state)
+                .map_err(|e| JobError::Internal(format!("a worker's checkpoint: {e}")))?;
+        }
+        self.scratch = c.film;
+        self.sums = exact;
+        Ok(())
+    }
+}
+
 /// What one step did to a job. `saved` is false when job.json could not be written
 /// (the scheduler retries until it can).
 pub struct StepResult {
@@ -119,6 +146,7 @@ pub fn fail(ctx: &Context, mut status: JobStatus, err: JobError) -> StepResult {
     status.error = Some(err.client_message());
     status.finished_at = Some(unix_now());
     status.eta_s = None;
+    status.workers = None;
     let saved = write_status(ctx, &status).is_ok();
     StepResult {
         status,
@@ -277,8 +305,7 @@ pub(super) fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64, target: D
 fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
     let spec = status.spec.clone();
     let start = Instant::now();
-    let remote = ctx.remote.as_ref().filter(|_| !rt.integrator.chained());
-    let (n, stats) = match remote {
+    let (n, stats) = match &ctx.remote {
         Some(ex) => remote_batch(ctx, ex, status, rt)?,
         None => local_batch(status, rt),
     };
@@ -306,10 +333,12 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<
         eta_s: status.eta_s,
         dropped: status.dropped,
     });
-    let due = match spec.snapshot_every {
-        SnapshotEvery::Iterations(k) => status.iteration.is_multiple_of(k.max(1)),
-        SnapshotEvery::Seconds(s) => status.elapsed_s - rt.last_snapshot.1 >= s,
-    };
+    // A pool's batch may add nothing (no range came back yet): nothing to snapshot.
+    let due = n > 0
+        && match spec.snapshot_every {
+            SnapshotEvery::Iterations(k) => status.iteration.is_multiple_of(k.max(1)),
+            SnapshotEvery::Seconds(s) => status.elapsed_s - rt.last_snapshot.1 >= s,
+        };
     let mut done = halt_reached(status);
     if due || done {
         snapshot(ctx, status, rt, &figures)?;
@@ -368,6 +397,7 @@ fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), J
     status.state = JobState::Completed;
     status.finished_at = Some(unix_now());
     status.eta_s = Some(0.0);
+    status.workers = None;
     write_status(ctx, status)?;
     disk::tidy_finished(&dir, &status.spec);
     Ok(())

@@ -323,6 +323,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
                 tracing::warn!(job = id, error = %err, "checkpoint not written");
             }
         }
+        r.status.workers = None;
         r.status.state = if control == Control::Pause {
             JobState::Paused
         } else {

@@ -228,6 +228,11 @@ pub struct JobStatus {
     pub finished_at: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// Workers of the pool (`caustic serve --nats`) that returned a range of this
+    /// running job in the last 10 s; absent when it renders in-process or is not
+    /// running.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub workers: Option<u32>,
 }
 
 /// Deserializes `T` only from a JSON object (a map): serde's derived structs also

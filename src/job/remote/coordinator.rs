@@ -1,12 +1,12 @@
 //! The coordinator's side: publishes scenes and work units, collects the workers'
-//! answers, and fetches ranges' exact sums. The scheduler thread calls it
-//! synchronously; it runs its own small tokio runtime, so the render core and the
-//! scheduler stay free of async (DESIGN.md "Rules of the house").
+//! answers, and fetches their results. The scheduler thread calls it synchronously;
+//! it runs its own small tokio runtime, so the render core and the scheduler stay
+//! free of async (DESIGN.md "Rules of the house"). Results are fetched there as their
+//! answers arrive, several at once, so the scheduler thread only merges.
 
 use super::{
     connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, WORKERS_BUCKET,
 };
-use crate::film::ExactSums;
 use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
 use async_nats::jetstream::object_store::ObjectStore;
 use async_nats::jetstream::stream::Stream;
@@ -19,10 +19,21 @@ use std::time::Duration;
 /// Durable consumer of the workers' answers.
 const COORDINATOR: &str = "caustic-coordinator";
 
+/// Results fetched at once; more answers wait their turn (bounds the memory held
+/// by fetches in flight, 100 MB each at 1080p).
+const FETCHES: usize = 4;
+
+/// A worker's answer with its result, when that could be fetched (else the job's
+/// runner fetches it again with [`NatsExecutor::fetch`]).
+pub struct Arrival {
+    pub done: Done,
+    pub body: Option<Vec<u8>>,
+}
+
 /// Answers received, by job, until the job's runner takes them.
 #[derive(Default)]
 struct Inbox {
-    by_job: Mutex<HashMap<String, Vec<Done>>>,
+    by_job: Mutex<HashMap<String, Vec<Arrival>>>,
     arrived: Condvar,
 }
 
@@ -65,7 +76,7 @@ impl NatsExecutor {
                 )
                 .await
                 .map_err(RemoteError::nats)?;
-            tokio::spawn(collect(consumer, inbox.clone()));
+            tokio::spawn(collect(consumer, inbox.clone(), handles.results.clone()));
             Ok::<_, RemoteError>((js, handles))
         })?;
         Ok(NatsExecutor {
@@ -140,8 +151,19 @@ impl NatsExecutor {
         });
     }
 
+    /// Stores `bytes` as object `name` of the results bucket.
+    pub fn put(&self, name: &str, bytes: Vec<u8>) -> Result<(), RemoteError> {
+        self.rt.block_on(async {
+            self.results
+                .put(name, &mut bytes.as_slice())
+                .await
+                .map_err(RemoteError::nats)?;
+            Ok(())
+        })
+    }
+
     /// The job's answers that arrived, waiting up to `timeout` for the first one.
-    pub fn take(&self, job: &str, timeout: Duration) -> Vec<Done> {
+    pub fn take(&self, job: &str, timeout: Duration) -> Vec<Arrival> {
         let mut map = self.inbox.by_job.lock().expect("inbox");
         if map.get(job).is_none_or(Vec::is_empty) {
             map = self
@@ -191,16 +213,13 @@ impl NatsExecutor {
         rx.recv().expect("NATS runtime stopped")
     }
 
-    /// A range's exact sums, removed from the object store once read.
-    pub fn fetch(&self, object: &str) -> Result<ExactSums, RemoteError> {
-        self.rt.block_on(async {
-            let bytes = read_object(&self.results, object).await?;
-            let _ = self.results.delete(object).await;
-            ExactSums::decode(&bytes).map_err(RemoteError::nats)
-        })
+    /// A result, removed from the object store once read.
+    pub fn fetch(&self, object: &str) -> Result<Vec<u8>, RemoteError> {
+        self.rt.block_on(take_object(&self.results, object))
     }
 
-    /// Deletes a result that will not be used (a stale or duplicate answer).
+    /// Deletes a result that will not be used (a stale or duplicate answer, or a
+    /// chain's carried checkpoint once its successor is in).
     pub fn discard(&self, object: &str) {
         self.rt.block_on(async {
             let _ = self.results.delete(object).await;
@@ -208,18 +227,49 @@ impl NatsExecutor {
     }
 }
 
-/// Files each answer under its job, acknowledging it: from here on the coordinator
-/// owns it (an answer lost in a coordinator crash only means the range is rendered
-/// again after the job resumes from its checkpoint). Starts over when the stream of
-/// messages ends (the NATS server went away).
-async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>) {
+/// Reads object `name` whole and deletes it.
+async fn take_object(results: &ObjectStore, name: &str) -> Result<Vec<u8>, RemoteError> {
+    let bytes = read_object(results, name).await?;
+    let _ = results.delete(name).await;
+    Ok(bytes)
+}
+
+/// Files each answer under its job with its result, acknowledging it: from here on
+/// the coordinator owns it (an answer lost in a coordinator crash only means the range
+/// is rendered again after the job resumes from its checkpoint). Starts over when the
+/// stream of messages ends (the NATS server went away).
+async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>, results: ObjectStore) {
+    let fetches = Arc::new(tokio::sync::Semaphore::new(FETCHES));
     loop {
         match consumer.messages().await {
             Ok(mut messages) => {
                 while let Some(m) = messages.next().await {
                     let Ok(m) = m else { continue };
-                    file(&inbox, &m.payload);
-                    let _ = m.ack().await;
+                    let done = match serde_json::from_slice::<Done>(&m.payload) {
+                        Ok(d) => d,
+                        Err(e) => {
+                            tracing::warn!("ignoring a malformed answer: {e}");
+                            let _ = m.ack().await;
+                            continue;
+                        }
+                    };
+                    let Ok(permit) = fetches.clone().acquire_owned().await else {
+                        return;
+                    };
+                    let (inbox, results) = (inbox.clone(), results.clone());
+                    tokio::spawn(async move {
+                        let started = std::time::Instant::now();
+                        let body = match &done.object {
+                            Some(o) => take_object(&results, o).await.ok(),
+                            None => None,
+                        };
+                        // The per-range cost of the coordinator, for the scaling
+                        // model (README).
+                        tracing::debug!(job = %done.job, fetch_s = started.elapsed().as_secs_f64(), "range fetched");
+                        drop(permit);
+                        file(&inbox, Arrival { done, body });
+                        let _ = m.ack().await;
+                    });
                 }
             }
             Err(e) => tracing::warn!("answers: {e}"),
@@ -228,13 +278,10 @@ async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>) {
     }
 }
 
-fn file(inbox: &Inbox, payload: &[u8]) {
-    match serde_json::from_slice::<Done>(payload) {
-        Ok(done) => {
-            let mut map = inbox.by_job.lock().expect("inbox");
-            map.entry(done.job.clone()).or_default().push(done);
-            inbox.arrived.notify_all();
-        }
-        Err(e) => tracing::warn!("ignoring a malformed answer: {e}"),
-    }
+fn file(inbox: &Inbox, arrival: Arrival) {
+    let mut map = inbox.by_job.lock().expect("inbox");
+    map.entry(arrival.done.job.clone())
+        .or_default()
+        .push(arrival);
+    inbox.arrived.notify_all();
 }

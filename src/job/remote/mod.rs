@@ -16,6 +16,10 @@
 //!   dies in between leaves a range rendered twice, which the coordinator counts once.
 //! - The coordinator adds ranges in index order from the job's checkpoint on. Since
 //!   the sums are exact, the image is the in-process one bit for bit.
+//! - A chained integrator (sppm, ppm: each iteration continues the previous one's
+//!   statistics) runs as an ordered chain: one unit at a time carries the job's
+//!   checkpoint to a worker, which returns the checkpoint after its range; the
+//!   coordinator adopts it whole. The chain may move between workers at any unit.
 
 pub mod coordinator;
 pub mod ranges;
@@ -37,8 +41,20 @@ pub const HEARTBEAT: Duration = Duration::from_secs(2);
 pub const WORKER_TTL: Duration = Duration::from_secs(30);
 pub const RESULTS_BUCKET: &str = "caustic-results";
 /// How long a delivered unit may go without an acknowledgement (of progress or of
-/// completion) before it is delivered to another worker.
-pub const ACK_WAIT: Duration = Duration::from_secs(10);
+/// completion) before it is delivered to another worker: 10 s, or
+/// `CAUSTIC_ACK_WAIT_S` seconds when the worker that creates the shared consumer (the
+/// first one on a fresh NATS) has it set. Shorter means a dead worker's unit comes
+/// back sooner; longer tolerates longer stalls of a live one.
+pub fn ack_wait() -> Duration {
+    static WAIT: std::sync::OnceLock<Duration> = std::sync::OnceLock::new();
+    *WAIT.get_or_init(|| {
+        std::env::var("CAUSTIC_ACK_WAIT_S")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s >= 0.5)
+            .map_or(Duration::from_secs(10), Duration::from_secs_f64)
+    })
+}
 /// Deliveries of one unit before its job fails: a range that kills every worker that
 /// tries it must not go round for ever.
 pub const MAX_DELIVERIES: i64 = 5;
@@ -55,6 +71,12 @@ pub struct Unit {
     pub seed: u64,
     pub first: u64,
     pub end: u64,
+    /// For a chained integrator (`Integrator::chained`): the object in
+    /// [`RESULTS_BUCKET`] holding the job's checkpoint at `first` (integrator state,
+    /// film, sums), which the range continues from and whose successor it returns.
+    /// Such a job has one unit out at a time, so its iterations run in order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub carry: Option<String>,
 }
 
 /// A worker's answer for a unit.
@@ -80,11 +102,18 @@ impl Unit {
 
     /// The name of this range's result object.
     pub fn object_name(&self) -> String {
-        format!(
-            "{}.{}.{}-{}",
-            self.job, self.generation, self.first, self.end
-        )
+        range_name(&self.job, self.generation, self.first, self.end)
     }
+}
+
+/// The name of a range's result object.
+pub fn range_name(job: &str, generation: u64, first: u64, end: u64) -> String {
+    format!("{job}.{generation}.{first}-{end}")
+}
+
+/// Where the checkpoint a chained range continues from is stored.
+pub fn carry_name(range: &str) -> String {
+    format!("{range}.from")
 }
 
 /// What a worker reports about itself (`GET /v1/workers`).

@@ -3,13 +3,14 @@
 //! `remote`).
 
 use super::{
-    connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, ACK_WAIT, HEARTBEAT,
+    ack_wait, connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, HEARTBEAT,
     MAX_DELIVERIES, WORKERS, WORKERS_BUCKET,
 };
 use crate::film::{ExactSums, Film};
 use crate::integrator::driver::iterate_exact;
 use crate::integrator::RenderStats;
 use crate::job::scenes::SceneStore;
+use crate::job::store::Checkpoint;
 use crate::scene::Scene;
 use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
 use async_nats::jetstream::object_store::ObjectStore;
@@ -69,7 +70,7 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
             pull::Config {
                 durable_name: Some(WORKERS.into()),
                 ack_policy: AckPolicy::Explicit,
-                ack_wait: ACK_WAIT,
+                ack_wait: ack_wait(),
                 ..Default::default()
             },
         )
@@ -136,6 +137,7 @@ impl Worker {
                 delivered - 1
             ))
         } else {
+            crate::job::failpoint::hit("unit", unit.first);
             self.render(&unit, Arc::new(msg.clone())).await
         };
         let done = match outcome {
@@ -182,26 +184,36 @@ impl Worker {
         }
     }
 
-    /// Renders the range, keeping the unit alive meanwhile, and stores its sums.
+    /// Renders the range, keeping the unit alive meanwhile, and stores its result:
+    /// the range's exact sums, or for a chained unit the checkpoint after it.
     async fn render(&mut self, unit: &Unit, msg: Arc<Message>) -> Outcome {
         let scene = match self.scene(&unit.scene).await {
             Ok(s) => s,
             Err(e) => return e,
         };
+        let from = match &unit.carry {
+            None => None,
+            Some(name) => match self.carried(name).await {
+                Ok(c) => Some(c),
+                Err(e) => return e,
+            },
+        };
         let alive = tokio::spawn(async move {
             loop {
-                tokio::time::sleep(ACK_WAIT / 3).await;
+                tokio::time::sleep(ack_wait() / 3).await;
                 let _ = msg.ack_with(AckKind::Progress).await;
             }
         });
         self.info.lock().expect("info").current_job = Some(unit.job.clone());
         let (pool, u) = (self.pool.clone(), unit.clone());
         let rendered =
-            tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u))).await;
+            tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u, from)))
+                .await;
         alive.abort();
         self.info.lock().expect("info").current_job = None;
-        let (sums, stats, seconds) = match rendered {
-            Ok(r) => r,
+        let range = match rendered {
+            Ok(Ok(r)) => r,
+            Ok(Err(e)) => return Outcome::Failed(e),
             // A panic in the render core: a bug that this range will hit again.
             Err(e) => return Outcome::Failed(format!("render task: {e}")),
         };
@@ -209,7 +221,7 @@ impl Worker {
         let stored = self
             .buckets
             .1
-            .put(name.as_str(), &mut sums.encode().as_slice())
+            .put(name.as_str(), &mut range.result.as_slice())
             .await;
         if let Err(e) = stored {
             return Outcome::Transient(format!("storing the result: {e}"));
@@ -217,7 +229,16 @@ impl Worker {
         let mut info = self.info.lock().expect("info");
         info.ranges_done += 1;
         info.iterations_done += unit.end - unit.first;
-        Outcome::Rendered(name, stats, seconds)
+        Outcome::Rendered(name, range.stats, range.seconds)
+    }
+
+    /// The checkpoint a chained unit continues from.
+    async fn carried(&self, name: &str) -> Result<Checkpoint, Outcome> {
+        let bytes = read_object(&self.buckets.1, name)
+            .await
+            .map_err(|e| Outcome::Transient(format!("carried state {name}: {e}")))?;
+        Checkpoint::decode(&bytes)
+            .ok_or_else(|| Outcome::Failed(format!("carried state {name} is damaged")))
     }
 
     async fn publish_done(&self, unit: &Unit, done: &Done) -> Result<(), String> {
@@ -300,12 +321,36 @@ fn key_of(name: &str) -> String {
         .collect()
 }
 
-/// Iterations `unit.first..unit.end`, in order, from fresh state: the range's exact
-/// sums, its work counters and its seconds.
-pub fn render_range(scene: &Scene, unit: &Unit) -> (ExactSums, RenderStats, f64) {
+/// A rendered range: what goes back to the coordinator.
+pub struct Range {
+    /// The range's exact sums, encoded; for a chained unit, the checkpoint after it.
+    pub result: Vec<u8>,
+    pub stats: RenderStats,
+    pub seconds: f64,
+}
+
+/// Iterations `unit.first..unit.end`, in order: from fresh state, or for a chained
+/// unit from the checkpoint `from` it carried.
+pub fn render_range(scene: &Scene, unit: &Unit, from: Option<Checkpoint>) -> Result<Range, String> {
     let integrator = unit.settings.build();
     let (w, h) = (scene.width(), scene.height());
-    let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
+    let mut scratch = Film::new(w, h);
+    if let Some(c) = &from {
+        if c.film.width() != w || c.film.height() != h {
+            return Err(format!(
+                "carried state is {}x{}, the scene {w}x{h}",
+                c.film.width(),
+                c.film.height()
+            ));
+        }
+        if let Some(state) = &c.state {
+            integrator
+                .load_state(state)
+                .map_err(|e| format!("carried state: {e}"))?;
+        }
+        scratch = c.film.clone();
+    }
+    let mut sums = ExactSums::new(w, h);
     let mut stats = RenderStats::default();
     let start = Instant::now();
     for i in unit.first..unit.end {
@@ -318,5 +363,22 @@ pub fn render_range(scene: &Scene, unit: &Unit) -> (ExactSums, RenderStats, f64)
             &mut sums,
         );
     }
-    (sums, stats, start.elapsed().as_secs_f64())
+    let seconds = start.elapsed().as_secs_f64();
+    let result = match from {
+        None => sums.encode(),
+        Some(_) => Checkpoint {
+            iteration: unit.end,
+            elapsed_s: 0.0,
+            samples: 0,
+            film: scratch,
+            state: integrator.save_state(),
+            exact: Some(sums),
+        }
+        .encode(),
+    };
+    Ok(Range {
+        result,
+        stats,
+        seconds,
+    })
 }

@@ -339,6 +339,7 @@ impl Service {
             created_at: unix_now(),
             finished_at: None,
             error: None,
+            workers: None,
             spec,
         };
         Ok((status, settings))
@@ -401,6 +402,7 @@ impl Service {
                 continue;
             }
             let mut status = e.status.clone();
+            status.workers = None;
             status.state = if c == Control::Pause {
                 JobState::Paused
             } else {

@@ -35,6 +35,7 @@ pub(super) fn recover(data_dir: &Path) -> Table {
         if status.state == JobState::Running {
             status.state = JobState::Queued;
         }
+        status.workers = None;
         if status.state == JobState::Completed {
             disk::tidy_finished(&dir, &status.spec);
         } else {
@@ -114,6 +115,7 @@ mod tests {
             created_at: 0.0,
             finished_at: None,
             error: None,
+            workers: None,
         }
     }
 

@@ -174,6 +174,7 @@ pub(super) fn job_to_pb(j: JobStatus) -> pb::Job {
         created_at: j.created_at,
         finished_at: j.finished_at,
         error: j.error,
+        workers: j.workers,
         id: j.id,
     }
 }
