@@ -289,6 +289,31 @@ fn pause_stops_the_pool_and_a_late_worker_joins_after_resume() {
     assert!(final_pixels(&coord, &id) == in_process(size, spp));
 }
 
+/// A cancelled job hands out no more ranges either: once the unit in hand is done the
+/// worker stays idle, and the job's iteration count no longer moves.
+#[test]
+fn a_cancelled_job_stops_handing_out_ranges() {
+    let nats = Nats::start(None);
+    let coord = TestServer::start_with(None, |c| c.nats = Some(nats.url(None)));
+    let cache = tempfile::tempdir().unwrap();
+    let _w = worker(&nats.url(None), "w", cache.path());
+    let id = submit(&coord, 48, 1200);
+    wait_for_ranges(&coord, &id);
+    let (code, job) = coord.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(code, 200, "{job}");
+    assert_eq!(job["state"], "cancelled");
+    let stopped_at = job["iteration"].as_u64().unwrap();
+    assert!(stopped_at < 1200, "{job}");
+    std::thread::sleep(Duration::from_secs(5));
+    let idle = worker_field(&coord, "w", "iterations_done");
+    std::thread::sleep(Duration::from_secs(5));
+    assert_eq!(worker_field(&coord, "w", "iterations_done"), idle);
+    let job = coord.get_json(&format!("/v1/jobs/{id}")).1;
+    assert_eq!(job["state"], "cancelled");
+    assert_eq!(job["iteration"].as_u64(), Some(stopped_at), "{job}");
+    assert!(job["workers"].is_null(), "{job}");
+}
+
 /// A worker killed (SIGKILL) in the middle of its ranges: they are delivered again
 /// after the ack wait, another worker renders them, and the image is still the
 /// in-process one bit for bit (a range added twice or lost would change it).
