@@ -15,3 +15,4 @@ pub mod math;
 pub mod medium;
 pub mod scene;
 pub mod server;
+pub mod tev;

@@ -134,6 +134,9 @@ pub struct WatchArgs {
     /// Print each event as one JSON line instead of the progress bar.
     #[arg(long)]
     pub json: bool,
+    /// Show each snapshot in the tev viewer listening at HOST:PORT.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tev: Option<String>,
     #[command(flatten)]
     pub server: ServerArgs,
 }
@@ -293,6 +296,9 @@ pub struct RenderArgs {
     /// Add albedo and normal layers to the EXR.
     #[arg(long)]
     pub exr_layers: bool,
+    /// Stream the image, as it converges, to the tev viewer listening at HOST:PORT.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tev: Option<String>,
 }
 
 #[derive(Args)]

@@ -57,12 +57,18 @@ pub fn submit(a: SubmitArgs) -> Result<()> {
 
 pub fn watch(a: WatchArgs) -> Result<()> {
     let c = connect(&a.server);
-    client_exit(caustic::client::watch(
-        &c,
-        &a.job,
-        a.json,
-        &mut std::io::stdout(),
-    ))
+    let tev = match &a.tev {
+        Some(addr) => match caustic::tev::TevClient::connect(addr, &a.job) {
+            Ok(t) => Some(t),
+            Err(e) => return client_exit(Err(caustic::client::ClientError::Input(e.to_string()))),
+        },
+        None => None,
+    };
+    let done = caustic::client::watch(&c, &a.job, a.json, tev.as_ref(), &mut std::io::stdout());
+    if let Some(t) = tev {
+        t.finish();
+    }
+    client_exit(done)
 }
 
 pub fn jobs(a: JobsArgs) -> Result<()> {

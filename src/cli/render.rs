@@ -8,6 +8,7 @@ use caustic::film::{self, Image};
 use caustic::integrator::driver::{self, Halt};
 use caustic::integrator::{RenderStats, Settings};
 use caustic::scene::Scene;
+use caustic::tev::TevClient;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -49,9 +50,19 @@ pub fn render(a: &RenderArgs) -> Result<()> {
             time: time.map(Duration::from_secs_f64),
         },
     };
-    let out = render_with_progress(&scene, &settings, a.seed, halt, "");
+    let tev = match &a.tev {
+        Some(addr) => Some(TevClient::connect(addr, &tev_name(&a.scene))?),
+        None => None,
+    };
+    let out = render_streamed(&scene, &settings, a.seed, halt, "", tev.as_ref());
     let image = out.image();
+    if let Some(t) = &tev {
+        t.show(image.clone());
+    }
     write_outputs(a, &scene, &image, &out.film.layer_images())?;
+    if let Some(t) = tev {
+        t.finish();
+    }
     print_summary(
         settings.name(),
         out.iterations,
@@ -98,14 +109,45 @@ pub fn render_with_progress(
     halt: Halt,
     label: &str,
 ) -> driver::RenderOutcome {
+    render_streamed(scene, settings, seed, halt, label, None)
+}
+
+/// How often `render --tev` sends the image so far.
+const TEV_EVERY: Duration = Duration::from_millis(500);
+
+/// [`render_with_progress`] that also shows the image so far in tev after the first
+/// iteration and then every [`TEV_EVERY`] (the final image is the caller's to send).
+fn render_streamed(
+    scene: &Scene,
+    settings: &Settings,
+    seed: u64,
+    halt: Halt,
+    label: &str,
+    tev: Option<&TevClient>,
+) -> driver::RenderOutcome {
     let integrator = settings.build();
     let bar = progress_bar(halt, label);
     let by_count = halt.iterations.is_some();
-    let out = driver::render(scene, integrator.as_ref(), seed, halt, |i, el| {
-        show_progress(&bar, by_count, i, el)
+    let mut sent: Option<Duration> = None;
+    let out = driver::render_observed(scene, integrator.as_ref(), seed, halt, |p| {
+        show_progress(&bar, by_count, p.iterations, p.elapsed);
+        if let Some(t) = tev {
+            if sent.is_none_or(|s| p.elapsed >= s + TEV_EVERY) {
+                t.show(p.image());
+                sent = Some(p.elapsed);
+            }
+        }
     });
     bar.finish_and_clear();
     out
+}
+
+/// The image name in tev: the scene file's name.
+fn tev_name(scene: &Path) -> String {
+    scene
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| scene.display().to_string())
 }
 
 pub fn reference(a: &ReferenceArgs) -> Result<()> {

@@ -160,6 +160,17 @@ impl Client {
             .map_err(|e| ClientError::Transport(e.to_string()))
     }
 
+    /// The job's latest image as EXR bytes (`GET /v1/jobs/{id}/image.exr`).
+    pub fn image_exr(&self, id: &str) -> Result<Vec<u8>> {
+        let url = format!("/v1/jobs/{}/image.exr", segment(id));
+        let resp = self.send(self.request("GET", &url).call())?;
+        let mut body = Vec::new();
+        resp.into_reader()
+            .read_to_end(&mut body)
+            .map_err(|e| ClientError::Transport(format!("{}{url}: {e}", self.base)))?;
+        Ok(body)
+    }
+
     /// Opens a job's event stream.
     pub fn events(&self, id: &str) -> Result<SseReader<BufReader<Box<dyn Read + Send + Sync>>>> {
         let resp = self.send(

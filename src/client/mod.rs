@@ -104,7 +104,7 @@ pub fn submit(client: &Client, o: &SubmitOptions, out: &mut impl Write) -> Resul
     }
     out.flush()?;
     if o.watch {
-        watch_job(client, job.job, o.json, out)
+        watch_job(client, job.job, o.json, &mut |_, _| {}, out)
     } else {
         Ok(true)
     }

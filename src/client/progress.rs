@@ -4,15 +4,41 @@
 use super::sse::WatchEvent;
 use super::{Client, ClientError, Result};
 use crate::job::spec::{JobState, JobStatus};
+use crate::tev::TevClient;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::Value;
 use std::io::Write;
 use std::time::Duration;
 
-/// `caustic watch`: follows a job to its end. Returns whether it completed.
-pub fn watch(client: &Client, id: &str, json: bool, out: &mut impl Write) -> Result<bool> {
+/// `caustic watch`: follows a job to its end, showing each snapshot (and the final
+/// image) in tev when `tev` is given. Returns whether it completed.
+pub fn watch(
+    client: &Client,
+    id: &str,
+    json: bool,
+    tev: Option<&TevClient>,
+    out: &mut impl Write,
+) -> Result<bool> {
     let job = client.job(id)?;
-    watch_job(client, job.job, json, out)
+    let mut show = |client: &Client, id: &str| {
+        if let Some(t) = tev {
+            show_in_tev(client, id, t)
+        }
+    };
+    watch_job(client, job.job, json, &mut show, out)
+}
+
+/// Fetches the job's latest image and queues it for tev; a job without an image yet,
+/// or an unreadable one, is skipped (the next snapshot brings another).
+fn show_in_tev(client: &Client, id: &str, tev: &TevClient) {
+    let image = client
+        .image_exr(id)
+        .map_err(|e| e.to_string())
+        .and_then(|bytes| crate::film::decode_exr(&bytes).map_err(|e| e.to_string()));
+    match image {
+        Ok(image) => tev.show(image),
+        Err(e) => tracing::debug!("no image of {id} for tev: {e}"),
+    }
 }
 
 /// What the progress bar measures.
@@ -146,10 +172,12 @@ pub fn summary(job: &JobStatus) -> String {
 /// How many times in a row the stream may fail to (re)connect before giving up.
 const MAX_RECONNECTS: u32 = 30;
 
+/// Follows `job`; `snapshot(client, id)` is called on each snapshot and once at the end.
 pub(super) fn watch_job(
     client: &Client,
     job: JobStatus,
     json: bool,
+    snapshot: &mut dyn FnMut(&Client, &str),
     out: &mut impl Write,
 ) -> Result<bool> {
     let id = job.id.clone();
@@ -199,6 +227,7 @@ pub(super) fn watch_job(
                     w.iteration = w.iteration.max(iteration);
                     w.rmse = rmse.or(w.rmse);
                     w.refresh();
+                    snapshot(client, &id);
                 }
                 Ok(WatchEvent::State { state }) => {
                     w.state = state;
@@ -229,6 +258,7 @@ pub(super) fn watch_job(
         }
         std::thread::sleep(Duration::from_secs(1));
     };
+    snapshot(client, &id);
     w.bar.finish_and_clear();
     if !json {
         writeln!(out, "{}", summary(&final_status))?;

@@ -29,6 +29,36 @@ pub fn render(
     halt: Halt,
     mut progress: impl FnMut(u64, Duration),
 ) -> RenderOutcome {
+    render_observed(scene, integrator, seed, halt, |p| {
+        progress(p.iterations, p.elapsed)
+    })
+}
+
+/// The state of a render after an iteration, for [`render_observed`]'s observer.
+pub struct Progress<'a> {
+    pub iterations: u64,
+    pub elapsed: Duration,
+    sums: &'a ExactSums,
+}
+
+impl Progress<'_> {
+    /// The mean of the iterations so far: the image the render would write if it
+    /// stopped now. Computed on demand (a pass over the film).
+    pub fn image(&self) -> crate::film::Image {
+        self.sums
+            .to_film()
+            .to_image(1.0 / self.iterations.max(1) as f64)
+    }
+}
+
+/// [`render`] with an observer that may look at the image after each iteration.
+pub fn render_observed(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    seed: u64,
+    halt: Halt,
+    mut observe: impl FnMut(&Progress),
+) -> RenderOutcome {
     let (w, h) = (scene.width(), scene.height());
     // Exact sums, as jobs keep them: the same image, bit for bit, as a server job.
     let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
@@ -39,7 +69,11 @@ pub fn render(
         stats += iterate_exact(scene, integrator, seed, i, &mut scratch, &mut sums);
         i += 1;
         let elapsed = start.elapsed();
-        progress(i, elapsed);
+        observe(&Progress {
+            iterations: i,
+            elapsed,
+            sums: &sums,
+        });
         let by_count = halt.iterations.is_some_and(|n| i >= n);
         let by_time = halt.time.is_some_and(|t| elapsed >= t);
         let unbounded = halt.iterations.is_none() && halt.time.is_none();
