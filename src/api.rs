@@ -56,3 +56,26 @@ pub struct ErrorDetail {
     pub code: String,
     pub message: String,
 }
+
+/// An algorithm a job may name, with its parameters and their defaults
+/// (`GET /v1/algorithms`, read by the dashboard's submit form).
+#[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
+pub struct AlgorithmInfo {
+    pub name: String,
+    /// Every parameter the algorithm takes, at its default value.
+    #[schema(value_type = Object)]
+    pub params: serde_json::Map<String, serde_json::Value>,
+}
+
+impl AlgorithmInfo {
+    /// Every algorithm of [`crate::integrator::ALGORITHMS`], in its order.
+    pub fn all() -> Vec<AlgorithmInfo> {
+        crate::integrator::ALGORITHMS
+            .iter()
+            .map(|name| AlgorithmInfo {
+                name: name.to_string(),
+                params: crate::integrator::Settings::defaults(name).unwrap_or_default(),
+            })
+            .collect()
+    }
+}

@@ -1132,7 +1132,41 @@ fn method_path_cases(l: &str, s: &str) -> Vec<Case> {
         ),
         case("GET /v1/nope", Req::get("/v1/nope"), &[404]),
         case("GET /nope", Req::get("/nope"), &[404]),
-        case("GET /", Req::get("/"), &[404]),
+        // The dashboard's page and files are public (they hold no data); anything
+        // else under /dashboard is a 404, whatever it spells.
+        case("GET / (the dashboard, no token)", Req::get("/"), &[200]),
+        case("POST /", Req::post("/"), &[405]),
+        case(
+            "GET /dashboard/style.css",
+            Req::get("/dashboard/style.css"),
+            &[200],
+        ),
+        case("GET /dashboard/", Req::get("/dashboard/"), &[404]),
+        case(
+            "GET /dashboard/nope.js",
+            Req::get("/dashboard/nope.js"),
+            &[404],
+        ),
+        case(
+            "GET /dashboard/..%2fhttp.rs",
+            Req::get("/dashboard/..%2fhttp.rs"),
+            &[404],
+        ),
+        case(
+            "GET /dashboard/../Cargo.toml (raw dot segments)",
+            Req::get("/dashboard/../Cargo.toml"),
+            &[404],
+        ),
+        case(
+            "GET /dashboard/%2e%2e%2f%2e%2e%2fCargo.toml",
+            Req::get("/dashboard/%2e%2e%2f%2e%2e%2fCargo.toml"),
+            &[404],
+        ),
+        case(
+            "GET /dashboard/app.js%00.html",
+            Req::get("/dashboard/app.js%00.html"),
+            &[404],
+        ),
         case("GET /v1", Req::get("/v1"), &[404]),
         case("GET /v1/", Req::get("/v1/"), &[404]),
         case(

@@ -499,6 +499,8 @@ fn metrics_and_openapi_are_served() {
         ("get", "/metrics"),
         ("post", "/v1/jobs/{id}/retry"),
         ("get", "/v1/openapi.json"),
+        ("get", "/v1/workers"),
+        ("get", "/v1/algorithms"),
         ("get", "/healthz"),
     ];
     for (method, path) in routes {
@@ -523,6 +525,38 @@ fn metrics_and_openapi_are_served() {
         "bearer"
     );
     assert!(doc["components"]["schemas"]["JobSpec"]["properties"]["halt"].is_object());
+}
+
+#[test]
+fn algorithms_are_listed_with_their_defaults() {
+    let s = TestServer::start(None);
+    let (code, list) = s.get_json("/v1/algorithms");
+    assert_eq!(code, 200, "{list}");
+    let names: Vec<&str> = list
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, caustic::integrator::ALGORITHMS);
+    for name in caustic::integrator::ALGORITHMS {
+        // Every algorithm's defaults resolve (the list would show none otherwise).
+        caustic::integrator::Settings::defaults(name).unwrap();
+    }
+    let pt = &list[0]["params"];
+    assert_eq!(pt["max_depth"], 64, "{pt}");
+    assert!(list[2]["params"]["techniques"].is_array(), "{list}");
+    // The defaults are what a job without parameters runs with (on a scene that
+    // sets none).
+    let scene = upload_tiny(&s, 8);
+    let id = submit(
+        &s,
+        json!({"scene": scene, "algorithm": "pt", "halt": {"spp": 1}}),
+    );
+    let (_, job) = s.get_json(&format!("/v1/jobs/{id}"));
+    for (k, v) in pt.as_object().unwrap() {
+        assert_eq!(&job["settings"][k], v, "{k}: {job}");
+    }
 }
 
 #[test]

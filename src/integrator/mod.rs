@@ -268,6 +268,21 @@ impl Settings {
         Ok(settings)
     }
 
+    /// An algorithm's parameters with their default values (the settings a job gets
+    /// when it sets none), without the `algorithm` tag.
+    pub fn defaults(
+        algorithm: &str,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, SettingsError> {
+        let s = Settings::resolve(Some(algorithm), None, &serde_json::Map::new())?;
+        let mut v = match serde_json::to_value(&s) {
+            Ok(serde_json::Value::Object(m)) => m,
+            Ok(_) => serde_json::Map::new(),
+            Err(e) => return Err(SettingsError::Invalid(e.to_string())),
+        };
+        v.remove("algorithm");
+        Ok(v)
+    }
+
     /// Refuses settings that contradict what the scene holds. Every algorithm renders
     /// media; only `pt`'s albedo roulette assumes there are none.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {

@@ -2,7 +2,7 @@
 //! serve it on an ephemeral port.
 
 use super::error::ApiError;
-use crate::api::{ErrorBody, ErrorDetail, JobUrls, JobView};
+use crate::api::{AlgorithmInfo, ErrorBody, ErrorDetail, JobUrls, JobView};
 use crate::api::{SweepRow, SweepTable};
 use crate::job::remote::WorkerInfo;
 use crate::job::scenes::SceneInfo;
@@ -113,6 +113,7 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         .route("/sweeps", post(create_sweep))
         .route("/sweeps/{id}", get(get_sweep))
         .route("/workers", get(workers))
+        .route("/algorithms", get(algorithms))
         .route("/openapi.json", get(openapi))
         .layer(DefaultBodyLimit::max(limits.json))
         .merge(uploads);
@@ -123,6 +124,7 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
     Router::new()
         .merge(protected)
         .route("/healthz", get(healthz))
+        .merge(super::dashboard::routes())
         .fallback(|| async {
             ApiError::new(StatusCode::NOT_FOUND, "not_found", "no such endpoint")
         })
@@ -520,6 +522,11 @@ async fn workers(State(svc): State<Svc>) -> ApiResult<impl IntoResponse> {
     Ok(Json(blocking(&svc, |s| s.workers()).await?))
 }
 
+#[utoipa::path(get, path = "/v1/algorithms", description = "The algorithms a job may name, each with every parameter it takes at its default value.", responses((status = 200, body = Vec<AlgorithmInfo>)))]
+async fn algorithms() -> Json<Vec<AlgorithmInfo>> {
+    Json(AlgorithmInfo::all())
+}
+
 #[utoipa::path(get, path = "/metrics", description = "Prometheus metrics.", responses((status = 200, content_type = "text/plain", body = String)))]
 async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
     let text = blocking(&svc, |s| Ok(s.metrics())).await?;
@@ -560,9 +567,11 @@ async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
         create_sweep,
         get_sweep,
         workers,
+        algorithms,
         metrics
     ),
     components(schemas(
+        AlgorithmInfo,
         WorkerInfo,
         JobSpec,
         JobStatus,
