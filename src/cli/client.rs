@@ -57,11 +57,13 @@ pub fn submit(a: SubmitArgs) -> Result<()> {
 
 pub fn watch(a: WatchArgs) -> Result<()> {
     let c = connect(&a.server);
-    let tev = match &a.tev {
-        Some(addr) => match caustic::tev::TevClient::connect(addr, &a.job) {
-            Ok(t) => Some(t),
-            Err(e) => return client_exit(Err(caustic::client::ClientError::Input(e.to_string()))),
-        },
+    let tev = match a
+        .tev
+        .as_deref()
+        .map(|addr| caustic::tev::TevClient::connect(addr, &a.job))
+    {
+        Some(Ok(t)) => Some(t),
+        Some(Err(e)) => return client_exit(Err(e.into())),
         None => None,
     };
     let done = caustic::client::watch(&c, &a.job, a.json, tev.as_ref(), &mut std::io::stdout());

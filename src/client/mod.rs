@@ -53,6 +53,9 @@ pub enum ClientError {
     /// A local file could not be read.
     #[error("{path}: {message}")]
     File { path: String, message: String },
+    /// `--tev` names no address or no viewer listens there.
+    #[error(transparent)]
+    Tev(#[from] crate::tev::TevError),
     /// Writing the results failed (e.g. a closed pipe).
     #[error("writing output: {0}")]
     Output(#[from] std::io::Error),
