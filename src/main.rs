@@ -6,7 +6,7 @@ mod cli;
 use anyhow::Result;
 use clap::Parser;
 use cli::args::{Cli, Command};
-use cli::{bench, client, render, serve};
+use cli::{bench, client, import, render, serve};
 
 fn main() -> Result<()> {
     tracing_subscriber::fmt()
@@ -22,6 +22,7 @@ fn main() -> Result<()> {
     match command {
         Command::Render(a) => with_threads(a.threads, || render::render(&a)),
         Command::Diff { a, b, png } => render::diff(&a, &b, png.as_deref()),
+        Command::Import(a) => import::import(&a),
         Command::Reference(a) => with_threads(a.threads, || render::reference(&a)),
         Command::Bench(a) => with_threads(a.threads, || match a.time {
             Some(t) => bench::bench_equal_time(&a, t),

@@ -28,6 +28,10 @@ pub enum Command {
         #[arg(long)]
         png: Option<PathBuf>,
     },
+    /// Convert a Mitsuba 3 XML scene to caustic's JSON scene format, printing what the
+    /// import approximated. (`render`, `bench`, `reference` and `submit` also take
+    /// `.xml` scenes directly.)
+    Import(ImportArgs),
     /// Render a long reference image for error measurements (as `render`, with a time
     /// budget, and a seed unlike the default one of `render` and `bench`).
     Reference(ReferenceArgs),
@@ -262,6 +266,16 @@ pub struct WorkerArgs {
     /// Largest scene bundle accepted, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: u64,
+}
+
+#[derive(Args)]
+pub struct ImportArgs {
+    /// The Mitsuba 3 XML scene.
+    pub scene: PathBuf,
+    /// Where to write the JSON scene (standard output when not given). File references
+    /// stay relative to the XML's folder, so write it there.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
 }
 
 #[derive(Args)]

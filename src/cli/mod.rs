@@ -4,5 +4,6 @@
 pub mod args;
 pub mod bench;
 pub mod client;
+pub mod import;
 pub mod render;
 pub mod serve;

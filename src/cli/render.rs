@@ -14,8 +14,23 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 pub fn load_scene(path: &Path) -> Result<Scene> {
+    Ok(load_scene_and_spp(path)?.0)
+}
+
+/// Loads a JSON or Mitsuba XML scene (printing the import's warnings), with the XML
+/// sampler's sample count.
+pub fn load_scene_and_spp(path: &Path) -> Result<(Scene, Option<u32>)> {
     let t = Instant::now();
-    let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let (scene, spp) = if caustic::scene::mitsuba::is_xml_path(path) {
+        let import = super::import::import_xml(path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let scene = Scene::compile(&import.scene, Some(base))
+            .map_err(|e| anyhow::anyhow!("{} (imported): {e}", path.display()))?;
+        (scene, import.spp)
+    } else {
+        let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        (scene, None)
+    };
     let s = &scene.stats;
     eprintln!(
         "scene: {} triangles ({} pairs as parallelograms), {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",
@@ -34,15 +49,16 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
             s.degenerate_dropped
         );
     }
-    Ok(scene)
+    Ok((scene, spp))
 }
 
 pub fn render(a: &RenderArgs) -> Result<()> {
-    let scene = load_scene(&a.scene)?;
+    let (scene, scene_spp) = load_scene_and_spp(&a.scene)?;
     let settings = Settings::for_scene(a.algorithm.as_deref(), &scene, &parse_params(&a.params)?)?;
     let halt = match (a.spp, a.time) {
+        // An XML scene's sample count, else 16.
         (None, None) => Halt {
-            iterations: Some(16),
+            iterations: Some(scene_spp.map_or(16, u64::from)),
             time: None,
         },
         (spp, time) => Halt {

@@ -19,9 +19,18 @@ pub fn parse_scene(text: &str) -> Result<SceneFile> {
     })
 }
 
-/// Reads and parses a scene file. Errors name it by its file name alone: the server
-/// keeps uploads under its data folder, whose path is none of a client's business.
+/// Reads and parses a scene file: JSON, or Mitsuba 3 XML (by its `.xml` name or its
+/// content), whose import warnings go to the log. Errors name the file by its file
+/// name alone: the server keeps uploads under its data folder, whose path is none of
+/// a client's business.
 pub fn read_scene_file(path: &Path) -> Result<SceneFile> {
+    if super::mitsuba::is_xml_path(path) {
+        let import = super::mitsuba::import_file(path)?;
+        for w in &import.warnings {
+            tracing::warn!("{w}");
+        }
+        return Ok(import.scene);
+    }
     let shown = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into(),

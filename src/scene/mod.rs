@@ -5,6 +5,7 @@ pub mod error;
 pub mod format;
 pub mod load;
 mod media;
+pub mod mitsuba;
 mod shapes;
 pub mod validate;
 

@@ -30,8 +30,8 @@ export function fmtDuration(s) {
 
 export function fmtNum(x, digits = 3) {
   if (x === undefined || x === null || !isFinite(x)) return "–";
-  if (x === 0) return "0";
   const a = Math.abs(x);
+  if (Number.isInteger(x) && a < 1e4) return String(x);
   if (a >= 1e6) return `${(x / 1e6).toPrecision(digits)} M`;
   if (a >= 1e3) return `${(x / 1e3).toPrecision(digits)} k`;
   if (a < 1e-3) return x.toExponential(digits - 1);

@@ -1,0 +1,244 @@
+//! `<bsdf>` plugins as caustic materials.
+
+use super::params::Params;
+use super::xml::Node;
+use super::Ctx;
+use crate::scene::error::Result;
+use crate::scene::format::{MaterialDesc, V3};
+
+/// Conductors Mitsuba names, as RGB (eta, k): the values of Mitsuba's spectral data
+/// reduced to linear sRGB that Tungsten and Mitsuba 0.6's RGB mode tabulate.
+pub const CONDUCTORS: &[(&str, V3, V3)] = &[
+    (
+        "Au",
+        [0.143119, 0.374957, 1.44248],
+        [3.98316, 2.38572, 1.60322],
+    ),
+    (
+        "Ag",
+        [0.155265, 0.116723, 0.138342],
+        [4.82835, 3.12225, 2.14696],
+    ),
+    (
+        "Cu",
+        [0.200438, 0.924033, 1.10221],
+        [3.91295, 2.45285, 2.14219],
+    ),
+    (
+        "Al",
+        [1.65746, 0.880369, 0.521229],
+        [9.22387, 6.26952, 4.837],
+    ),
+    ("Cr", [4.36968, 2.9167, 1.6547], [5.20643, 4.23136, 3.75469]),
+];
+
+/// Mitsuba's named indices of refraction.
+const IORS: &[(&str, f32)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.00004),
+    ("hydrogen", 1.00013),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
+
+/// The name of the material for `<bsdf>` element `n` (converted once).
+pub fn material<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<String> {
+    if let Some(name) = ctx.name_of(n) {
+        return Ok(name);
+    }
+    let desc = bsdf(n, ctx)?;
+    let name = ctx.name_for(n, "bsdf");
+    ctx.materials.insert(name.clone(), desc);
+    Ok(name)
+}
+
+/// Mitsuba's BSDF for shapes that name none: diffuse, reflectance 0.5.
+pub fn default_material(ctx: &mut Ctx) -> String {
+    let name = "mitsuba-default".to_string();
+    ctx.materials
+        .entry(name.clone())
+        .or_insert(MaterialDesc::Diffuse {
+            reflectance: [0.5; 3],
+            two_sided: false,
+        });
+    name
+}
+
+fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+    if n.tag != "bsdf" {
+        return Err(n.err("is not a <bsdf>"));
+    }
+    let p = Params::new(n, ctx)?;
+    let desc = match n.kind() {
+        "diffuse" => MaterialDesc::Diffuse {
+            reflectance: p.color("reflectance")?.unwrap_or([0.5; 3]),
+            two_sided: false,
+        },
+        "twosided" => {
+            let inner = p
+                .object(&["bsdf"], None)?
+                .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
+            let mut desc = bsdf(inner, ctx)?;
+            match &mut desc {
+                MaterialDesc::Diffuse { two_sided, .. }
+                | MaterialDesc::Phong { two_sided, .. }
+                | MaterialDesc::Mirror { two_sided, .. }
+                | MaterialDesc::Conductor { two_sided, .. } => *two_sided = true,
+                _ => {
+                    return Err(inner.err(
+                        "twosided applies to reflecting BSDFs only (diffuse, conductor, \
+                         roughconductor, plastic); remove the twosided wrapper",
+                    ))
+                }
+            }
+            desc
+        }
+        "dielectric" => MaterialDesc::Dielectric {
+            int_ior: ior(&p, "int_ior", 1.5046)?,
+            ext_ior: ior(&p, "ext_ior", 1.000277)?,
+            specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
+            specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
+        },
+        "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
+        "plastic" | "roughplastic" => {
+            let reflectance = p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+            p.ignore(&[
+                "int_ior",
+                "ext_ior",
+                "specular_reflectance",
+                "nonlinear",
+                "alpha",
+                "distribution",
+                "sample_visible",
+            ]);
+            ctx.warn(
+                n,
+                "caustic has no plastic: substituted a diffuse material with its \
+                 diffuse_reflectance; the specular coating (highlights, Fresnel darkening) is \
+                 dropped",
+            );
+            MaterialDesc::Diffuse {
+                reflectance,
+                two_sided: false,
+            }
+        }
+        "null" => MaterialDesc::Null {},
+        "thindielectric" | "roughdielectric" => {
+            return Err(n.err(format!(
+                "caustic has no {} material (only a smooth dielectric); use \
+                 type=\"dielectric\" or convert the scene by hand",
+                n.kind()
+            )))
+        }
+        other => {
+            return Err(n.err(format!(
+                "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
+                 dielectric, conductor, roughconductor, twosided, null (and plastic as diffuse)"
+            )))
+        }
+    };
+    p.finish(&format!("the {} BSDF", n.kind()))?;
+    Ok(desc)
+}
+
+/// An index of refraction: a number or one of Mitsuba's names.
+fn ior(p: &Params, key: &str, default: f32) -> Result<f32> {
+    if let Some((n, s)) = p.string(key).ok().flatten() {
+        return IORS
+            .iter()
+            .find(|(name, _)| *name == s)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| n.err(format!("unknown index of refraction \"{s}\"")));
+    }
+    Ok(p.float(key)?.map_or(default, |v| v as f32))
+}
+
+fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+    let rough = n.kind() == "roughconductor";
+    let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let named = p.string("material")?;
+    let (eta, k) = match (p.color("eta")?, p.color("k")?, named) {
+        (Some(eta), Some(k), None) => (eta, k),
+        (None, None, Some((m, name))) if name != "none" => CONDUCTORS
+            .iter()
+            .find(|(c, _, _)| *c == name)
+            .map(|(_, eta, k)| (*eta, *k))
+            .ok_or_else(|| {
+                let known: Vec<&str> = CONDUCTORS.iter().map(|c| c.0).collect();
+                m.err(format!(
+                    "conductor \"{name}\" has no RGB values in caustic (known: {}, none); \
+                     give eta and k as <rgb>",
+                    known.join(", ")
+                ))
+            })?,
+        (None, None, _) if !rough => {
+            // Mitsuba's "none": a perfect mirror.
+            p.ignore(&["sample_visible"]);
+            return Ok(MaterialDesc::Mirror {
+                reflectance: specular_reflectance,
+                two_sided: false,
+            });
+        }
+        (None, None, _) => {
+            return Err(n.err(
+                "a rough conductor of material \"none\" (a rough perfect mirror) is not \
+                 supported; give material=\"Al\" (or Au, Ag, Cu, Cr) or eta and k",
+            ))
+        }
+        _ => return Err(n.err("give either eta and k, or material, not both or one")),
+    };
+    let mut roughness = 0.0;
+    if rough {
+        let alpha = p.float("alpha")?;
+        let (au, av) = (p.float("alpha_u")?, p.float("alpha_v")?);
+        roughness = match (alpha, au, av) {
+            (Some(a), None, None) => a,
+            (None, Some(u), Some(v)) if u == v => u,
+            (None, None, None) => 0.1,
+            _ => return Err(n.err("anisotropic roughness is not supported: give one alpha")),
+        } as f32;
+        let dist = p.string("distribution")?;
+        match dist.map_or("beckmann", |(_, s)| s) {
+            "ggx" => {}
+            "beckmann" => ctx.warn(
+                n,
+                format!(
+                    "the Beckmann distribution is rendered as GGX with the same alpha \
+                     ({roughness}): highlights with slightly longer tails; set \
+                     distribution=\"ggx\" to match exactly"
+                ),
+            ),
+            other => {
+                return Err(dist.expect("given").0.err(format!(
+                    "unknown distribution \"{other}\" (ggx or beckmann)"
+                )))
+            }
+        }
+    }
+    p.ignore(&["sample_visible"]);
+    Ok(MaterialDesc::Conductor {
+        eta,
+        k,
+        roughness,
+        specular_reflectance,
+        two_sided: false,
+    })
+}

@@ -1,0 +1,233 @@
+//! Mitsuba 3 XML scenes, imported into caustic's scene format. What caustic cannot
+//! represent is an error naming the element and its line; where an approximation is
+//! honest (a `plastic` BSDF drawn as its diffuse base, a Gaussian pixel filter as a
+//! box), it is made and a warning says exactly what changed. Nothing changes the
+//! image silently.
+
+mod bsdf;
+mod emitters;
+mod media;
+mod params;
+mod sensor;
+mod serialized;
+mod shapes;
+mod xml;
+
+use super::error::{Result, SceneError};
+use super::format::{MaterialDesc, MediumDesc, SceneFile};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Component, Path, PathBuf};
+use xml::Node;
+
+/// An imported scene, what the import changed, and Mitsuba's sample count.
+#[derive(Clone, Debug)]
+pub struct Import {
+    pub scene: SceneFile,
+    /// One line per approximation or ignored setting, naming the element and its line.
+    pub warnings: Vec<String>,
+    /// The sampler's `sample_count`: samples per pixel, the render's default length.
+    pub spp: Option<u32>,
+}
+
+/// Does this file content look like XML (rather than a JSON scene or an archive)?
+pub fn is_xml(bytes: &[u8]) -> bool {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    start.is_some_and(|i| {
+        let rest = &bytes[i..];
+        rest.starts_with(b"<?xml") || rest.starts_with(b"<scene") || rest.starts_with(b"<!--")
+    })
+}
+
+/// Is this path a Mitsuba scene by its name (`.xml`)?
+pub fn is_xml_path(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|x| x.eq_ignore_ascii_case("xml"))
+}
+
+/// Imports a Mitsuba 3 XML scene file; the files it names resolve next to it (or next
+/// to the file that includes them) and end up relative to its folder.
+pub fn import_file(path: &Path) -> Result<Import> {
+    let root = xml::read(path)?;
+    let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut ctx = Ctx::new(&root, main_dir)?;
+    let mut camera = None;
+    let mut integrator = None;
+    let mut shapes = Vec::new();
+    let mut lights = Vec::new();
+    for n in &root.children {
+        match n.tag.as_str() {
+            "sensor" if camera.is_some() => {
+                return Err(n.err("a second sensor: caustic scenes have one camera; remove it"))
+            }
+            "sensor" => camera = Some(sensor::sensor(n, &mut ctx)?),
+            "integrator" if integrator.is_some() => {
+                return Err(n.err("a second integrator; remove it"))
+            }
+            "integrator" => integrator = Some((n, sensor::integrator(n, &mut ctx)?)),
+            "shape" => shapes.push(shapes::shape(n, &mut ctx)?),
+            "emitter" => lights.push(emitters::emitter(n, &mut ctx)?),
+            "bsdf" | "medium" | "texture" | "volume" | "phase" if n.attr("id").is_some() => {}
+            "bsdf" | "medium" | "texture" | "volume" | "phase" => ctx.warn(
+                n,
+                "defined at the top level without an id, so nothing can use it; ignored",
+            ),
+            _ => {
+                return Err(n.err(
+                    "not allowed at the top level of a scene (expected sensor, integrator, \
+                     shape, emitter, or a bsdf / medium with an id)",
+                ))
+            }
+        }
+    }
+    let Some((camera, film, spp)) = camera else {
+        return Err(root.err("the scene has no <sensor>: caustic needs a camera; add one"));
+    };
+    let integrator = match integrator {
+        Some((n, v)) => {
+            if n.kind() == "path" && !ctx.media.is_empty() {
+                ctx.warn(
+                    n,
+                    "Mitsuba's path integrator ignores media; caustic renders them (as volpath)",
+                );
+            }
+            v
+        }
+        None => {
+            ctx.warnings.push(format!(
+                "{}: no <integrator>: Mitsuba's default path tracer with unlimited max_depth \
+                 becomes pt with max_depth {}",
+                root.loc,
+                sensor::UNLIMITED_DEPTH
+            ));
+            serde_json::json!({"algorithm": "pt", "max_depth": sensor::UNLIMITED_DEPTH})
+        }
+    };
+    let scene = SceneFile {
+        format: 1,
+        camera,
+        film,
+        materials: std::mem::take(&mut ctx.materials),
+        media: std::mem::take(&mut ctx.media),
+        shapes,
+        lights,
+        light_selection: Default::default(),
+        integrator: Some(integrator),
+    };
+    Ok(Import {
+        scene,
+        warnings: ctx.warnings,
+        spp,
+    })
+}
+
+/// What the conversion keeps as it goes: ids, named materials and media, warnings.
+pub struct Ctx<'a> {
+    pub ids: HashMap<&'a str, &'a Node>,
+    pub warnings: Vec<String>,
+    main_dir: PathBuf,
+    pub materials: BTreeMap<String, MaterialDesc>,
+    pub media: BTreeMap<String, MediumDesc>,
+    /// The name given to each converted bsdf or medium element (by address).
+    names: HashMap<*const Node, String>,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(root: &'a Node, main_dir: PathBuf) -> Result<Self> {
+        let mut ids = HashMap::new();
+        collect_ids(root, &mut ids)?;
+        Ok(Ctx {
+            ids,
+            warnings: Vec::new(),
+            main_dir,
+            materials: BTreeMap::new(),
+            media: BTreeMap::new(),
+            names: HashMap::new(),
+        })
+    }
+
+    pub fn warn(&mut self, n: &Node, message: impl std::fmt::Display) {
+        self.warnings.push(n.warning(message));
+    }
+
+    /// The name of an already converted element, if it was.
+    pub fn name_of(&self, n: &Node) -> Option<String> {
+        self.names.get(&(n as *const Node)).cloned()
+    }
+
+    /// A fresh name for element `n`: its id, or its kind and position.
+    pub fn name_for(&mut self, n: &Node, kind: &str) -> String {
+        let base = n.attr("id").map_or_else(
+            || format!("{kind}@{}:{}", n.loc.file.name, n.loc.line),
+            str::to_string,
+        );
+        let mut name = base.clone();
+        let mut k = 2;
+        while self.materials.contains_key(&name) || self.media.contains_key(&name) {
+            name = format!("{base}#{k}");
+            k += 1;
+        }
+        self.names.insert(n as *const Node, name.clone());
+        name
+    }
+
+    /// A file the element names, relative to the main file's folder; it must exist.
+    pub fn file_ref(&self, n: &Node, name: &str) -> Result<String> {
+        let rel = join_relative(&n.loc.file.dir, name).map_err(|m| n.err(m))?;
+        if !self.main_dir.join(&rel).is_file() {
+            return Err(n.err(format!(
+                "file \"{name}\" not found (looked for {}); put it next to the scene",
+                rel.display()
+            )));
+        }
+        Ok(rel
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy())
+            .collect::<Vec<_>>()
+            .join("/"))
+    }
+
+    pub fn path_of(&self, rel: &str) -> PathBuf {
+        self.main_dir.join(rel)
+    }
+}
+
+fn collect_ids<'a>(n: &'a Node, ids: &mut HashMap<&'a str, &'a Node>) -> Result<()> {
+    if n.tag != "ref" {
+        if let Some(id) = n.attr("id") {
+            if let Some(first) = ids.insert(id, n) {
+                return Err(n.err(format!(
+                    "id \"{id}\" is already used at {}; rename one of them",
+                    first.loc
+                )));
+            }
+        }
+    }
+    n.children.iter().try_for_each(|c| collect_ids(c, ids))
+}
+
+/// `name` relative to `dir` (both inside the main folder), without `..` leaving it.
+pub fn join_relative(dir: &Path, name: &str) -> std::result::Result<PathBuf, String> {
+    let mut out = dir.to_path_buf();
+    for c in Path::new(name).components() {
+        match c {
+            Component::Normal(p) => out.push(p),
+            Component::CurDir => {}
+            Component::ParentDir if out.pop() => {}
+            _ => {
+                return Err(format!(
+                    "\"{name}\" must be a relative path inside the scene's folder"
+                ))
+            }
+        }
+    }
+    if out.as_os_str().is_empty() {
+        return Err("empty file name".into());
+    }
+    Ok(out)
+}
+
+/// A scene error for a problem with the whole file.
+pub fn file_error(path: &Path, message: impl Into<String>) -> SceneError {
+    SceneError::new(path.display().to_string(), message)
+}

@@ -1,0 +1,198 @@
+//! Mitsuba's `serialized` meshes: a zlib stream per shape (flags, counts, positions,
+//! optional normals, texture coordinates and colours, triangles), shapes indexed by a
+//! table of offsets at the end of the file. Imported as an inline mesh.
+
+use super::params::Params;
+use super::xml::Node;
+use super::Ctx;
+use crate::scene::error::Result;
+use crate::scene::format::GeometryDesc;
+use std::io::Read;
+
+const HAS_NORMALS: u32 = 0x0001;
+const HAS_TEXCOORDS: u32 = 0x0002;
+const HAS_COLORS: u32 = 0x0008;
+const FACE_NORMALS: u32 = 0x0010;
+const DOUBLE_PRECISION: u32 = 0x2000;
+
+/// More vertices or triangles than this in one shape is taken for a damaged file.
+const MAX_COUNT: u64 = 1 << 28;
+
+pub fn shape(n: &Node, p: &Params, ctx: &mut Ctx) -> Result<GeometryDesc> {
+    let (fnode, name) = p
+        .string("filename")?
+        .ok_or_else(|| n.err("needs a filename"))?;
+    let file = ctx.file_ref(fnode, name)?;
+    let index = p.int("shape_index")?.unwrap_or(0);
+    let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+    let bytes = std::fs::read(ctx.path_of(&file)).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
+    let mesh = read(&bytes, index).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
+    let normals = match (mesh.normals, face_normals) {
+        (Some(normals), false) => Some(normals),
+        (None, false) => {
+            ctx.warn(
+                n,
+                "the mesh has no vertex normals: Mitsuba would compute smooth normals, caustic \
+                 shades it flat (set face_normals=\"true\" to make Mitsuba agree)",
+            );
+            None
+        }
+        (_, true) => None,
+    };
+    Ok(GeometryDesc::Mesh {
+        positions: mesh.positions,
+        indices: mesh.indices,
+        normals,
+    })
+}
+
+struct Mesh {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    indices: Vec<[u32; 3]>,
+}
+
+fn u32_at(b: &[u8], at: usize) -> Option<u32> {
+    Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
+}
+
+fn u64_at(b: &[u8], at: usize) -> Option<u64> {
+    Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
+}
+
+/// Shape `index` of a serialized file.
+fn read(bytes: &[u8], index: i64) -> std::result::Result<Mesh, String> {
+    let version = bytes.get(2..4).map(|v| u16::from_le_bytes([v[0], v[1]]));
+    if bytes.get(0..2) != Some(&[0x1C, 0x04][..]) || !matches!(version, Some(3 | 4)) {
+        return Err("not a Mitsuba serialized file (version 3 or 4)".into());
+    }
+    let v4 = version == Some(4);
+    let start = if index == 0 {
+        0
+    } else {
+        let count = u32_at(bytes, bytes.len().saturating_sub(4)).ok_or("truncated file")? as i64;
+        if index < 0 || index >= count {
+            return Err(format!(
+                "shape_index {index}: the file holds {count} shapes"
+            ));
+        }
+        let width = if v4 { 8 } else { 4 };
+        let table = bytes.len() - 4 - width * count as usize;
+        let at = table + width * index as usize;
+        let off = if v4 {
+            u64_at(bytes, at)
+        } else {
+            u32_at(bytes, at).map(u64::from)
+        };
+        off.ok_or("truncated offset table")? as usize
+    };
+    let body = bytes.get(start + 4..).ok_or("truncated file")?;
+    let mut z = flate2::read::ZlibDecoder::new(body);
+    let mut take = |n: u64| -> std::result::Result<Vec<u8>, String> {
+        let mut buf = Vec::new();
+        (&mut z)
+            .take(n)
+            .read_to_end(&mut buf)
+            .map_err(|e| format!("zlib: {e}"))?;
+        if buf.len() as u64 != n {
+            return Err("the compressed data ends early".into());
+        }
+        Ok(buf)
+    };
+    let flags = u32::from_le_bytes(take(4)?.try_into().expect("4 bytes"));
+    if v4 {
+        // The shape's name, NUL-terminated.
+        while take(1)?[0] != 0 {}
+    }
+    let nv = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
+    let nt = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
+    if nv > MAX_COUNT || nt > MAX_COUNT {
+        return Err(format!("{nv} vertices and {nt} triangles: too many"));
+    }
+    let real = if flags & DOUBLE_PRECISION != 0 { 8 } else { 4 };
+    let mut reals = |count: u64| -> std::result::Result<Vec<f32>, String> {
+        let b = take(count * real)?;
+        Ok(if real == 8 {
+            b.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8")) as f32)
+                .collect()
+        } else {
+            b.chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
+                .collect()
+        })
+    };
+    let triples = |v: Vec<f32>| v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let positions: Vec<[f32; 3]> = triples(reals(3 * nv)?);
+    let normals: Option<Vec<[f32; 3]>> = if flags & HAS_NORMALS != 0 {
+        Some(triples(reals(3 * nv)?))
+    } else {
+        None
+    };
+    if flags & HAS_TEXCOORDS != 0 {
+        reals(2 * nv)?;
+    }
+    if flags & HAS_COLORS != 0 {
+        reals(3 * nv)?;
+    }
+    // (Indices are 64-bit only past 2^32 vertices, beyond MAX_COUNT.)
+    let b = take(3 * nt * 4)?;
+    let idx: Vec<u32> = b
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes(c.try_into().expect("4")))
+        .collect();
+    let indices: Vec<[u32; 3]> = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    if let Some(bad) = indices.iter().flatten().find(|&&i| i as u64 >= nv) {
+        return Err(format!("face index {bad} out of range ({nv} vertices)"));
+    }
+    let normals = normals.filter(|_| flags & FACE_NORMALS == 0);
+    Ok(Mesh {
+        positions,
+        normals,
+        indices,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A serialized file of one shape (version 4), for tests.
+    fn write_one(positions: &[[f32; 3]], indices: &[[u32; 3]]) -> Vec<u8> {
+        use std::io::Write;
+        let mut raw = Vec::new();
+        raw.extend(0x1000u32.to_le_bytes());
+        raw.extend(b"mesh\0");
+        raw.extend((positions.len() as u64).to_le_bytes());
+        raw.extend((indices.len() as u64).to_le_bytes());
+        positions
+            .iter()
+            .flatten()
+            .for_each(|x| raw.extend(x.to_le_bytes()));
+        indices
+            .iter()
+            .flatten()
+            .for_each(|i| raw.extend(i.to_le_bytes()));
+        let mut out = vec![0x1C, 0x04, 4, 0];
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&raw).expect("in memory");
+        out.extend(z.finish().expect("in memory"));
+        out.extend(0u64.to_le_bytes());
+        out.extend(1u32.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn a_written_mesh_reads_back() {
+        let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]];
+        let mesh = read(&write_one(&pos, &[[0, 1, 2]]), 0).unwrap();
+        assert_eq!(mesh.positions, pos);
+        assert_eq!(mesh.indices, [[0, 1, 2]]);
+        assert!(mesh.normals.is_none());
+        assert!(read(&write_one(&pos, &[[0, 1, 3]]), 0)
+            .err()
+            .unwrap()
+            .contains("out of range"));
+        assert!(read(b"junk", 0).is_err());
+    }
+}

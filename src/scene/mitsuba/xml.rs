@@ -1,0 +1,262 @@
+//! Mitsuba XML as a tree of owned nodes: `<include>`s expanded in place, `<default>`s
+//! collected and `$name` references substituted, every node with its file, line and
+//! column for messages.
+
+use super::super::error::{Result, SceneError};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A file of the scene: its name relative to the main file's folder (as messages show
+/// it) and that folder's path to it.
+#[derive(Debug)]
+pub struct SrcFile {
+    pub name: String,
+    /// The file's folder, relative to the main file's folder.
+    pub dir: PathBuf,
+}
+
+/// Where a node starts.
+#[derive(Clone, Debug)]
+pub struct Loc {
+    pub file: Arc<SrcFile>,
+    pub line: u32,
+    pub col: u32,
+}
+
+impl std::fmt::Display for Loc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:{}", self.file.name, self.line, self.col)
+    }
+}
+
+#[derive(Debug)]
+pub struct Node {
+    pub tag: String,
+    /// Attributes in document order, `$name`s substituted.
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Node>,
+    pub loc: Loc,
+}
+
+impl Node {
+    pub fn attr(&self, key: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// `<bsdf type="plastic" id="x">`, as messages name the element.
+    pub fn label(&self) -> String {
+        let mut s = format!("<{}", self.tag);
+        for key in ["type", "name", "id"] {
+            if let Some(v) = self.attr(key) {
+                s += &format!(" {key}=\"{v}\"");
+            }
+        }
+        s + ">"
+    }
+
+    /// An error at this element: `file:line:col: <element>: message`.
+    pub fn err(&self, message: impl std::fmt::Display) -> SceneError {
+        SceneError::new(self.loc.to_string(), format!("{}: {message}", self.label()))
+    }
+
+    /// A warning at this element, in the same form as an error.
+    pub fn warning(&self, message: impl std::fmt::Display) -> String {
+        format!("{}: {}: {message}", self.loc, self.label())
+    }
+
+    pub fn kind(&self) -> &str {
+        self.attr("type").unwrap_or("")
+    }
+}
+
+/// Attributes each element may carry; anything else is an error.
+fn allowed_attrs(tag: &str) -> Option<&'static [&'static str]> {
+    Some(match tag {
+        "scene" => &["version"],
+        "default" => &["name", "value"],
+        "include" => &["filename"],
+        "ref" => &["id", "name"],
+        "float" | "integer" | "boolean" | "string" | "rgb" => &["name", "value"],
+        "spectrum" => &["name", "value", "filename"],
+        "point" | "vector" => &["name", "value", "x", "y", "z"],
+        "transform" => &["name"],
+        "translate" | "scale" => &["value", "x", "y", "z"],
+        "rotate" => &["value", "x", "y", "z", "angle"],
+        "matrix" => &["value"],
+        "lookat" => &["origin", "target", "up"],
+        "integrator" | "sensor" | "film" | "sampler" | "rfilter" | "shape" | "bsdf" | "emitter"
+        | "medium" | "phase" | "volume" | "texture" => &["type", "id", "name"],
+        _ => return None,
+    })
+}
+
+/// Reads the main scene file and everything it includes.
+pub fn read(path: &Path) -> Result<Node> {
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let file = Arc::new(SrcFile {
+        name,
+        dir: PathBuf::new(),
+    });
+    let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut reader = Reader {
+        main_dir,
+        defaults: HashMap::new(),
+        stack: Vec::new(),
+    };
+    let text =
+        std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
+    reader.file(&text, file, path)
+}
+
+struct Reader {
+    main_dir: PathBuf,
+    defaults: HashMap<String, String>,
+    /// Canonical paths of the files being read, for include cycles.
+    stack: Vec<PathBuf>,
+}
+
+impl Reader {
+    fn file(&mut self, text: &str, file: Arc<SrcFile>, path: &Path) -> Result<Node> {
+        let canon = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.stack.push(canon);
+        let doc = roxmltree::Document::parse(text).map_err(|e| {
+            let pos = e.pos();
+            SceneError::new(
+                format!("{}:{}:{}", file.name, pos.row, pos.col),
+                format!("not well-formed XML: {e}"),
+            )
+        })?;
+        let root = doc.root_element();
+        let at = |n: roxmltree::Node| {
+            let pos = doc.text_pos_at(n.range().start);
+            Loc {
+                file: file.clone(),
+                line: pos.row,
+                col: pos.col,
+            }
+        };
+        if root.tag_name().name() != "scene" {
+            return Err(SceneError::new(
+                at(root).to_string(),
+                format!(
+                    "<{}>: the root element must be <scene>",
+                    root.tag_name().name()
+                ),
+            ));
+        }
+        // Defaults first, wherever they stand; an include's never override the
+        // including file's.
+        for n in root.children().filter(|n| n.has_tag_name("default")) {
+            let (Some(k), Some(v)) = (n.attribute("name"), n.attribute("value")) else {
+                return Err(SceneError::new(
+                    at(n).to_string(),
+                    "<default>: needs name and value attributes",
+                ));
+            };
+            self.defaults.entry(k.to_string()).or_insert(v.to_string());
+        }
+        let node = self.node(root, &at)?;
+        self.stack.pop();
+        Ok(node)
+    }
+
+    fn node(&mut self, n: roxmltree::Node, at: &dyn Fn(roxmltree::Node) -> Loc) -> Result<Node> {
+        let tag = n.tag_name().name().to_string();
+        let loc = at(n);
+        let mut node = Node {
+            tag,
+            attrs: Vec::new(),
+            children: Vec::new(),
+            loc,
+        };
+        let Some(allowed) = allowed_attrs(&node.tag) else {
+            return Err(node.err(
+                "unknown element: caustic imports Mitsuba 3 scene elements (shape, bsdf, emitter, \
+                 sensor, medium, ...); remove it or convert it by hand",
+            ));
+        };
+        for a in n.attributes() {
+            let value = self.substitute(&node, a.value())?;
+            node.attrs.push((a.name().to_string(), value));
+        }
+        if let Some((bad, _)) = node
+            .attrs
+            .iter()
+            .find(|(k, _)| !allowed.contains(&k.as_str()))
+        {
+            return Err(node.err(format!(
+                "unsupported attribute \"{bad}\" (this element takes {}); remove it",
+                allowed.join(", ")
+            )));
+        }
+        for c in n.children().filter(|c| c.is_element()) {
+            match c.tag_name().name() {
+                "default" if node.tag == "scene" => {}
+                "include" => {
+                    let inc = self.node(c, at)?;
+                    let scene = self.include(&inc)?;
+                    node.children.extend(scene.children);
+                }
+                _ => node.children.push(self.node(c, at)?),
+            }
+        }
+        Ok(node)
+    }
+
+    /// `$name` and `${name}` references replaced by the defaults' values.
+    fn substitute(&self, node: &Node, value: &str) -> Result<String> {
+        let mut out = String::new();
+        let mut rest = value;
+        while let Some(i) = rest.find('$') {
+            out += &rest[..i];
+            let after = &rest[i + 1..];
+            let (name, tail) = if let Some(inner) = after.strip_prefix('{') {
+                let end = inner.find('}').ok_or_else(|| node.err("unclosed \"${\""))?;
+                (&inner[..end], &inner[end + 1..])
+            } else {
+                let end = after
+                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .unwrap_or(after.len());
+                (&after[..end], &after[end..])
+            };
+            let v = self.defaults.get(name).ok_or_else(|| {
+                node.err(format!(
+                    "\"${name}\" has no value: declare <default name=\"{name}\" value=\"...\"/>"
+                ))
+            })?;
+            out += v;
+            rest = tail;
+        }
+        Ok(out + rest)
+    }
+
+    fn include(&mut self, inc: &Node) -> Result<Node> {
+        let name = inc
+            .attr("filename")
+            .ok_or_else(|| inc.err("needs a filename attribute"))?;
+        let rel = super::join_relative(&inc.loc.file.dir, name).map_err(|m| inc.err(m))?;
+        let path = self.main_dir.join(&rel);
+        let canon = path
+            .canonicalize()
+            .map_err(|e| inc.err(format!("\"{name}\": {e}")))?;
+        if self.stack.contains(&canon) {
+            return Err(inc.err(format!(
+                "\"{name}\" includes itself (an include cycle); remove one of the includes"
+            )));
+        }
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| inc.err(format!("\"{name}\": {e}")))?;
+        let file = Arc::new(SrcFile {
+            name: rel.to_string_lossy().into_owned(),
+            dir: rel.parent().map(Path::to_path_buf).unwrap_or_default(),
+        });
+        self.file(&text, file, &path)
+    }
+}

@@ -1,0 +1,485 @@
+//! The web dashboard in a real headless Chromium, driven over W3C WebDriver
+//! (chromedriver, installed by deploy/scripts/install-chromium.sh when missing; without
+//! root and without it, the tests say they skipped). Each page is also saved as a
+//! screenshot under <target>/dashboard-screenshots/ for a person to look at.
+
+mod server_common;
+use serde_json::{json, Value};
+use server_common::*;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+/// chromedriver: $CAUSTIC_CHROMEDRIVER, else /usr/bin/chromedriver, installed by the
+/// project's script when absent; None (the test skips) when that is not possible.
+fn chromedriver() -> Option<&'static Path> {
+    static BIN: OnceLock<Option<PathBuf>> = OnceLock::new();
+    BIN.get_or_init(|| {
+        if let Ok(p) = std::env::var("CAUSTIC_CHROMEDRIVER") {
+            return Some(PathBuf::from(p));
+        }
+        let root = env!("CARGO_MANIFEST_DIR");
+        let out = Command::new(format!("{root}/deploy/scripts/install-chromium.sh"))
+            .stderr(Stdio::inherit())
+            .output()
+            .expect("running deploy/scripts/install-chromium.sh");
+        out.status
+            .success()
+            .then(|| PathBuf::from(String::from_utf8(out.stdout).unwrap().trim()))
+    })
+    .as_deref()
+}
+
+/// One browser at a time: the machine has few cores and the jobs need them too.
+static BROWSER: Mutex<()> = Mutex::new(());
+
+/// Where screenshots go: <target dir>/dashboard-screenshots (the test binary lives in
+/// <target dir>/<profile>/deps).
+fn screenshot_dir() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let target = exe.ancestors().nth(3).unwrap().to_path_buf();
+    let dir = target.join("dashboard-screenshots");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
+
+/// A chromedriver process and one headless Chromium session on it, both ended when
+/// dropped.
+struct Browser {
+    driver: Child,
+    session: String,
+    _lock: std::sync::MutexGuard<'static, ()>,
+}
+
+impl Browser {
+    fn start() -> Option<Browser> {
+        let Some(bin) = chromedriver() else {
+            eprintln!(
+                "skipped: chromium and chromedriver are not installed, and installing them needs root"
+            );
+            return None;
+        };
+        let lock = BROWSER.lock().unwrap_or_else(|e| e.into_inner());
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let driver = Command::new(bin)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting chromedriver");
+        let base = format!("http://127.0.0.1:{port}");
+        let start = Instant::now();
+        while ureq::get(&format!("{base}/status")).call().is_err() {
+            assert!(
+                start.elapsed() < Duration::from_secs(20),
+                "chromedriver did not start"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let mut options = json!({"args": ["--headless=new", "--no-sandbox", "--disable-gpu",
+                                           "--window-size=1280,900"]});
+        if Path::new("/usr/bin/chromium").exists() {
+            options["binary"] = json!("/usr/bin/chromium");
+        }
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome", "goog:chromeOptions": options,
+            "goog:loggingPrefs": {"browser": "ALL"}}}});
+        let v = call("POST", &format!("{base}/session"), Some(&caps)).expect("a session");
+        let session = format!("{base}/session/{}", v["sessionId"].as_str().unwrap());
+        Some(Browser {
+            driver,
+            session,
+            _lock: lock,
+        })
+    }
+
+    fn cmd(&self, method: &str, path: &str, body: Option<&Value>) -> Value {
+        call(method, &format!("{}{path}", self.session), body)
+            .unwrap_or_else(|e| panic!("{method} {path}: {e}\n{}", self.console()))
+    }
+
+    fn goto(&self, url: &str) {
+        self.cmd("POST", "/url", Some(&json!({"url": url})));
+    }
+
+    /// Runs `script` (a function body; `arguments` holds `args`) in the page.
+    fn js(&self, script: &str, args: Value) -> Value {
+        self.cmd(
+            "POST",
+            "/execute/sync",
+            Some(&json!({"script": script, "args": args})),
+        )
+    }
+
+    /// Waits until the expression (a function body returning a value) is truthy, and
+    /// returns its value.
+    fn wait_for(&self, what: &str, script: &str, timeout: Duration) -> Value {
+        let start = Instant::now();
+        loop {
+            let v = self.js(script, json!([]));
+            if !(v.is_null() || v == false || v == "" || v == 0) {
+                return v;
+            }
+            if start.elapsed() > timeout {
+                let text = self.js("return document.body.innerText", json!([]));
+                panic!(
+                    "timed out waiting for {what}; the page shows:\n{}\n{}",
+                    text.as_str().unwrap_or(""),
+                    self.console()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    fn find(&self, css: &str) -> String {
+        let v = self.cmd(
+            "POST",
+            "/element",
+            Some(&json!({"using": "css selector", "value": css})),
+        );
+        v[ELEMENT].as_str().unwrap().to_string()
+    }
+
+    fn click(&self, css: &str) {
+        let e = self.find(css);
+        self.cmd("POST", &format!("/element/{e}/click"), Some(&json!({})));
+    }
+
+    /// Clears an input and types `text` into it, as a person would.
+    fn type_into(&self, css: &str, text: &str) {
+        let e = self.find(css);
+        self.cmd("POST", &format!("/element/{e}/clear"), Some(&json!({})));
+        self.cmd(
+            "POST",
+            &format!("/element/{e}/value"),
+            Some(&json!({"text": text})),
+        );
+    }
+
+    /// Picks an option of a <select> by value (and fires `change`).
+    fn select(&self, css: &str, value: &str) {
+        self.js(
+            "const s = document.querySelector(arguments[0]); s.value = arguments[1];
+             s.dispatchEvent(new Event('change')); return s.value === arguments[1];",
+            json!([css, value]),
+        );
+    }
+
+    fn screenshot(&self, name: &str) {
+        use base64::Engine;
+        let v = self.cmd("GET", "/screenshot", None);
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(v.as_str().unwrap())
+            .unwrap();
+        std::fs::write(screenshot_dir().join(format!("{name}.png")), png).unwrap();
+    }
+
+    /// The browser console (errors of the page's scripts), for failure messages.
+    fn console(&self) -> String {
+        call(
+            "POST",
+            &format!("{}/se/log", self.session),
+            Some(&json!({"type": "browser"})),
+        )
+        .map(|v| {
+            v.as_array()
+                .map(|a| {
+                    a.iter()
+                        .map(|e| format!("console: {}", e["message"]))
+                        .collect::<Vec<_>>()
+                        .join("\n")
+                })
+                .unwrap_or_default()
+        })
+        .unwrap_or_default()
+    }
+
+    /// The preview canvas's pixels (RGBA bytes).
+    fn preview_pixels(&self) -> Vec<u8> {
+        let v = self.js(
+            "const c = document.getElementById('preview');
+             return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data);",
+            json!([]),
+        );
+        serde_json::from_value(v).unwrap()
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = call("DELETE", &self.session, None);
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+/// One WebDriver call: the answer's `value`, or the driver's error.
+fn call(method: &str, url: &str, body: Option<&Value>) -> Result<Value, String> {
+    let req = ureq::request(method, url).timeout(Duration::from_secs(60));
+    let r = match body {
+        Some(b) => req
+            .set("content-type", "application/json")
+            .send_string(&b.to_string()),
+        None => req.call(),
+    };
+    let (code, bytes) = match r {
+        Ok(r) => respond(Ok(r)),
+        Err(ureq::Error::Status(_, r)) => respond(Ok(r)),
+        Err(e) => return Err(e.to_string()),
+    };
+    let v: Value = serde_json::from_slice(&bytes).map_err(|e| e.to_string())?;
+    if code >= 400 {
+        return Err(format!("{code}: {}", v["value"]));
+    }
+    Ok(v["value"].clone())
+}
+
+/// The built-in Cornell box at 32 x 32, uploaded: noisy enough that two snapshots a
+/// second apart differ in their 8-bit pixels.
+fn upload_cornell(s: &TestServer) -> String {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box.json"
+    ))
+    .unwrap();
+    let mut scene: Value = serde_json::from_str(&text).unwrap();
+    scene["film"]["width"] = json!(32);
+    scene["film"]["height"] = json!(32);
+    let (code, info) = s.post_bytes("/v1/scenes", scene.to_string().as_bytes());
+    assert_eq!(code, 201, "{info}");
+    info["id"].as_str().unwrap().to_string()
+}
+
+const WAIT: Duration = Duration::from_secs(15);
+
+#[test]
+fn submit_through_the_form_watch_the_preview_and_cancel() {
+    let Some(b) = Browser::start() else { return };
+    let s = TestServer::start(None);
+    let scene = upload_cornell(&s);
+    let (code, _) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": scene, "halt": {"spp": 4}, "name": "earlier", "tags": ["warm-up"]}),
+    );
+    assert_eq!(code, 201);
+
+    // The list shows the job, with its tag.
+    b.goto(&format!("{}/", s.url));
+    b.wait_for(
+        "the job list",
+        "return document.querySelectorAll('#jobs tbody tr').length === 1 &&
+                document.querySelector('#jobs tbody').innerText.includes('warm-up')",
+        WAIT,
+    );
+    b.screenshot("list");
+
+    // A bad parameter: the server's message appears next to its field.
+    b.click("nav a[data-route=submit]");
+    b.wait_for(
+        "the submit form",
+        "return document.getElementById('submit-form')?.dataset.ready",
+        WAIT,
+    );
+    b.select("#scene", &scene);
+    b.select("#algorithm", "pt");
+    b.type_into("#param-max_depth", "deep");
+    b.type_into("#halt-spp", "1000000");
+    b.type_into("#snapshot-every", "1");
+    b.type_into("#name", "from the form");
+    b.type_into("#tags", "browser, test");
+    b.click("#submit");
+    let msg = b.wait_for(
+        "the validation message",
+        "return document.querySelector('[data-error-for=\"params.max_depth\"]').textContent",
+        WAIT,
+    );
+    assert!(msg.as_str().unwrap().contains("max_depth"), "{msg}");
+    assert_eq!(
+        b.js(
+            "return document.getElementById('form-error').textContent",
+            json!([])
+        ),
+        ""
+    );
+    b.screenshot("submit-error");
+
+    // Fixed, the job is created and its page opens; the preview changes live.
+    b.type_into("#param-max_depth", "8");
+    b.click("#submit");
+    let hash = b.wait_for(
+        "the job page",
+        "return location.hash.startsWith('#/job/') && location.hash",
+        WAIT,
+    );
+    let id = hash
+        .as_str()
+        .unwrap()
+        .trim_start_matches("#/job/")
+        .to_string();
+    let (_, job) = s.get_json(&format!("/v1/jobs/{id}"));
+    assert_eq!(job["spec"]["params"]["max_depth"], 8, "{job}");
+    assert_eq!(job["spec"]["tags"], json!(["browser", "test"]), "{job}");
+    assert_eq!(
+        job["spec"]["snapshot_every"],
+        json!({"seconds": 1.0}),
+        "{job}"
+    );
+    b.wait_for(
+        "a first preview",
+        "return Number(document.getElementById('preview').dataset.version || 0) >= 1",
+        WAIT,
+    );
+    let first = b.preview_pixels();
+    assert_eq!(first.len(), 32 * 32 * 4);
+    let start = Instant::now();
+    loop {
+        let now = b.preview_pixels();
+        if now != first {
+            break;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "the preview never changed\n{}",
+            b.console()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    b.wait_for(
+        "a plotted log row",
+        "return document.querySelectorAll('#log tbody tr').length >= 1",
+        WAIT,
+    );
+    b.screenshot("job");
+
+    // Cancel, then cancel again: the server's refusal is shown.
+    b.click("#action-cancel");
+    b.wait_for(
+        "the cancelled state",
+        "return document.querySelector('[data-stat=state]').textContent === 'cancelled'",
+        WAIT,
+    );
+    assert_eq!(
+        s.get_json(&format!("/v1/jobs/{id}")).1["state"],
+        "cancelled"
+    );
+    b.click("#action-cancel");
+    let refusal = b.wait_for(
+        "the refusal",
+        "return document.getElementById('action-error').textContent",
+        WAIT,
+    );
+    assert!(refusal.as_str().unwrap().contains("409"), "{refusal}");
+    b.screenshot("job-cancelled");
+
+    // The list filters by state.
+    b.goto(&format!("{}/#/jobs?state=cancelled", s.url));
+    b.wait_for(
+        "the filtered list",
+        &format!(
+            "const rows = document.querySelectorAll('#jobs tbody tr');
+             return rows.length === 1 && rows[0].dataset.job === '{id}'"
+        ),
+        WAIT,
+    );
+}
+
+#[test]
+fn sweep_table_and_workers_page() {
+    let Some(b) = Browser::start() else { return };
+    let s = TestServer::start(None);
+    let scene = upload_cornell(&s);
+    let (code, table) = s.post_json(
+        "/v1/sweeps",
+        &json!({"base": {"scene": scene, "halt": {"spp": 4}},
+                "grid": {"halt.spp": [2, 8], "seed": [1, 2]}, "name": "spp x seed"}),
+    );
+    assert_eq!(code, 201, "{table}");
+    let sweep = table["id"].as_str().unwrap();
+    for r in table["rows"].as_array().unwrap() {
+        s.wait_job(r["job"].as_str().unwrap());
+    }
+    b.goto(&format!("{}/#/sweep/{sweep}", s.url));
+    b.wait_for(
+        "the sweep table with its thumbnails",
+        "const imgs = [...document.querySelectorAll('#sweep tbody img.thumb')];
+         return imgs.length === 4 && imgs.every((i) => i.complete && i.naturalWidth === 32)",
+        WAIT,
+    );
+    // Sorted by iterations, descending (two clicks).
+    b.click("#sweep th[data-key=iterations]");
+    b.click("#sweep th[data-key=iterations]");
+    let order = b.js(
+        "const col = [...document.querySelectorAll('#sweep th')].findIndex((h) => h.dataset.key === 'iterations');
+         return [...document.querySelectorAll('#sweep tbody tr')].map((r) => r.children[col].textContent)",
+        json!([]),
+    );
+    let iterations: Vec<String> = serde_json::from_value(order).unwrap();
+    assert_eq!(iterations, ["8", "8", "2", "2"]);
+    b.screenshot("sweep");
+
+    b.click("nav a[data-route=server]");
+    b.wait_for(
+        "the metrics",
+        "return document.querySelector('#metrics tbody')?.innerText.includes('caustic_jobs')",
+        WAIT,
+    );
+    let workers = b.js(
+        "return document.querySelector('#workers tbody').innerText",
+        json!([]),
+    );
+    assert!(
+        workers.as_str().unwrap().contains("in-process"),
+        "{workers}"
+    );
+    b.screenshot("workers");
+}
+
+#[test]
+fn a_token_is_asked_for_kept_in_the_session_and_sent_as_a_header() {
+    let Some(b) = Browser::start() else { return };
+    let s = TestServer::start(Some("s3cret"));
+    b.goto(&format!("{}/", s.url));
+    b.wait_for(
+        "the token prompt",
+        "return !document.getElementById('token-form').hidden",
+        WAIT,
+    );
+    b.screenshot("token");
+    b.type_into("#token-input", "s3cret");
+    b.click("#token-form button");
+    b.wait_for(
+        "the job list",
+        "return document.getElementById('token-form').hidden &&
+                document.querySelector('#view p.muted')?.textContent === 'No jobs match.'",
+        WAIT,
+    );
+    assert_eq!(
+        b.js("return sessionStorage.getItem('caustic-token')", json!([])),
+        "s3cret"
+    );
+    // A job page's preview and events (fetch streaming) work behind the token.
+    let (code, job) = respond(
+        ureq::post(&format!("{}/v1/jobs", s.url))
+            .set("authorization", "Bearer s3cret")
+            .set("content-type", "application/json")
+            .send_string(&json!({"scene": "cornell-box", "halt": {"spp": 2}}).to_string()),
+    );
+    assert_eq!(code, 201);
+    let job: Value = serde_json::from_slice(&job).unwrap();
+    let id = job["id"].as_str().unwrap();
+    b.goto(&format!("{}/#/job/{id}", s.url));
+    b.wait_for(
+        "the completed job's preview",
+        "return document.querySelector('[data-stat=state]')?.textContent === 'completed' &&
+                Number(document.getElementById('preview').dataset.version || 0) >= 1",
+        WAIT,
+    );
+}
