@@ -265,11 +265,14 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     let Some(b) = Browser::start() else { return };
     let s = TestServer::start(None);
     let scene = upload_cornell(&s);
-    let (code, _) = s.post_json(
+    // An earlier job, the reference of the one submitted below.
+    let (code, earlier) = s.post_json(
         "/v1/jobs",
-        &json!({"scene": scene, "halt": {"spp": 4}, "name": "earlier", "tags": ["warm-up"]}),
+        &json!({"scene": scene, "halt": {"spp": 64}, "name": "earlier", "tags": ["warm-up"]}),
     );
-    assert_eq!(code, 201);
+    assert_eq!(code, 201, "{earlier}");
+    let earlier = earlier["id"].as_str().unwrap().to_string();
+    assert_eq!(s.wait_job(&earlier)["state"], "completed");
 
     // The list shows the job, with its tag.
     b.goto(&format!("{}/", s.url));
@@ -295,6 +298,7 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     b.type_into("#snapshot-every", "1");
     b.type_into("#name", "from the form");
     b.type_into("#tags", "browser, test");
+    b.select("#reference-job", &earlier);
     b.click("#submit");
     let msg = b.wait_for(
         "the validation message",
@@ -332,6 +336,7 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         json!({"seconds": 1.0}),
         "{job}"
     );
+    assert_eq!(job["spec"]["reference"], json!({"job": earlier}), "{job}");
     b.wait_for(
         "a first preview",
         "return Number(document.getElementById('preview').dataset.version || 0) >= 1",
@@ -352,9 +357,20 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
+    // The log has rows with an RMSE (against the reference), and the plot draws them
+    // (points in the RMSE line's colour).
     b.wait_for(
-        "a plotted log row",
-        "return document.querySelectorAll('#log tbody tr').length >= 1",
+        "a log row with an RMSE",
+        "return [...document.querySelectorAll('#log tbody tr')].some((r) => r.children[3].textContent !== '–')",
+        WAIT,
+    );
+    b.wait_for(
+        "the plotted RMSE",
+        "const c = document.getElementById('plot');
+         const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+         let n = 0;
+         for (let i = 0; i < d.length; i += 4) if (d[i] === 0xf0 && d[i + 1] === 0xa5 && d[i + 2] === 0x3a) n++;
+         return n",
         WAIT,
     );
     b.screenshot("job");
@@ -378,6 +394,53 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     assert!(refusal.as_str().unwrap().contains("409"), "{refusal}");
     b.screenshot("job-cancelled");
+
+    // The exposure slider brightens the preview; the scrubber shows a stored snapshot.
+    let mean = |p: &[u8]| p.iter().map(|&v| v as f64).sum::<f64>() / p.len() as f64;
+    let version = || {
+        b.js(
+            "return Number(document.getElementById('preview').dataset.version)",
+            json!([]),
+        )
+        .as_f64()
+        .unwrap()
+    };
+    let slide = |css: &str, v: f64| {
+        b.js(
+            "const e = document.querySelector(arguments[0]); e.value = arguments[1];
+             e.dispatchEvent(new Event('input'));",
+            json!([css, v]),
+        );
+    };
+    b.wait_for(
+        "the final preview",
+        "return document.getElementById('preview-note').textContent.startsWith('latest image')",
+        WAIT,
+    );
+    let dim = mean(&b.preview_pixels());
+    let before = version();
+    slide("#exposure", 2.0);
+    b.wait_for(
+        "the exposed preview",
+        &format!("return Number(document.getElementById('preview').dataset.version) > {before}"),
+        WAIT,
+    );
+    let bright = mean(&b.preview_pixels());
+    assert!(bright > dim * 1.2, "exposure +2: {dim} -> {bright}");
+    slide("#scrubber", 0.0);
+    let note = b.wait_for(
+        "the first snapshot",
+        "const t = document.getElementById('preview-note').textContent;
+         return t.startsWith('snapshot at iteration') && t",
+        WAIT,
+    );
+    let (_, snaps) = s.get_json(&format!("/v1/jobs/{id}/snapshots"));
+    assert_eq!(
+        note,
+        format!("snapshot at iteration {}", snaps[0]["iteration"]),
+        "{snaps}"
+    );
+    b.screenshot("job-snapshot");
 
     // The list filters by state.
     b.goto(&format!("{}/#/jobs?state=cancelled", s.url));
