@@ -546,3 +546,51 @@ fn a_token_is_asked_for_kept_in_the_session_and_sent_as_a_header() {
         WAIT,
     );
 }
+
+#[test]
+fn static_files_have_their_types_etags_and_a_strict_policy() {
+    let s = TestServer::start(Some("s3cret"));
+    let get = |path: &str, etag: Option<&str>| {
+        let mut req = ureq::get(&format!("{}{path}", s.url));
+        if let Some(e) = etag {
+            req = req.set("if-none-match", e);
+        }
+        match req.call() {
+            Ok(r) | Err(ureq::Error::Status(_, r)) => r,
+            Err(e) => panic!("{path}: {e}"),
+        }
+    };
+    for (path, ct) in [
+        ("/", "text/html; charset=utf-8"),
+        ("/dashboard/style.css", "text/css; charset=utf-8"),
+        ("/dashboard/app.js", "text/javascript; charset=utf-8"),
+        ("/dashboard/sse.js", "text/javascript; charset=utf-8"),
+    ] {
+        // No token needed: the files hold no data.
+        let r = get(path, None);
+        assert_eq!(r.status(), 200, "{path}");
+        assert_eq!(r.header("content-type"), Some(ct), "{path}");
+        assert_eq!(r.header("cache-control"), Some("no-cache"), "{path}");
+        let csp = r.header("content-security-policy").unwrap().to_string();
+        assert!(csp.starts_with("default-src 'self'"), "{csp}");
+        assert!(!csp.contains("unsafe"), "{csp}");
+        let etag = r.header("etag").unwrap().to_string();
+        assert_eq!(get(path, Some(&etag)).status(), 304, "{path}");
+        assert_eq!(get(path, Some("\"other\"")).status(), 200, "{path}");
+    }
+    // Every module the page imports is served.
+    let (_, app) = s.get("/dashboard/app.js");
+    for module in String::from_utf8(app).unwrap().split("from \"./").skip(1) {
+        let file = module.split('"').next().unwrap();
+        assert_eq!(
+            get(&format!("/dashboard/{file}"), None).status(),
+            200,
+            "{file}"
+        );
+    }
+    let r = get("/dashboard/secret.txt", None);
+    assert_eq!(r.status(), 404);
+    assert!(r.into_string().unwrap().contains("not_found"));
+    // The API itself still needs the token.
+    assert_eq!(get("/v1/jobs", None).status(), 401);
+}
