@@ -51,6 +51,8 @@ const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
 struct Browser {
     driver: Child,
     session: String,
+    /// Where the browser saves downloads.
+    downloads: tempfile::TempDir,
     _lock: std::sync::MutexGuard<'static, ()>,
 }
 
@@ -85,6 +87,9 @@ impl Browser {
         }
         let mut options = json!({"args": ["--headless=new", "--no-sandbox", "--disable-gpu",
                                            "--window-size=1280,900"]});
+        let downloads = tempfile::tempdir().unwrap();
+        options["prefs"] = json!({"download.default_directory": downloads.path(),
+                                  "download.prompt_for_download": false});
         if Path::new("/usr/bin/chromium").exists() {
             options["binary"] = json!("/usr/bin/chromium");
         }
@@ -96,6 +101,7 @@ impl Browser {
         Some(Browser {
             driver,
             session,
+            downloads,
             _lock: lock,
         })
     }
@@ -200,6 +206,17 @@ impl Browser {
                 .unwrap_or_default()
         })
         .unwrap_or_default()
+    }
+
+    /// Waits for a finished download named `name` and returns its bytes.
+    fn downloaded(&self, name: &str) -> Vec<u8> {
+        let path = self.downloads.path().join(name);
+        let start = Instant::now();
+        while !path.exists() {
+            assert!(start.elapsed() < WAIT, "{name} was not downloaded");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        std::fs::read(path).unwrap()
     }
 
     /// The preview canvas's pixels (RGBA bytes).
@@ -375,6 +392,21 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     b.screenshot("job");
 
+    // Pause and resume.
+    b.click("#action-pause");
+    b.wait_for(
+        "the paused state",
+        "return document.querySelector('[data-stat=state]').textContent === 'paused'",
+        WAIT,
+    );
+    assert_eq!(s.get_json(&format!("/v1/jobs/{id}")).1["state"], "paused");
+    b.click("#action-resume");
+    b.wait_for(
+        "the resumed job",
+        "return ['queued', 'running'].includes(document.querySelector('[data-stat=state]').textContent)",
+        WAIT,
+    );
+
     // Cancel, then cancel again: the server's refusal is shown.
     b.click("#action-cancel");
     b.wait_for(
@@ -441,6 +473,14 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         "{snaps}"
     );
     b.screenshot("job-snapshot");
+
+    // Downloads go through fetch with the API's answers.
+    b.click("button[data-download=EXR]");
+    let exr = b.downloaded(&format!("{id}-image.exr"));
+    assert_eq!(&exr[..4], &[0x76, 0x2f, 0x31, 0x01], "an OpenEXR file");
+    b.click("button[data-download='log CSV']");
+    let csv = String::from_utf8(b.downloaded(&format!("{id}-log.csv"))).unwrap();
+    assert!(csv.starts_with("iteration,elapsed_s,"), "{csv}");
 
     // The list filters by state.
     b.goto(&format!("{}/#/jobs?state=cancelled", s.url));
