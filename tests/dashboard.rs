@@ -60,7 +60,7 @@ impl Browser {
     fn start() -> Option<Browser> {
         let Some(bin) = chromedriver() else {
             eprintln!(
-                "skipped: chromium and chromedriver are not installed, and installing them needs root"
+                "skipped: chromium and chromedriver are missing and deploy/scripts/install-chromium.sh could not install them (it needs root)"
             );
             return None;
         };
