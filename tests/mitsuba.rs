@@ -3,6 +3,7 @@
 //! error names the element and its line.
 
 mod common;
+mod server_common;
 
 use caustic::scene::mitsuba::{import_file, Import};
 use caustic::scene::{load::read_scene_file, Scene};
@@ -271,5 +272,229 @@ fn plugins_become_their_caustic_equivalents() {
     assert_eq!(
         i.scene.integrator,
         Some(serde_json::json!({"algorithm": "bpt", "max_depth": 5}))
+    );
+}
+
+/// The error importing `files[0]` of `files`, written to a fresh folder.
+fn import_error(files: &[(&str, &str)]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    match import_file(&dir.path().join(files[0].0)) {
+        Ok(_) => panic!("{} imported", files[0].0),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn assert_error(files: &[(&str, &str)], at: &str, words: &[&str]) {
+    let err = import_error(files);
+    assert!(err.starts_with(at), "want {at}: {err}");
+    for w in words {
+        assert!(err.contains(w), "want {w}: {err}");
+    }
+}
+
+/// A scene whose body starts on line 2.
+fn scene(body: &str) -> String {
+    format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n")
+}
+
+#[test]
+fn every_error_names_the_element_and_its_line() {
+    // Unknown plugins, of every kind.
+    let cases = [
+        ("<shape type=\"sphere\">\n  <bsdf type=\"hair\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"hair\">", "unknown or unsupported BSDF plugin"),
+        ("<shape type=\"bezier\"/>", "s.xml:2:1: <shape type=\"bezier\">", "unknown or unsupported shape plugin"),
+        ("<emitter type=\"sky\"/>", "s.xml:2:1: <emitter type=\"sky\">", "unknown or unsupported emitter plugin"),
+        ("<integrator type=\"aov\"/>", "s.xml:2:1: <integrator type=\"aov\">", "unknown integrator plugin"),
+        ("<sensor type=\"orthographic\"/>", "s.xml:2:1: <sensor type=\"orthographic\">", "unknown sensor plugin"),
+        ("<shapegroup/>", "s.xml:2:1: <shapegroup>", "unknown element"),
+        // A feature caustic lacks.
+        ("<shape type=\"sphere\">\n  <bsdf type=\"thindielectric\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"thindielectric\">", "caustic has no thindielectric"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <texture type=\"bitmap\" name=\"reflectance\">", "textures are not supported"),
+        // Missing files.
+        ("<shape type=\"obj\">\n  <string name=\"filename\" value=\"gone.obj\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "file \"gone.obj\" not found"),
+        ("<include filename=\"gone.xml\"/>", "s.xml:2:1: <include>", "\"gone.xml\""),
+        ("<shape type=\"ply\">\n  <string name=\"filename\" value=\"../up.ply\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "relative path inside the scene's folder"),
+        // Bad values.
+        ("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"big\"/>\n</shape>", "s.xml:3:3: <float name=\"radius\">", "\"big\" is not a number"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <rgb name=\"reflectance\" value=\"1, 2\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <rgb name=\"reflectance\">", "not one value or three"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <spectrum name=\"reflectance\">", "spectra given by wavelength"),
+        ("<shape type=\"sphere\">\n  <boolean name=\"flip_normals\" value=\"yes\"/>\n</shape>", "s.xml:3:3: <boolean name=\"flip_normals\">", "not true or false"),
+        ("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"$r\"/>\n</shape>", "s.xml:3:3: <float name=\"radius\">", "\"$r\" has no value"),
+        ("<integrator type=\"path\">\n  <integer name=\"max_depth\" value=\"0\"/>\n</integrator>", "s.xml:2:1: <integrator type=\"path\">", "max_depth 0"),
+        // Unknown references.
+        ("<shape type=\"sphere\">\n  <ref id=\"glass\"/>\n</shape>", "s.xml:3:3: <ref id=\"glass\">", "unknown reference \"glass\""),
+        ("<bsdf type=\"diffuse\" id=\"a\"/>\n<medium type=\"homogeneous\" id=\"a\"/>", "s.xml:3:1: <medium type=\"homogeneous\" id=\"a\">", "already used at s.xml:2:1"),
+        // Unsupported attributes and parameters.
+        ("<shape type=\"sphere\" scale=\"2\"/>", "s.xml:2:1: <shape type=\"sphere\">", "unsupported attribute \"scale\""),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.5\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <float name=\"roughness\">", "unsupported parameter of <bsdf type=\"diffuse\">"),
+        ("<shape type=\"rectangle\">\n  <emitter type=\"point\"/>\n</shape>", "s.xml:3:3: <emitter type=\"point\">", "must be type=\"area\""),
+        // Not XML at all.
+        ("<shape type=\"sphere\">", "s.xml:", "not well-formed XML"),
+    ];
+    for (body, at, words) in cases {
+        assert_error(&[("s.xml", &scene(body))], at, &[words]);
+    }
+    assert_error(
+        &[("s.xml", "<shape/>")],
+        "s.xml:1:1: <shape>",
+        &["root element must be <scene>"],
+    );
+    assert_error(
+        &[("s.xml", &scene(""))],
+        "s.xml:1:1: <scene>",
+        &["no <sensor>"],
+    );
+}
+
+#[test]
+fn an_include_cycle_is_an_error_at_the_include() {
+    assert_error(
+        &[
+            ("a.xml", &scene("<include filename=\"b.xml\"/>")),
+            ("b.xml", &scene("<!-- b -->\n<include filename=\"a.xml\"/>")),
+        ],
+        "b.xml:3:1: <include>",
+        &["\"a.xml\" includes itself (an include cycle)"],
+    );
+    assert_error(
+        &[("a.xml", &scene("<include filename=\"a.xml\"/>"))],
+        "a.xml:2:1: <include>",
+        &["include cycle"],
+    );
+}
+
+#[test]
+fn post_scenes_takes_xml_and_bundles_holding_it_and_returns_the_warnings() {
+    let s = server_common::TestServer::start(None);
+    let read = |name: &str| std::fs::read(data(name)).unwrap();
+    let (code, info) = s.post_bytes("/v1/scenes", &read("cornell-box.xml"));
+    assert_eq!(code, 201, "{info}");
+    assert_eq!(
+        (info["width"].as_u64(), info["shapes"].as_u64()),
+        (Some(256), Some(8))
+    );
+    let warnings = info["warnings"].as_array().expect("warnings");
+    assert_eq!(warnings.len(), 1);
+    assert!(
+        warnings[0]
+            .as_str()
+            .unwrap()
+            .starts_with("scene.xml:12:5: <sensor"),
+        "{info}"
+    );
+    // Uploading the same bytes again answers the same, warnings included.
+    let (code, again) = s.post_bytes("/v1/scenes", &read("cornell-box.xml"));
+    assert_eq!((code, &again), (201, &info));
+    // The stored scene renders as the built-in Cornell box it equals.
+    let id = info["id"].as_str().unwrap();
+    let stored = s.dir.path().join("scenes").join(id).join("scene.json");
+    let ours = Scene::load(&stored).unwrap();
+    let json_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.json");
+    let builtin = Scene::load(&json_path).unwrap();
+    assert_eq!(render_sums(&ours, 1), render_sums(&builtin, 1));
+
+    // A bundle: the XML (under any name), the files it includes and the mesh.
+    let mut entries: Vec<(&str, Vec<u8>)> = [
+        "lit.xml",
+        "base.xml",
+        "camera.xml",
+        "stage.xml",
+        "meshes/tri.obj",
+    ]
+    .iter()
+    .map(|n| (*n, read(n)))
+    .collect();
+    entries.push(("tri-scene.xml", read("shape-obj.xml")));
+    let tar_of = |entries: &[(&str, Vec<u8>)]| {
+        let refs: Vec<(&str, &[u8])> = entries.iter().map(|(n, d)| (*n, d.as_slice())).collect();
+        server_common::tar_with(&refs)
+    };
+    let (code, info) = s.post_bytes("/v1/scenes", &tar_of(&entries));
+    // lit.xml and others are also top-level .xml files: the scene must be named.
+    assert_eq!(code, 400, "{info}");
+    assert!(
+        info.to_string().contains("name the scene scene.xml"),
+        "{info}"
+    );
+    entries.pop();
+    entries.push(("scene.xml", read("shape-obj.xml")));
+    let (code, info) = s.post_bytes("/v1/scenes", &tar_of(&entries));
+    assert_eq!(code, 201, "{info}");
+    assert_eq!(info["shapes"].as_u64(), Some(2));
+    assert!(info.get("warnings").is_none(), "{info}");
+
+    // An import error is a 422 naming the line.
+    let bad = b"<scene version=\"3.0.0\">\n<shape type=\"bezier\"/>\n</scene>";
+    let (code, body) = s.post_bytes("/v1/scenes", bad);
+    assert_eq!(code, 422, "{body}");
+    assert!(
+        body.to_string()
+            .contains("scene.xml:2:1: <shape type=\\\"bezier\\\">"),
+        "{body}"
+    );
+}
+
+fn caustic(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_caustic"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn the_command_line_imports_and_renders_xml() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cornell.json");
+    let xml = data("cornell-box.xml");
+    let r = caustic(&["import", xml.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: cornell-box.xml:12:5: <sensor type=\"perspective\">: near_clip"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("render with --spp 64"), "{stderr}");
+    let json = read_scene_file(&out).unwrap();
+    assert_eq!(json, import("cornell-box.xml").scene);
+    // To standard output without -o.
+    let r = caustic(&["import", data("shape-sphere.xml").to_str().unwrap()]);
+    assert!(r.status.success());
+    let printed: caustic::scene::SceneFile = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(printed, import("shape-sphere.xml").scene);
+
+    // `render` takes the XML, its sample count as the default length, and prints
+    // the warnings.
+    let exr = dir.path().join("p.exr");
+    let r = caustic(&[
+        "render",
+        data("bsdf-plastic.xml").to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: bsdf-plastic.xml:5:9: <bsdf type=\"plastic\">"),
+        "{stderr}"
+    );
+    assert!(String::from_utf8_lossy(&r.stdout).starts_with("pt: 4 iterations"));
+
+    let r = caustic(&["import", data("missing.xml").to_str().unwrap()]);
+    assert!(!r.status.success());
+    let bad = dir.path().join("bad.xml");
+    std::fs::write(
+        &bad,
+        "<scene version=\"3.0.0\">\n  <emitter type=\"sky\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let r = caustic(&["render", bad.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr
+            .contains("bad.xml:2:3: <emitter type=\"sky\">: unknown or unsupported emitter plugin"),
+        "{stderr}"
     );
 }
