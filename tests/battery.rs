@@ -1123,6 +1123,11 @@ fn method_path_cases(l: &str, s: &str) -> Vec<Case> {
             &[405],
         ),
         case("POST /healthz", Req::post("/healthz"), &[405]),
+        case(
+            "POST /v1/algorithms",
+            Req::post("/v1/algorithms").json("{}"),
+            &[405],
+        ),
         case("PUT /metrics", Req::new("PUT", "/metrics"), &[405]),
         case("OPTIONS /v1/jobs", Req::new("OPTIONS", "/v1/jobs"), &[405]),
         case(
@@ -2359,6 +2364,11 @@ fn auth_cases(s: &str) -> Vec<Case> {
         case(
             "auth: openapi.json without a token",
             g("/v1/openapi.json", None),
+            &[401],
+        ),
+        case(
+            "auth: algorithms without a token",
+            g("/v1/algorithms", None),
             &[401],
         ),
         case(

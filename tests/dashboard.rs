@@ -51,6 +51,8 @@ const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
 struct Browser {
     driver: Child,
     session: String,
+    /// Where the browser saves downloads.
+    downloads: tempfile::TempDir,
     _lock: std::sync::MutexGuard<'static, ()>,
 }
 
@@ -58,7 +60,7 @@ impl Browser {
     fn start() -> Option<Browser> {
         let Some(bin) = chromedriver() else {
             eprintln!(
-                "skipped: chromium and chromedriver are not installed, and installing them needs root"
+                "skipped: chromium and chromedriver are missing and deploy/scripts/install-chromium.sh could not install them (it needs root)"
             );
             return None;
         };
@@ -85,6 +87,9 @@ impl Browser {
         }
         let mut options = json!({"args": ["--headless=new", "--no-sandbox", "--disable-gpu",
                                            "--window-size=1280,900"]});
+        let downloads = tempfile::tempdir().unwrap();
+        options["prefs"] = json!({"download.default_directory": downloads.path(),
+                                  "download.prompt_for_download": false});
         if Path::new("/usr/bin/chromium").exists() {
             options["binary"] = json!("/usr/bin/chromium");
         }
@@ -96,6 +101,7 @@ impl Browser {
         Some(Browser {
             driver,
             session,
+            downloads,
             _lock: lock,
         })
     }
@@ -202,6 +208,17 @@ impl Browser {
         .unwrap_or_default()
     }
 
+    /// Waits for a finished download named `name` and returns its bytes.
+    fn downloaded(&self, name: &str) -> Vec<u8> {
+        let path = self.downloads.path().join(name);
+        let start = Instant::now();
+        while !path.exists() {
+            assert!(start.elapsed() < WAIT, "{name} was not downloaded");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        std::fs::read(path).unwrap()
+    }
+
     /// The preview canvas's pixels (RGBA bytes).
     fn preview_pixels(&self) -> Vec<u8> {
         let v = self.js(
@@ -265,11 +282,14 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     let Some(b) = Browser::start() else { return };
     let s = TestServer::start(None);
     let scene = upload_cornell(&s);
-    let (code, _) = s.post_json(
+    // An earlier job, the reference of the one submitted below.
+    let (code, earlier) = s.post_json(
         "/v1/jobs",
-        &json!({"scene": scene, "halt": {"spp": 4}, "name": "earlier", "tags": ["warm-up"]}),
+        &json!({"scene": scene, "halt": {"spp": 64}, "name": "earlier", "tags": ["warm-up"]}),
     );
-    assert_eq!(code, 201);
+    assert_eq!(code, 201, "{earlier}");
+    let earlier = earlier["id"].as_str().unwrap().to_string();
+    assert_eq!(s.wait_job(&earlier)["state"], "completed");
 
     // The list shows the job, with its tag.
     b.goto(&format!("{}/", s.url));
@@ -295,6 +315,7 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     b.type_into("#snapshot-every", "1");
     b.type_into("#name", "from the form");
     b.type_into("#tags", "browser, test");
+    b.select("#reference-job", &earlier);
     b.click("#submit");
     let msg = b.wait_for(
         "the validation message",
@@ -332,6 +353,7 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         json!({"seconds": 1.0}),
         "{job}"
     );
+    assert_eq!(job["spec"]["reference"], json!({"job": earlier}), "{job}");
     b.wait_for(
         "a first preview",
         "return Number(document.getElementById('preview').dataset.version || 0) >= 1",
@@ -352,12 +374,38 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
+    // The log has rows with an RMSE (against the reference), and the plot draws them
+    // (points in the RMSE line's colour).
     b.wait_for(
-        "a plotted log row",
-        "return document.querySelectorAll('#log tbody tr').length >= 1",
+        "a log row with an RMSE",
+        "return [...document.querySelectorAll('#log tbody tr')].some((r) => r.children[3].textContent !== '–')",
+        WAIT,
+    );
+    b.wait_for(
+        "the plotted RMSE",
+        "const c = document.getElementById('plot');
+         const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+         let n = 0;
+         for (let i = 0; i < d.length; i += 4) if (d[i] === 0xf0 && d[i + 1] === 0xa5 && d[i + 2] === 0x3a) n++;
+         return n",
         WAIT,
     );
     b.screenshot("job");
+
+    // Pause and resume.
+    b.click("#action-pause");
+    b.wait_for(
+        "the paused state",
+        "return document.querySelector('[data-stat=state]').textContent === 'paused'",
+        WAIT,
+    );
+    assert_eq!(s.get_json(&format!("/v1/jobs/{id}")).1["state"], "paused");
+    b.click("#action-resume");
+    b.wait_for(
+        "the resumed job",
+        "return ['queued', 'running'].includes(document.querySelector('[data-stat=state]').textContent)",
+        WAIT,
+    );
 
     // Cancel, then cancel again: the server's refusal is shown.
     b.click("#action-cancel");
@@ -378,6 +426,61 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     assert!(refusal.as_str().unwrap().contains("409"), "{refusal}");
     b.screenshot("job-cancelled");
+
+    // The exposure slider brightens the preview; the scrubber shows a stored snapshot.
+    let mean = |p: &[u8]| p.iter().map(|&v| v as f64).sum::<f64>() / p.len() as f64;
+    let version = || {
+        b.js(
+            "return Number(document.getElementById('preview').dataset.version)",
+            json!([]),
+        )
+        .as_f64()
+        .unwrap()
+    };
+    let slide = |css: &str, v: f64| {
+        b.js(
+            "const e = document.querySelector(arguments[0]); e.value = arguments[1];
+             e.dispatchEvent(new Event('input'));",
+            json!([css, v]),
+        );
+    };
+    b.wait_for(
+        "the final preview",
+        "return document.getElementById('preview-note').textContent.startsWith('latest image')",
+        WAIT,
+    );
+    let dim = mean(&b.preview_pixels());
+    let before = version();
+    slide("#exposure", 2.0);
+    b.wait_for(
+        "the exposed preview",
+        &format!("return Number(document.getElementById('preview').dataset.version) > {before}"),
+        WAIT,
+    );
+    let bright = mean(&b.preview_pixels());
+    assert!(bright > dim * 1.2, "exposure +2: {dim} -> {bright}");
+    slide("#scrubber", 0.0);
+    let note = b.wait_for(
+        "the first snapshot",
+        "const t = document.getElementById('preview-note').textContent;
+         return t.startsWith('snapshot at iteration') && t",
+        WAIT,
+    );
+    let (_, snaps) = s.get_json(&format!("/v1/jobs/{id}/snapshots"));
+    assert_eq!(
+        note,
+        format!("snapshot at iteration {}", snaps[0]["iteration"]),
+        "{snaps}"
+    );
+    b.screenshot("job-snapshot");
+
+    // Downloads go through fetch with the API's answers.
+    b.click("button[data-download=EXR]");
+    let exr = b.downloaded(&format!("{id}-image.exr"));
+    assert_eq!(&exr[..4], &[0x76, 0x2f, 0x31, 0x01], "an OpenEXR file");
+    b.click("button[data-download='log CSV']");
+    let csv = String::from_utf8(b.downloaded(&format!("{id}-log.csv"))).unwrap();
+    assert!(csv.starts_with("iteration,elapsed_s,"), "{csv}");
 
     // The list filters by state.
     b.goto(&format!("{}/#/jobs?state=cancelled", s.url));
@@ -482,4 +585,52 @@ fn a_token_is_asked_for_kept_in_the_session_and_sent_as_a_header() {
                 Number(document.getElementById('preview').dataset.version || 0) >= 1",
         WAIT,
     );
+}
+
+#[test]
+fn static_files_have_their_types_etags_and_a_strict_policy() {
+    let s = TestServer::start(Some("s3cret"));
+    let get = |path: &str, etag: Option<&str>| {
+        let mut req = ureq::get(&format!("{}{path}", s.url));
+        if let Some(e) = etag {
+            req = req.set("if-none-match", e);
+        }
+        match req.call() {
+            Ok(r) | Err(ureq::Error::Status(_, r)) => r,
+            Err(e) => panic!("{path}: {e}"),
+        }
+    };
+    for (path, ct) in [
+        ("/", "text/html; charset=utf-8"),
+        ("/dashboard/style.css", "text/css; charset=utf-8"),
+        ("/dashboard/app.js", "text/javascript; charset=utf-8"),
+        ("/dashboard/sse.js", "text/javascript; charset=utf-8"),
+    ] {
+        // No token needed: the files hold no data.
+        let r = get(path, None);
+        assert_eq!(r.status(), 200, "{path}");
+        assert_eq!(r.header("content-type"), Some(ct), "{path}");
+        assert_eq!(r.header("cache-control"), Some("no-cache"), "{path}");
+        let csp = r.header("content-security-policy").unwrap().to_string();
+        assert!(csp.starts_with("default-src 'self'"), "{csp}");
+        assert!(!csp.contains("unsafe"), "{csp}");
+        let etag = r.header("etag").unwrap().to_string();
+        assert_eq!(get(path, Some(&etag)).status(), 304, "{path}");
+        assert_eq!(get(path, Some("\"other\"")).status(), 200, "{path}");
+    }
+    // Every module the page imports is served.
+    let (_, app) = s.get("/dashboard/app.js");
+    for module in String::from_utf8(app).unwrap().split("from \"./").skip(1) {
+        let file = module.split('"').next().unwrap();
+        assert_eq!(
+            get(&format!("/dashboard/{file}"), None).status(),
+            200,
+            "{file}"
+        );
+    }
+    let r = get("/dashboard/secret.txt", None);
+    assert_eq!(r.status(), 404);
+    assert!(r.into_string().unwrap().contains("not_found"));
+    // The API itself still needs the token.
+    assert_eq!(get("/v1/jobs", None).status(), 401);
 }

@@ -311,22 +311,6 @@ fn bearer_token_guards_everything_but_health() {
     assert_eq!(code, 401);
 }
 
-fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
-    let mut b = tar::Builder::new(Vec::new());
-    for (name, data) in entries {
-        let mut h = tar::Header::new_gnu();
-        h.set_size(data.len() as u64);
-        h.set_mode(0o644);
-        h.set_entry_type(tar::EntryType::Regular);
-        // Write the raw name so that unsafe paths reach the server as given.
-        let bytes = name.as_bytes();
-        h.as_old_mut().name[..bytes.len()].copy_from_slice(bytes);
-        h.set_cksum();
-        b.append(&h, *data).unwrap();
-    }
-    b.into_inner().unwrap()
-}
-
 #[test]
 fn bad_input_gets_clear_4xx_json_and_running_jobs_are_undisturbed() {
     let s = TestServer::start(None);

@@ -3,6 +3,7 @@
 //! error names the element and its line.
 
 mod common;
+mod server_common;
 
 use caustic::scene::mitsuba::{import_file, Import};
 use caustic::scene::{load::read_scene_file, Scene};
@@ -58,4 +59,442 @@ fn mitsuba_cornell_box_renders_bit_identical_to_the_json_scene() {
     let a = Scene::compile(&xml.scene, None).unwrap();
     let b = Scene::compile(&json, None).unwrap();
     assert_eq!(render_sums(&a, 2), render_sums(&b, 2));
+}
+
+/// Imports, validates and renders 2 iterations of the scene's own integrator.
+fn import_and_render(name: &str) -> Import {
+    let import = import(name);
+    let scene =
+        Scene::compile(&import.scene, Some(&data(""))).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let s = caustic::integrator::Settings::for_scene(None, &scene, &Default::default())
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (film, n) = common::render(&scene, &s, 1, 2);
+    assert_eq!((n, film.dropped()), (2, 0), "{name}");
+    assert!(
+        film.sums().iter().flatten().any(|&v| v > 0.0),
+        "{name}: black image"
+    );
+    import
+}
+
+/// The one shape a fixture adds after lit.xml's floor (or the first of base.xml's).
+fn last_shape(i: &Import) -> serde_json::Value {
+    serde_json::to_value(i.scene.shapes.last().unwrap()).unwrap()
+}
+
+fn json<T: serde::de::DeserializeOwned>(v: serde_json::Value) -> T {
+    serde_json::from_value(v).unwrap()
+}
+
+#[test]
+fn every_plugin_fixture_imports_and_renders() {
+    let fixtures = [
+        ("shape-sphere.xml", &[][..]),
+        ("shape-disk.xml", &[]),
+        ("shape-cube.xml", &[]),
+        ("shape-rectangle.xml", &[]),
+        ("shape-obj.xml", &[]),
+        ("shape-ply.xml", &[]),
+        ("shape-serialized.xml", &[]),
+        ("bsdf-dielectric.xml", &[]),
+        ("bsdf-conductor.xml", &[]),
+        ("bsdf-roughconductor.xml", &["bsdf-roughconductor.xml:16:9: <bsdf type=\"roughconductor\">: the Beckmann distribution"]),
+        ("bsdf-twosided.xml", &[]),
+        ("bsdf-plastic.xml", &["bsdf-plastic.xml:5:9: <bsdf type=\"plastic\">: caustic has no plastic: substituted a diffuse"]),
+        ("bsdf-null.xml", &["base.xml:4:5: <integrator type=\"path\">: Mitsuba's path integrator ignores media"]),
+        ("emitter-point.xml", &[]),
+        ("emitter-spot.xml", &[]),
+        ("emitter-directional.xml", &[]),
+        ("emitter-constant.xml", &[]),
+        ("emitter-envmap.xml", &["emitter-envmap.xml:6:5: <emitter type=\"envmap\">: caustic looks environment maps up by nearest texel"]),
+        ("medium-homogeneous.xml", &[]),
+        ("medium-heterogeneous.xml", &[]),
+        (
+            "sensor-thinlens.xml",
+            &[
+                "sensor-thinlens.xml:2:5: <integrator type=\"bdpt\">: rr_depth is ignored",
+                "sensor-thinlens.xml:21:13: <rfilter type=\"gaussian\">: the gaussian filter is replaced by a one-pixel box",
+                "sensor-thinlens.xml:15:9: <sampler type=\"stratified\">: caustic samples with independent random numbers",
+            ],
+        ),
+    ];
+    for (name, warnings) in fixtures {
+        let i = import_and_render(name);
+        assert_eq!(i.warnings.len(), warnings.len(), "{name}: {:?}", i.warnings);
+        for (got, want) in i.warnings.iter().zip(warnings) {
+            assert!(got.starts_with(want), "{name}: {got}");
+        }
+    }
+}
+
+#[test]
+fn a_fixture_imports_to_the_hand_written_scene() {
+    let want: caustic::scene::SceneFile = json(serde_json::json!({
+        "format": 1,
+        "camera": {
+            "look_at": {"origin": [0, 1, 4], "target": [0, 0, 0], "up": [0, 1, 0]},
+            "fov": 45
+        },
+        "film": {"width": 32, "height": 24},
+        "integrator": {"algorithm": "pt", "max_depth": 6},
+        "materials": {
+            "mitsuba-default": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]},
+            "bsdf@stage.xml:10": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
+        },
+        "shapes": [
+            {
+                "name": "floor", "type": "rectangle", "material": "bsdf@stage.xml:10",
+                "corners": [[-3, -1, 3], [3, -1, 3], [3, -1, -3], [-3, -1, -3]]
+            },
+            {
+                "type": "sphere", "center": [0.2, 0, 0], "radius": 0.5,
+                "material": "mitsuba-default", "transform": {"translate": [0, 0.1, 0]}
+            }
+        ],
+        "lights": [{"type": "point", "position": [0, 3, 1], "intensity": [10, 10, 10]}]
+    }));
+    let got = import("shape-sphere.xml");
+    assert_eq!(got.scene, want);
+    assert_eq!(got.spp, Some(4));
+}
+
+#[test]
+fn plugins_become_their_caustic_equivalents() {
+    use caustic::scene::format::{CameraDesc, LightDesc, MaterialDesc, MediumDesc};
+    use caustic::scene::format::{GeometryDesc, TransformDesc};
+    let cube = import("shape-cube.xml").scene.shapes.pop().unwrap();
+    assert_eq!(
+        cube.common.transform,
+        Some(json::<TransformDesc>(
+            serde_json::json!({"translate": [0.1, 0, 0], "scale": [0.5, 0.25, 0.5],
+            "rotate": [{"axis": [1, 0, 0], "angle": 10}, {"axis": [0, 1, 0], "angle": 30}]})
+        ))
+    );
+    // Mirrored by scale x = -0.5: the corners turn round, the normal stays +z.
+    let rect = import("shape-rectangle.xml").scene.shapes.pop().unwrap();
+    assert_eq!(
+        rect.geometry,
+        json::<GeometryDesc>(serde_json::json!({"type": "rectangle",
+            "corners": [[0.5, -0.5, 0.5], [0.5, 0.5, 0.5], [-0.5, 0.5, 0.5], [-0.5, -0.5, 0.5]]}))
+    );
+    let obj = last_shape(&import("shape-obj.xml"));
+    assert_eq!(obj["filename"], "meshes/tri.obj");
+    assert_eq!(obj["transform"]["matrix"][11], 0.5);
+    let ser = last_shape(&import("shape-serialized.xml"));
+    assert_eq!(ser["type"], "mesh");
+    assert_eq!(ser["indices"], serde_json::json!([[0, 1, 2]]));
+
+    let m = import("bsdf-conductor.xml").scene.materials;
+    assert_eq!(
+        m["gold"],
+        json::<MaterialDesc>(serde_json::json!({"type": "conductor",
+            "eta": [0.143119, 0.374957, 1.44248], "k": [3.98316, 2.38572, 1.60322]}))
+    );
+    assert!(m.values().any(|d| *d
+        == json::<MaterialDesc>(
+            serde_json::json!({"type": "mirror", "reflectance": [0.8, 0.8, 0.8]})
+        )));
+    let m = import("bsdf-dielectric.xml").scene.materials;
+    assert!(m.values().any(|d| *d
+        == json::<MaterialDesc>(serde_json::json!({"type": "dielectric", "int_ior": 1.333,
+            "ext_ior": 1.0, "specular_transmittance": [0.9, 0.95, 1.0]}))));
+    let m = import("bsdf-twosided.xml").scene.materials;
+    assert!(m.values().any(|d| *d
+        == json::<MaterialDesc>(serde_json::json!({"type": "diffuse", "reflectance": [0.2, 0.5, 0.8], "two_sided": true}))));
+    let m = import("bsdf-roughconductor.xml").scene.materials;
+    assert!(m.values().any(|d| *d
+        == json::<MaterialDesc>(serde_json::json!({"type": "conductor", "roughness": 0.2,
+            "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.45, 2.1]}))));
+
+    let light = |name: &str| import(name).scene.lights.last().unwrap().clone();
+    assert_eq!(
+        light("emitter-point.xml"),
+        json::<LightDesc>(
+            serde_json::json!({"type": "point", "position": [0.5, 1, 0.5], "intensity": [5, 5, 5]})
+        )
+    );
+    assert_eq!(
+        light("emitter-spot.xml"),
+        json::<LightDesc>(
+            serde_json::json!({"type": "spot", "position": [0, 2, 0], "target": [0, -0.5, 0],
+            "intensity": [20, 20, 20], "cutoff_angle": 30, "beam_width": 20})
+        )
+    );
+    assert_eq!(
+        light("emitter-directional.xml"),
+        json::<LightDesc>(
+            serde_json::json!({"type": "directional", "direction": [0.2, -1, -0.3], "irradiance": [2, 2, 2]})
+        )
+    );
+    // Mitsuba's map turned half a turn about +y: rotate_y(90) * rotate_y(180).
+    assert_eq!(
+        light("emitter-envmap.xml"),
+        json::<LightDesc>(
+            serde_json::json!({"type": "envmap", "filename": "sky.exr", "scale": 2,
+            "transform": {"matrix": [0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1]}})
+        )
+    );
+
+    let i = import("medium-homogeneous.xml");
+    assert_eq!(
+        i.scene.integrator,
+        Some(serde_json::json!({"algorithm": "volpath", "max_depth": 8, "rr_depth": 3}))
+    );
+    assert_eq!(
+        *i.scene.media.values().next().unwrap(),
+        json::<MediumDesc>(
+            serde_json::json!({"type": "homogeneous", "sigma_t": [1, 2, 3],
+            "albedo": [0.9, 0.8, 0.7], "scale": 0.5, "phase": {"type": "hg", "g": 0.5}})
+        )
+    );
+    let i = import("medium-heterogeneous.xml");
+    assert_eq!(
+        *i.scene.media.values().next().unwrap(),
+        json::<MediumDesc>(
+            serde_json::json!({"type": "grid", "file": "density.vol", "sigma_t": [1, 1, 1],
+            "albedo": [0.9, 0.9, 0.9], "scale": 4,
+            "transform": {"matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}})
+        )
+    );
+
+    let i = import("sensor-thinlens.xml");
+    let fov_x = 2.0
+        * ((15f64.to_radians().tan()) * 30.0 / 1300f64.sqrt())
+            .atan()
+            .to_degrees();
+    assert_eq!(
+        i.scene.camera,
+        json::<CameraDesc>(serde_json::json!({"type": "thinlens",
+            "look_at": {"origin": [0, 0, 4], "target": [0, 0, 3], "up": [0, 1, 0]},
+            "fov": fov_x as f32, "aperture_radius": 0.05, "focus_distance": 4}))
+    );
+    assert_eq!((i.spp, i.scene.film.width), (Some(9), 30));
+    assert_eq!(
+        i.scene.integrator,
+        Some(serde_json::json!({"algorithm": "bpt", "max_depth": 5}))
+    );
+}
+
+/// The error importing `files[0]` of `files`, written to a fresh folder.
+fn import_error(files: &[(&str, &str)]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    match import_file(&dir.path().join(files[0].0)) {
+        Ok(_) => panic!("{} imported", files[0].0),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn assert_error(files: &[(&str, &str)], at: &str, words: &[&str]) {
+    let err = import_error(files);
+    assert!(err.starts_with(at), "want {at}: {err}");
+    for w in words {
+        assert!(err.contains(w), "want {w}: {err}");
+    }
+}
+
+/// A scene whose body starts on line 2.
+fn scene(body: &str) -> String {
+    format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n")
+}
+
+#[test]
+fn every_error_names_the_element_and_its_line() {
+    // Unknown plugins, of every kind.
+    let cases = [
+        ("<shape type=\"sphere\">\n  <bsdf type=\"hair\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"hair\">", "unknown or unsupported BSDF plugin"),
+        ("<shape type=\"bezier\"/>", "s.xml:2:1: <shape type=\"bezier\">", "unknown or unsupported shape plugin"),
+        ("<emitter type=\"sky\"/>", "s.xml:2:1: <emitter type=\"sky\">", "unknown or unsupported emitter plugin"),
+        ("<integrator type=\"aov\"/>", "s.xml:2:1: <integrator type=\"aov\">", "unknown integrator plugin"),
+        ("<sensor type=\"orthographic\"/>", "s.xml:2:1: <sensor type=\"orthographic\">", "unknown sensor plugin"),
+        ("<shapegroup/>", "s.xml:2:1: <shapegroup>", "unknown element"),
+        // A feature caustic lacks.
+        ("<shape type=\"sphere\">\n  <bsdf type=\"thindielectric\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"thindielectric\">", "caustic has no thindielectric"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <texture type=\"bitmap\" name=\"reflectance\">", "textures are not supported"),
+        // Missing files.
+        ("<shape type=\"obj\">\n  <string name=\"filename\" value=\"gone.obj\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "file \"gone.obj\" not found"),
+        ("<include filename=\"gone.xml\"/>", "s.xml:2:1: <include>", "\"gone.xml\""),
+        ("<shape type=\"ply\">\n  <string name=\"filename\" value=\"../up.ply\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "relative path inside the scene's folder"),
+        // Bad values.
+        ("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"big\"/>\n</shape>", "s.xml:3:3: <float name=\"radius\">", "\"big\" is not a number"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <rgb name=\"reflectance\" value=\"1, 2\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <rgb name=\"reflectance\">", "not one value or three"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <spectrum name=\"reflectance\">", "spectra given by wavelength"),
+        ("<shape type=\"sphere\">\n  <boolean name=\"flip_normals\" value=\"yes\"/>\n</shape>", "s.xml:3:3: <boolean name=\"flip_normals\">", "not true or false"),
+        ("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"$r\"/>\n</shape>", "s.xml:3:3: <float name=\"radius\">", "\"$r\" has no value"),
+        ("<integrator type=\"path\">\n  <integer name=\"max_depth\" value=\"0\"/>\n</integrator>", "s.xml:2:1: <integrator type=\"path\">", "max_depth 0"),
+        // Unknown references.
+        ("<shape type=\"sphere\">\n  <ref id=\"glass\"/>\n</shape>", "s.xml:3:3: <ref id=\"glass\">", "unknown reference \"glass\""),
+        ("<bsdf type=\"diffuse\" id=\"a\"/>\n<medium type=\"homogeneous\" id=\"a\"/>", "s.xml:3:1: <medium type=\"homogeneous\" id=\"a\">", "already used at s.xml:2:1"),
+        // Unsupported attributes and parameters.
+        ("<shape type=\"sphere\" scale=\"2\"/>", "s.xml:2:1: <shape type=\"sphere\">", "unsupported attribute \"scale\""),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.5\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <float name=\"roughness\">", "unsupported parameter of <bsdf type=\"diffuse\">"),
+        ("<shape type=\"rectangle\">\n  <emitter type=\"point\"/>\n</shape>", "s.xml:3:3: <emitter type=\"point\">", "must be type=\"area\""),
+        // Not XML at all.
+        ("<shape type=\"sphere\">", "s.xml:", "not well-formed XML"),
+    ];
+    for (body, at, words) in cases {
+        assert_error(&[("s.xml", &scene(body))], at, &[words]);
+    }
+    assert_error(
+        &[("s.xml", "<shape/>")],
+        "s.xml:1:1: <shape>",
+        &["root element must be <scene>"],
+    );
+    assert_error(
+        &[("s.xml", &scene(""))],
+        "s.xml:1:1: <scene>",
+        &["no <sensor>"],
+    );
+}
+
+#[test]
+fn an_include_cycle_is_an_error_at_the_include() {
+    assert_error(
+        &[
+            ("a.xml", &scene("<include filename=\"b.xml\"/>")),
+            ("b.xml", &scene("<!-- b -->\n<include filename=\"a.xml\"/>")),
+        ],
+        "b.xml:3:1: <include>",
+        &["\"a.xml\" includes itself (an include cycle)"],
+    );
+    assert_error(
+        &[("a.xml", &scene("<include filename=\"a.xml\"/>"))],
+        "a.xml:2:1: <include>",
+        &["include cycle"],
+    );
+}
+
+#[test]
+fn post_scenes_takes_xml_and_bundles_holding_it_and_returns_the_warnings() {
+    let s = server_common::TestServer::start(None);
+    let read = |name: &str| std::fs::read(data(name)).unwrap();
+    let (code, info) = s.post_bytes("/v1/scenes", &read("cornell-box.xml"));
+    assert_eq!(code, 201, "{info}");
+    assert_eq!(
+        (info["width"].as_u64(), info["shapes"].as_u64()),
+        (Some(256), Some(8))
+    );
+    let warnings = info["warnings"].as_array().expect("warnings");
+    assert_eq!(warnings.len(), 1);
+    assert!(
+        warnings[0]
+            .as_str()
+            .unwrap()
+            .starts_with("scene.xml:12:5: <sensor"),
+        "{info}"
+    );
+    // Uploading the same bytes again answers the same, warnings included.
+    let (code, again) = s.post_bytes("/v1/scenes", &read("cornell-box.xml"));
+    assert_eq!((code, &again), (201, &info));
+    // The stored scene renders as the built-in Cornell box it equals.
+    let id = info["id"].as_str().unwrap();
+    let stored = s.dir.path().join("scenes").join(id).join("scene.json");
+    let ours = Scene::load(&stored).unwrap();
+    let json_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.json");
+    let builtin = Scene::load(&json_path).unwrap();
+    assert_eq!(render_sums(&ours, 1), render_sums(&builtin, 1));
+
+    // A bundle: the XML (under any name), the files it includes and the mesh.
+    let mut entries: Vec<(&str, Vec<u8>)> = [
+        "lit.xml",
+        "base.xml",
+        "camera.xml",
+        "stage.xml",
+        "meshes/tri.obj",
+    ]
+    .iter()
+    .map(|n| (*n, read(n)))
+    .collect();
+    entries.push(("tri-scene.xml", read("shape-obj.xml")));
+    let tar_of = |entries: &[(&str, Vec<u8>)]| {
+        let refs: Vec<(&str, &[u8])> = entries.iter().map(|(n, d)| (*n, d.as_slice())).collect();
+        server_common::tar_with(&refs)
+    };
+    let (code, info) = s.post_bytes("/v1/scenes", &tar_of(&entries));
+    // lit.xml and others are also top-level .xml files: the scene must be named.
+    assert_eq!(code, 400, "{info}");
+    assert!(
+        info.to_string().contains("name the scene scene.xml"),
+        "{info}"
+    );
+    entries.pop();
+    entries.push(("scene.xml", read("shape-obj.xml")));
+    let (code, info) = s.post_bytes("/v1/scenes", &tar_of(&entries));
+    assert_eq!(code, 201, "{info}");
+    assert_eq!(info["shapes"].as_u64(), Some(2));
+    assert!(info.get("warnings").is_none(), "{info}");
+
+    // An import error is a 422 naming the line.
+    let bad = b"<scene version=\"3.0.0\">\n<shape type=\"bezier\"/>\n</scene>";
+    let (code, body) = s.post_bytes("/v1/scenes", bad);
+    assert_eq!(code, 422, "{body}");
+    assert!(
+        body.to_string()
+            .contains("scene.xml:2:1: <shape type=\\\"bezier\\\">"),
+        "{body}"
+    );
+}
+
+fn caustic(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_caustic"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn the_command_line_imports_and_renders_xml() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cornell.json");
+    let xml = data("cornell-box.xml");
+    let r = caustic(&["import", xml.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: cornell-box.xml:12:5: <sensor type=\"perspective\">: near_clip"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("render with --spp 64"), "{stderr}");
+    let json = read_scene_file(&out).unwrap();
+    assert_eq!(json, import("cornell-box.xml").scene);
+    // To standard output without -o.
+    let r = caustic(&["import", data("shape-sphere.xml").to_str().unwrap()]);
+    assert!(r.status.success());
+    let printed: caustic::scene::SceneFile = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(printed, import("shape-sphere.xml").scene);
+
+    // `render` takes the XML, its sample count as the default length, and prints
+    // the warnings.
+    let exr = dir.path().join("p.exr");
+    let r = caustic(&[
+        "render",
+        data("bsdf-plastic.xml").to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: bsdf-plastic.xml:5:9: <bsdf type=\"plastic\">"),
+        "{stderr}"
+    );
+    assert!(String::from_utf8_lossy(&r.stdout).starts_with("pt: 4 iterations"));
+
+    let r = caustic(&["import", data("missing.xml").to_str().unwrap()]);
+    assert!(!r.status.success());
+    let bad = dir.path().join("bad.xml");
+    std::fs::write(
+        &bad,
+        "<scene version=\"3.0.0\">\n  <emitter type=\"sky\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let r = caustic(&["render", bad.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr
+            .contains("bad.xml:2:3: <emitter type=\"sky\">: unknown or unsupported emitter plugin"),
+        "{stderr}"
+    );
 }

@@ -314,3 +314,21 @@ impl Drop for ServerProcess {
         self.kill();
     }
 }
+
+/// A tar archive of `entries`, their names written raw so that unsafe paths reach the
+/// server as given.
+pub fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut b = tar::Builder::new(Vec::new());
+    for (name, data) in entries {
+        let mut h = tar::Header::new_gnu();
+        h.set_size(data.len() as u64);
+        h.set_mode(0o644);
+        h.set_entry_type(tar::EntryType::Regular);
+        // Write the raw name so that unsafe paths reach the server as given.
+        let bytes = name.as_bytes();
+        h.as_old_mut().name[..bytes.len()].copy_from_slice(bytes);
+        h.set_cksum();
+        b.append(&h, *data).unwrap();
+    }
+    b.into_inner().unwrap()
+}

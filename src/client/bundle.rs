@@ -2,6 +2,7 @@
 //! uploads them with it.
 
 use super::{file_error, Client, ClientError, Result};
+use crate::scene::mitsuba;
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Component, Path, PathBuf};
@@ -10,7 +11,7 @@ use std::path::{Component, Path, PathBuf};
 fn looks_like_path(scene: &str) -> bool {
     scene.contains('/')
         || scene.contains('\\')
-        || [".json", ".tar", ".zip"]
+        || [".json", ".xml", ".tar", ".zip"]
             .iter()
             .any(|x| scene.to_ascii_lowercase().ends_with(x))
 }
@@ -42,9 +43,17 @@ pub fn resolve_scene(client: &Client, scene: &str, base_dir: Option<&Path>) -> R
 
 /// The bytes to upload for a local scene file, their content type and how many files
 /// they hold. A JSON scene naming other files becomes a tar bundle; archives (tar, zip)
-/// are sent as they are.
+/// are sent as they are. A Mitsuba XML scene is imported here (its warnings printed)
+/// and sent as the JSON scene it becomes.
 pub fn scene_upload(path: &Path) -> Result<(Vec<u8>, &'static str, usize)> {
-    let bytes = std::fs::read(path).map_err(|e| file_error(path, e))?;
+    let mut bytes = std::fs::read(path).map_err(|e| file_error(path, e))?;
+    if mitsuba::is_xml_path(path) || mitsuba::is_xml(&bytes) {
+        let import = mitsuba::import_file(path).map_err(|e| file_error(path, e))?;
+        for w in &import.warnings {
+            eprintln!("warning: {w}");
+        }
+        bytes = serde_json::to_vec_pretty(&import.scene).map_err(|e| file_error(path, e))?;
+    }
     let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
     if first != Some(b'{') {
         let ct = if bytes.starts_with(b"PK\x03\x04") {

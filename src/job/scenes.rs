@@ -1,9 +1,10 @@
-//! Scene storage: uploads (one JSON document, or a tar / zip bundle with its meshes and
-//! maps) are validated, stored under `<data-dir>/scenes/<id>/` with id = content hash,
-//! and compiled once per id, shared by every job on that scene.
+//! Scene storage: uploads (one JSON document or Mitsuba XML scene, or a tar / zip
+//! bundle with its meshes and maps) are validated, stored under
+//! `<data-dir>/scenes/<id>/` with id = content hash (an XML scene imported into
+//! `scene.json` beside it), and compiled once per id, shared by every job on that scene.
 
 use super::JobError;
-use crate::scene::{load::read_scene_file, Scene};
+use crate::scene::{load::read_scene_file, mitsuba, Scene};
 use sha2::{Digest, Sha256};
 use std::collections::HashMap;
 use std::io::Read;
@@ -79,7 +80,14 @@ pub struct SceneInfo {
     pub lights: usize,
     /// Bytes of the stored bundle (0 for built-ins).
     pub size_bytes: u64,
+    /// What the import of a Mitsuba XML scene approximated, one line each (none for
+    /// JSON scenes).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
+
+/// Where an XML upload's import warnings are kept, next to its `scene.json`.
+const IMPORT_WARNINGS: &str = "import-warnings.txt";
 
 pub struct SceneStore {
     dir: PathBuf,
@@ -173,17 +181,22 @@ impl SceneStore {
         let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
         if first == Some(b'{') {
             std::fs::write(tmp.join("scene.json"), bytes).map_err(|e| JobError::io(tmp, e))?;
+        } else if mitsuba::is_xml(bytes) {
+            std::fs::write(tmp.join("scene.xml"), bytes).map_err(|e| JobError::io(tmp, e))?;
         } else if bytes.starts_with(b"PK\x03\x04") {
             unpack_zip(bytes, tmp, self.max_upload)?;
         } else if bytes.len() > 262 && &bytes[257..262] == b"ustar" {
             unpack_tar(bytes, tmp, self.max_upload)?;
         } else {
             return Err(bad(
-                "upload must be a scene JSON document, a tar archive or a zip archive",
+                "upload must be a scene JSON document, a Mitsuba XML scene, a tar archive or a \
+                 zip archive",
             ));
         }
         let main = find_scene_json(tmp)?;
-        if main != tmp.join("scene.json") {
+        if mitsuba::is_xml_path(&main) {
+            import_xml(&main, tmp)?;
+        } else if main != tmp.join("scene.json") {
             std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
         }
         let path = tmp.join("scene.json");
@@ -274,6 +287,9 @@ impl SceneStore {
             } else {
                 super::disk::dir_size(&self.scene_dir(id))
             },
+            warnings: std::fs::read_to_string(self.scene_dir(id).join(IMPORT_WARNINGS))
+                .map(|t| t.lines().map(str::to_string).collect())
+                .unwrap_or_default(),
         })
     }
 
@@ -323,27 +339,52 @@ fn hex16(digest: &[u8]) -> String {
     digest[..8].iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// `scene.json` at the top, else the only top-level `.json` file.
+/// Imports the Mitsuba XML scene `main` of an upload in `dir` into `dir/scene.json`,
+/// keeping the import's warnings beside it.
+fn import_xml(main: &Path, dir: &Path) -> Result<(), JobError> {
+    let import = mitsuba::import_file(main)
+        .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), dir)))?;
+    let json = serde_json::to_vec_pretty(&import.scene)
+        .map_err(|e| JobError::Internal(format!("imported scene: {e}")))?;
+    let write = |name: &str, bytes: &[u8]| {
+        std::fs::write(dir.join(name), bytes).map_err(|e| JobError::io(dir, e))
+    };
+    write("scene.json", &json)?;
+    if !import.warnings.is_empty() {
+        write(IMPORT_WARNINGS, import.warnings.join("\n").as_bytes())?;
+    }
+    Ok(())
+}
+
+/// `scene.json` at the top, else the only top-level `.json` file; else a Mitsuba
+/// scene: `scene.xml`, or the only top-level `.xml` file.
 fn find_scene_json(dir: &Path) -> Result<PathBuf, JobError> {
-    let direct = dir.join("scene.json");
-    if direct.exists() {
-        return Ok(direct);
+    let top = |ext: &str| -> Result<Vec<PathBuf>, JobError> {
+        Ok(std::fs::read_dir(dir)
+            .map_err(|e| JobError::io(dir, e))?
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case(ext)))
+            .collect())
+    };
+    for (name, ext) in [("scene.json", "json"), ("scene.xml", "xml")] {
+        let direct = dir.join(name);
+        if direct.exists() {
+            return Ok(direct);
+        }
+        match top(ext)?.as_slice() {
+            [one] => return Ok(one.clone()),
+            [] => {}
+            _ => {
+                return Err(bad(format!(
+                    "bundle holds several top-level .{ext} files: name the scene {name}"
+                )))
+            }
+        }
     }
-    let jsons: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| JobError::io(dir, e))?
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
-        .collect();
-    match jsons.as_slice() {
-        [one] => Ok(one.clone()),
-        [] => Err(bad(
-            "bundle holds no scene: put scene.json at its top level",
-        )),
-        _ => Err(bad(
-            "bundle holds several top-level .json files: name the scene scene.json",
-        )),
-    }
+    Err(bad(
+        "bundle holds no scene: put scene.json (or a Mitsuba scene.xml) at its top level",
+    ))
 }
 
 /// A bundle entry's path, refused when absolute, climbing out with `..`, too deep,

@@ -257,7 +257,7 @@ fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
-#[utoipa::path(post, path = "/v1/scenes", description = "Upload a scene: one JSON document, or a tar/zip bundle with scene.json and its assets. Validated; id = content hash.", request_body(content = Vec<u8>, content_type = "application/octet-stream"), responses((status = 201, body = SceneInfo), (status = 400, body = ErrorBody), (status = 413, body = ErrorBody), (status = 422, body = ErrorBody)))]
+#[utoipa::path(post, path = "/v1/scenes", description = "Upload a scene: one JSON document or Mitsuba 3 XML scene, or a tar/zip bundle with scene.json (or scene.xml) and its assets. Validated; id = content hash. An XML scene is imported; `warnings` lists what the import approximated.", request_body(content = Vec<u8>, content_type = "application/octet-stream"), responses((status = 201, body = SceneInfo), (status = 400, body = ErrorBody), (status = 413, body = ErrorBody), (status = 422, body = ErrorBody)))]
 async fn upload_scene(State(svc): State<Svc>, body: Bytes) -> ApiResult<impl IntoResponse> {
     let info = blocking(&svc, move |s| s.upload_scene(&body)).await?;
     Ok((StatusCode::CREATED, Json(info)))

@@ -11,15 +11,7 @@ pub fn emitter<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<LightDesc> {
     let p = Params::new(n, ctx)?;
     let light = match n.kind() {
         "point" => {
-            let xf = p.transform("to_world")?;
-            let position = match (p.point("position")?, xf) {
-                (Some(pos), None) => pos,
-                (None, Some(xf)) => xf.point(DVec3::ZERO),
-                (None, None) => DVec3::ZERO,
-                (Some(_), Some(_)) => {
-                    return Err(n.err("give position or to_world, not both"));
-                }
-            };
+            let position = placed(&p, "position", |xf| xf.point(DVec3::ZERO), DVec3::ZERO)?;
             LightDesc::Point {
                 position: f3(position),
                 intensity: p.color("intensity")?.unwrap_or([1.0; 3]),
@@ -41,15 +33,7 @@ pub fn emitter<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<LightDesc> {
             }
         }
         "directional" => {
-            let xf = p.transform("to_world")?;
-            let direction = match (p.point("direction")?, xf) {
-                (Some(d), None) => d,
-                (None, Some(xf)) => xf.vector(DVec3::Z),
-                (None, None) => DVec3::Z,
-                (Some(_), Some(_)) => {
-                    return Err(n.err("give direction or to_world, not both"));
-                }
-            };
+            let direction = placed(&p, "direction", |xf| xf.vector(DVec3::Z), DVec3::Z)?;
             LightDesc::Directional {
                 direction: f3(direction),
                 irradiance: p.color("irradiance")?.unwrap_or([1.0; 3]),
@@ -102,4 +86,15 @@ pub fn emitter<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<LightDesc> {
     };
     p.finish(&format!("the {} light", n.kind()))?;
     Ok(light)
+}
+
+/// A position or direction given as parameter `key`, or taken from `to_world` by
+/// `from_xf`, or `default`.
+fn placed(p: &Params, key: &str, from_xf: impl Fn(&Xf) -> DVec3, default: DVec3) -> Result<DVec3> {
+    match (p.point(key)?, p.transform("to_world")?) {
+        (Some(v), None) => Ok(v),
+        (None, Some(xf)) => Ok(from_xf(&xf)),
+        (None, None) => Ok(default),
+        (Some(_), Some(_)) => Err(p.node.err(format!("give {key} or to_world, not both"))),
+    }
 }

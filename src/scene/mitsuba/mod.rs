@@ -13,7 +13,7 @@ mod serialized;
 mod shapes;
 mod xml;
 
-use super::error::{Result, SceneError};
+use super::error::Result;
 use super::format::{MaterialDesc, MediumDesc, SceneFile};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Component, Path, PathBuf};
@@ -225,9 +225,4 @@ pub fn join_relative(dir: &Path, name: &str) -> std::result::Result<PathBuf, Str
         return Err("empty file name".into());
     }
     Ok(out)
-}
-
-/// A scene error for a problem with the whole file.
-pub fn file_error(path: &Path, message: impl Into<String>) -> SceneError {
-    SceneError::new(path.display().to_string(), message)
 }

@@ -41,7 +41,7 @@ impl<'a> Params<'a> {
                 let id = c.attr("id").ok_or_else(|| c.err("needs an id attribute"))?;
                 let target = ctx.ids.get(id).ok_or_else(|| {
                     c.err(format!(
-                        "unknown reference \"{id}\": no element has id=\"{id}\" before or after it"
+                        "unknown reference \"{id}\": no element has id=\"{id}\"; define one or fix the id"
                     ))
                 })?;
                 objects.push((c.attr("name"), *target, Cell::new(false)));

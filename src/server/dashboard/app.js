@@ -40,6 +40,7 @@ function route() {
   }
   const view = document.getElementById("view");
   view.replaceChildren();
+  window.scrollTo(0, 0);
   const controller = new AbortController();
   const c = page(view, r, controller.signal);
   cleanup = () => {

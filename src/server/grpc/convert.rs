@@ -17,6 +17,7 @@ pub(super) fn scene_to_pb(s: SceneInfo) -> pb::Scene {
         shapes: s.shapes as u64,
         lights: s.lights as u64,
         size_bytes: s.size_bytes,
+        warnings: s.warnings,
     }
 }
 
