@@ -498,3 +498,31 @@ fn the_command_line_imports_and_renders_xml() {
         "{stderr}"
     );
 }
+
+#[test]
+fn submit_uploads_an_xml_scene_as_its_json_with_the_files_it_names() {
+    let (bytes, content_type, files) =
+        caustic::client::scene_upload(&data("shape-obj.xml")).unwrap();
+    assert_eq!((content_type, files), ("application/x-tar", 2));
+    let mut names = Vec::new();
+    let mut scene = None;
+    for e in tar::Archive::new(bytes.as_slice()).entries().unwrap() {
+        let mut e = e.unwrap();
+        let name = e.path().unwrap().to_string_lossy().into_owned();
+        if name == "scene.json" {
+            let mut text = String::new();
+            std::io::Read::read_to_string(&mut e, &mut text).unwrap();
+            scene = Some(caustic::scene::load::parse_scene(&text).unwrap());
+        }
+        names.push(name);
+    }
+    assert_eq!(names, ["scene.json", "meshes/tri.obj"]);
+    assert_eq!(scene.unwrap(), import("shape-obj.xml").scene);
+    let (bytes, content_type, _) =
+        caustic::client::scene_upload(&data("shape-sphere.xml")).unwrap();
+    assert_eq!(content_type, "application/json");
+    assert_eq!(
+        caustic::scene::load::parse_scene(std::str::from_utf8(&bytes).unwrap()).unwrap(),
+        import("shape-sphere.xml").scene
+    );
+}
