@@ -498,3 +498,59 @@ fn the_command_line_imports_and_renders_xml() {
         "{stderr}"
     );
 }
+
+#[test]
+fn submit_uploads_an_xml_scene_as_its_json_with_the_files_it_names() {
+    let (bytes, content_type, files) =
+        caustic::client::scene_upload(&data("shape-obj.xml")).unwrap();
+    assert_eq!((content_type, files), ("application/x-tar", 2));
+    let mut names = Vec::new();
+    let mut scene = None;
+    for e in tar::Archive::new(bytes.as_slice()).entries().unwrap() {
+        let mut e = e.unwrap();
+        let name = e.path().unwrap().to_string_lossy().into_owned();
+        if name == "scene.json" {
+            let mut text = String::new();
+            std::io::Read::read_to_string(&mut e, &mut text).unwrap();
+            scene = Some(caustic::scene::load::parse_scene(&text).unwrap());
+        }
+        names.push(name);
+    }
+    assert_eq!(names, ["scene.json", "meshes/tri.obj"]);
+    assert_eq!(scene.unwrap(), import("shape-obj.xml").scene);
+    let (bytes, content_type, _) =
+        caustic::client::scene_upload(&data("shape-sphere.xml")).unwrap();
+    assert_eq!(content_type, "application/json");
+    assert_eq!(
+        caustic::scene::load::parse_scene(std::str::from_utf8(&bytes).unwrap()).unwrap(),
+        import("shape-sphere.xml").scene
+    );
+}
+
+#[test]
+fn transform_elements_apply_in_document_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = std::fs::read_to_string(data("camera.xml")).unwrap();
+    std::fs::write(dir.path().join("camera.xml"), camera).unwrap();
+    let xml = scene(
+        "<include filename=\"camera.xml\"/>\n\
+         <shape type=\"rectangle\">\n\
+           <transform name=\"to_world\"><translate x=\"1\"/><rotate z=\"1\" angle=\"90\"/></transform>\n\
+         </shape>\n\
+         <shape type=\"cube\">\n\
+           <transform name=\"to_world\"><translate x=\"1\"/><scale value=\"2\"/></transform>\n\
+         </shape>",
+    );
+    std::fs::write(dir.path().join("t.xml"), xml).unwrap();
+    let i = import_file(&dir.path().join("t.xml")).unwrap();
+    // Translated first, then turned a quarter about z: (x, y) -> (-y, x + 1).
+    let rect: caustic::scene::format::GeometryDesc = json(serde_json::json!({"type": "rectangle",
+        "corners": [[1, 0, 0], [1, 2, 0], [-1, 2, 0], [-1, 0, 0]]}));
+    assert_eq!(i.scene.shapes[0].geometry, rect);
+    // Translated, then scaled: not translate-rotate-scale, so a matrix.
+    let cube = i.scene.shapes[1].common.transform.clone().unwrap();
+    assert_eq!(
+        cube.matrix,
+        Some([2., 0., 0., 2., 0., 2., 0., 0., 0., 0., 2., 0., 0., 0., 0., 1.])
+    );
+}

@@ -100,17 +100,19 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
         );
     }
     let (aperture_radius, focus_distance) = if kind == "thinlens" {
-        let r = p.float("aperture_radius")?.unwrap_or(0.03125);
-        let f = p.float("focus_distance")?.unwrap_or(0.0);
-        (r as f32, Some(f as f32))
+        let need = |key: &str| {
+            p.float(key)?
+                .ok_or_else(|| n.err(format!("a thinlens sensor needs a {key}")))
+        };
+        (
+            need("aperture_radius")? as f32,
+            Some(need("focus_distance")? as f32),
+        )
     } else {
         // A pinhole camera has everything in focus.
         p.ignore(&["focus_distance"]);
         (0.0, None)
     };
-    if kind == "thinlens" && focus_distance == Some(0.0) {
-        return Err(n.err("a thinlens sensor needs a focus_distance"));
-    }
     p.ignore(&["shutter_open", "shutter_close"]);
     let spp = sampler(&p, ctx)?;
     let medium = match p.object(&["medium"], None)? {

@@ -151,6 +151,16 @@ impl Reader {
                 ),
             ));
         }
+        if let Some(v) = root.attribute("version").filter(|v| v.starts_with("0.")) {
+            return Err(SceneError::new(
+                at(root).to_string(),
+                format!(
+                    "<scene version=\"{v}\">: a Mitsuba 0.x scene (camelCase parameters); caustic \
+                     reads Mitsuba 3 scenes: upgrade it with Mitsuba 3 (which loads and can \
+                     re-save old scenes) first"
+                ),
+            ));
+        }
         // Defaults first, wherever they stand; an include's never override the
         // including file's.
         for n in root.children().filter(|n| n.has_tag_name("default")) {
