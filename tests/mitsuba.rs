@@ -366,6 +366,49 @@ fn an_include_cycle_is_an_error_at_the_include() {
     );
 }
 
+/// Hostile uploads: elements nested a hundred thousand deep (which would overflow a
+/// recursive reader's stack and abort the server), deep include chains, and DTD entity
+/// expansion are 4xx answers that name the problem, and the server stays up.
+#[test]
+fn hostile_xml_uploads_are_refused_and_the_server_survives() {
+    let s = server_common::TestServer::start(None);
+    let n = 100_000;
+    let deep = format!(
+        "<scene version=\"3.0.0\">{}{}</scene>",
+        "<bsdf type=\"twosided\">".repeat(n),
+        "</bsdf>".repeat(n)
+    );
+    let (code, body) = s.post_bytes("/v1/scenes", deep.as_bytes());
+    assert!((400..500).contains(&code), "{code} {body}");
+    assert!(
+        body.to_string().contains("nested more than 64 deep"),
+        "{body}"
+    );
+    let lol = "<?xml version=\"1.0\"?><!DOCTYPE l [<!ENTITY a \"aaaaaaaa\">\
+               <!ENTITY b \"&a;&a;&a;&a;&a;&a;&a;&a;\">]>\
+               <scene version=\"3.0.0\"><default name=\"x\" value=\"&b;\"/></scene>";
+    let (code, body) = s.post_bytes("/v1/scenes", lol.as_bytes());
+    assert!((400..500).contains(&code), "{code} {body}");
+    assert!(body.to_string().contains("DTD"), "{body}");
+    // Includes count towards the depth: a chain of 100 files, each including the next.
+    let files: Vec<(String, String)> = (0..100)
+        .map(|i| {
+            let body = if i < 99 {
+                format!("<include filename=\"f{}.xml\"/>", i + 1)
+            } else {
+                String::new()
+            };
+            (format!("f{i}.xml"), scene(&body))
+        })
+        .collect();
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
+    assert!(import_error(&refs).contains("nested more than 64 deep"));
+    assert_eq!(s.get_json("/healthz").0, 200);
+}
+
 #[test]
 fn post_scenes_takes_xml_and_bundles_holding_it_and_returns_the_warnings() {
     let s = server_common::TestServer::start(None);

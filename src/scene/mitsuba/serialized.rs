@@ -17,6 +17,9 @@ const DOUBLE_PRECISION: u32 = 0x2000;
 
 /// More vertices or triangles than this in one shape is taken for a damaged file.
 const MAX_COUNT: u64 = 1 << 28;
+/// Mesh data compresses two to four times; a stream that expands far more is a
+/// decompression bomb, refused before it can exhaust the server's memory.
+const MAX_EXPANSION: u64 = 64;
 
 pub fn shape(n: &Node, p: &Params, ctx: &mut Ctx) -> Result<GeometryDesc> {
     let (fnode, name) = p
@@ -88,7 +91,11 @@ fn read(bytes: &[u8], index: i64) -> std::result::Result<Mesh, String> {
     };
     let body = bytes.get(start + 4..).ok_or("truncated file")?;
     let mut z = flate2::read::ZlibDecoder::new(body);
+    let mut budget = MAX_EXPANSION * body.len() as u64 + 4096;
     let mut take = |n: u64| -> std::result::Result<Vec<u8>, String> {
+        budget = budget.checked_sub(n).ok_or_else(|| {
+            format!("expands to more than {MAX_EXPANSION} times its compressed size; refused")
+        })?;
         let mut buf = Vec::new();
         (&mut z)
             .take(n)
@@ -194,5 +201,15 @@ mod tests {
             .unwrap()
             .contains("out of range"));
         assert!(read(b"junk", 0).is_err());
+    }
+
+    #[test]
+    fn a_decompression_bomb_is_refused() {
+        // A million identical vertices compress about a thousand times.
+        let pos = vec![[0.0; 3]; 1 << 20];
+        let file = write_one(&pos, &[[0, 1, 2]]);
+        assert!(file.len() < (12 << 20) / 64, "{} bytes", file.len());
+        let e = read(&file, 0).err().unwrap();
+        assert!(e.contains("times its compressed size"), "{e}");
     }
 }

@@ -109,6 +109,7 @@ pub fn read(path: &Path) -> Result<Node> {
         main_dir,
         defaults: HashMap::new(),
         stack: Vec::new(),
+        depth: 0,
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
@@ -120,7 +121,14 @@ struct Reader {
     defaults: HashMap<String, String>,
     /// Canonical paths of the files being read, for include cycles.
     stack: Vec<PathBuf>,
+    /// Elements open now, across includes: bounded so that a hostile upload cannot
+    /// exhaust the stack of the recursive reader (and of the conversion after it).
+    depth: usize,
 }
+
+/// Deeper than any real scene (Mitsuba's nest about six levels: scene, shape, bsdf,
+/// nested bsdf, texture, value).
+const MAX_DEPTH: usize = 64;
 
 impl Reader {
     fn file(&mut self, text: &str, file: Arc<SrcFile>, path: &Path) -> Result<Node> {
@@ -178,6 +186,23 @@ impl Reader {
     }
 
     fn node(&mut self, n: roxmltree::Node, at: &dyn Fn(roxmltree::Node) -> Loc) -> Result<Node> {
+        if self.depth >= MAX_DEPTH {
+            return Err(SceneError::new(
+                at(n).to_string(),
+                format!(
+                    "<{}>: elements nested more than {MAX_DEPTH} deep (includes count too); \
+                     flatten the scene",
+                    n.tag_name().name()
+                ),
+            ));
+        }
+        self.depth += 1;
+        let node = self.element(n, at);
+        self.depth -= 1;
+        node
+    }
+
+    fn element(&mut self, n: roxmltree::Node, at: &dyn Fn(roxmltree::Node) -> Loc) -> Result<Node> {
         let tag = n.tag_name().name().to_string();
         let loc = at(n);
         let mut node = Node {
