@@ -367,8 +367,8 @@ fn an_include_cycle_is_an_error_at_the_include() {
 }
 
 /// Hostile uploads: elements nested a hundred thousand deep (which would overflow a
-/// recursive reader's stack and abort the server), deep include chains, and DTD entity
-/// expansion are 4xx answers that name the problem, and the server stays up.
+/// recursive reader's stack and abort the server), deep include chains, DTD entity
+/// expansion and `$name` references to a long default are 4xx answers that name the problem, and the server stays up.
 #[test]
 fn hostile_xml_uploads_are_refused_and_the_server_survives() {
     let s = server_common::TestServer::start(None);
@@ -390,6 +390,19 @@ fn hostile_xml_uploads_are_refused_and_the_server_survives() {
     let (code, body) = s.post_bytes("/v1/scenes", lol.as_bytes());
     assert!((400..500).contains(&code), "{code} {body}");
     assert!(body.to_string().contains("DTD"), "{body}");
+    // A megabyte default referenced a hundred thousand times would be 100 GB.
+    let bomb = format!(
+        "<scene version=\"3.0.0\"><default name=\"a\" value=\"{}\"/>\
+         <shape type=\"sphere\" id=\"{}\"/></scene>",
+        "x".repeat(1 << 20),
+        "$a".repeat(100_000)
+    );
+    let (code, body) = s.post_bytes("/v1/scenes", bomb.as_bytes());
+    assert!((400..500).contains(&code), "{code} {body}");
+    assert!(
+        body.to_string().contains("references expand to more than"),
+        "{body}"
+    );
     // Includes count towards the depth: a chain of 100 files, each including the next.
     let files: Vec<(String, String)> = (0..100)
         .map(|i| {

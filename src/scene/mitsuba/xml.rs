@@ -110,6 +110,7 @@ pub fn read(path: &Path) -> Result<Node> {
         defaults: HashMap::new(),
         stack: Vec::new(),
         depth: 0,
+        substituted: 0,
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
@@ -124,7 +125,13 @@ struct Reader {
     /// Elements open now, across includes: bounded so that a hostile upload cannot
     /// exhaust the stack of the recursive reader (and of the conversion after it).
     depth: usize,
+    /// Bytes `$name` references have put in so far: bounded, since a small file with
+    /// many references to one long default could otherwise ask for terabytes.
+    substituted: usize,
 }
+
+/// Far more than any real scene substitutes.
+const MAX_SUBSTITUTED: usize = 1 << 24;
 
 /// Deeper than any real scene (Mitsuba's nest about six levels: scene, shape, bsdf,
 /// nested bsdf, texture, value).
@@ -246,7 +253,7 @@ impl Reader {
     }
 
     /// `$name` and `${name}` references replaced by the defaults' values.
-    fn substitute(&self, node: &Node, value: &str) -> Result<String> {
+    fn substitute(&mut self, node: &Node, value: &str) -> Result<String> {
         let mut out = String::new();
         let mut rest = value;
         while let Some(i) = rest.find('$') {
@@ -266,6 +273,13 @@ impl Reader {
                     "\"${name}\" has no value: declare <default name=\"{name}\" value=\"...\"/>"
                 ))
             })?;
+            self.substituted += v.len();
+            if self.substituted > MAX_SUBSTITUTED {
+                return Err(node.err(format!(
+                    "$name references expand to more than {MAX_SUBSTITUTED} bytes in all; \
+                     use shorter defaults or fewer references"
+                )));
+            }
             out += v;
             rest = tail;
         }
