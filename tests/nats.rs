@@ -502,3 +502,98 @@ fn a_range_that_kills_every_worker_fails_its_job_after_five_deliveries() {
     // Five deliveries killed five workers; the sixth answered with the failure.
     assert!(started >= 6, "{started}");
 }
+
+/// One coordinator per pool: a second `caustic serve --nats` on the same NATS server
+/// (another data directory) exits with a message naming the first; once the first
+/// stops cleanly (SIGTERM), the pool is free at once.
+#[test]
+fn a_second_coordinator_on_one_pool_exits_naming_the_first() {
+    let nats = Nats::start(None);
+    let url = nats.url(None);
+    let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let mut first = ServerProcess::start(d1.path(), &["--nats", &url]);
+    let out = Command::new(env!("CARGO_BIN_EXE_caustic"))
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--grpc-addr",
+            "127.0.0.1:0",
+        ])
+        .args(["--nats", &url, "--data-dir"])
+        .arg(d2.path())
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("another coordinator"), "{err}");
+    assert!(err.contains(&format!("pid {}", first.pid())), "{err}");
+
+    // SAFETY: signalling a child process of ours that has not been reaped.
+    unsafe { libc::kill(first.pid() as i32, libc::SIGTERM) };
+    let _ = first.child.wait();
+    let second = ServerProcess::start(d2.path(), &["--nats", &url]);
+    let id = submit_to(&second.url, 8, 1, "pt", 1);
+    let state = job_at(&second.url, &id)["state"].clone();
+    assert!(state == "queued" || state == "running", "{state}");
+}
+
+/// A NATS server older than caustic's client can talk to (Debian 12's 2.9) is
+/// refused at connect, naming its version and the one needed, by workers and
+/// coordinators alike. The server here only says hello: its INFO line carries the
+/// version, and it answers the client's PING.
+#[test]
+fn an_old_nats_server_is_refused_with_the_version_needed() {
+    use std::io::{BufRead, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        for conn in listener.incoming() {
+            let Ok(mut conn) = conn else { return };
+            std::thread::spawn(move || {
+                let info = format!(
+                    "INFO {{\"server_id\":\"old\",\"server_name\":\"old\",\"version\":\"2.9.10\",\
+                     \"go\":\"go1.19\",\"host\":\"127.0.0.1\",\"port\":{port},\"headers\":true,\
+                     \"max_payload\":1048576,\"proto\":1,\"jetstream\":true}}\r\n"
+                );
+                let _ = conn.write_all(info.as_bytes());
+                let reader = std::io::BufReader::new(conn.try_clone().unwrap());
+                for line in reader.lines().map_while(Result::ok) {
+                    if line.starts_with("PING") {
+                        let _ = conn.write_all(b"PONG\r\n");
+                    }
+                }
+            });
+        }
+    });
+    let url = format!("nats://127.0.0.1:{port}");
+    let data = tempfile::tempdir().unwrap();
+    let worker = ["worker", "--nats", &url, "--threads", "1"];
+    let serve = [
+        "serve",
+        "--addr",
+        "127.0.0.1:0",
+        "--grpc-addr",
+        "127.0.0.1:0",
+        "--nats",
+        &url,
+    ];
+    for args in [&worker[..], &serve[..]] {
+        let out = Command::new(env!("CARGO_BIN_EXE_caustic"))
+            .args(args)
+            .arg(if args[0] == "worker" {
+                "--cache-dir"
+            } else {
+                "--data-dir"
+            })
+            .arg(data.path().join(args[0]))
+            .env("RUST_BACKTRACE", "0")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{err}");
+        assert!(err.contains("nats-server 2.9.10"), "{err}");
+        assert!(err.contains("2.10 or later"), "{err}");
+    }
+}

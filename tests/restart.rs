@@ -165,3 +165,60 @@ fn kill_9_then_restart(scene: Value, alg: &str, params: Value, spp: u64) {
     let direct = direct_render(&scene.to_string(), Some(alg), &params, 77, spp);
     assert_eq!(direct, served.pixels(), "{alg}: resumed image differs");
 }
+
+/// One server per data directory: a second `caustic serve` on it exits at once with
+/// a message naming the first (pid and address) and leaves the running job alone;
+/// after the first is killed with -9, a new one starts (the kernel's lock died with
+/// its holder) and resumes the job.
+#[test]
+fn a_second_server_on_one_data_directory_exits_naming_the_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut first = start(dir.path());
+    let job = post(
+        &format!("{}/v1/jobs", first.url),
+        json!({"scene": "cornell-box", "halt": {"spp": 1_000_000}, "seed": 2}),
+    );
+    let id = job["id"].as_str().unwrap().to_string();
+    let job_url = format!("{}/v1/jobs/{id}", first.url);
+    wait_until("the job to run", || get(&job_url)["state"] == "running");
+
+    let mut second = std::process::Command::new(env!("CARGO_BIN_EXE_caustic"))
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--grpc-addr",
+            "127.0.0.1:0",
+        ])
+        .arg("--data-dir")
+        .arg(dir.path())
+        .env("RUST_BACKTRACE", "0")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start_wait = Instant::now();
+    let status = loop {
+        if let Some(s) = second.try_wait().unwrap() {
+            break s;
+        }
+        if start_wait.elapsed() > Duration::from_secs(30) {
+            let _ = second.kill();
+            panic!("a second server on the same data directory kept running");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut second.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(!status.success(), "{stderr}");
+    assert!(stderr.contains("is in use"), "{stderr}");
+    assert!(stderr.contains(&format!("pid {}", first.pid())), "{stderr}");
+    assert!(stderr.contains(&first.url), "{stderr}");
+    assert!(!stderr.contains("serving REST"), "{stderr}");
+    assert_eq!(get(&job_url)["state"], "running");
+
+    first.kill();
+    let again = start(dir.path());
+    let job_url = format!("{}/v1/jobs/{id}", again.url);
+    wait_until("the job to resume", || get(&job_url)["state"] == "running");
+}

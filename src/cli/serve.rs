@@ -30,7 +30,9 @@ pub fn serve(a: ServeArgs) -> Result<()> {
             .await
             .with_context(|| format!("binding {}", a.grpc_addr))?;
         let url = format!("http://{}", http.local_addr()?);
-        eprintln!("caustic serving REST on {url} and gRPC on {}", grpc.local_addr()?);
+        let grpc_addr = grpc.local_addr()?;
+        svc.announce(&format!("REST {url}, gRPC {grpc_addr}"));
+        eprintln!("caustic serving REST on {url} and gRPC on {grpc_addr}");
         eprintln!("data directory: {}", a.data_dir.display());
         eprintln!(
             "try: curl -X POST {url}/v1/jobs -H 'content-type: application/json' -d '{{\"scene\": \"cornell-box\", \"halt\": {{\"spp\": 64}}}}'"
@@ -108,10 +110,9 @@ async fn stop_signal() {
 
 /// `caustic worker`: renders work units until stopped.
 pub fn worker(a: WorkerArgs) -> Result<()> {
-    let name = a.name.unwrap_or_else(|| {
-        let host = std::fs::read_to_string("/etc/hostname").unwrap_or_default();
-        format!("{}-{}", host.trim(), std::process::id())
-    });
+    let name = a
+        .name
+        .unwrap_or_else(|| format!("{}-{}", caustic::job::lock::hostname(), std::process::id()));
     eprintln!(
         "caustic worker {name} on {}",
         caustic::job::remote::redact(&a.nats)

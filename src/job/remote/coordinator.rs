@@ -4,6 +4,7 @@
 //! free of async (DESIGN.md "Rules of the house"). Results are fetched there as their
 //! answers arrive, several at once, so the scheduler thread only merges.
 
+use super::claim::{self, Holder};
 use super::{
     connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, WORKERS_BUCKET,
 };
@@ -50,7 +51,7 @@ pub struct NatsExecutor {
 
 impl NatsExecutor {
     /// Connects, creates the streams and buckets, and starts collecting answers.
-    pub fn connect(url: &str) -> Result<NatsExecutor, RemoteError> {
+    pub fn connect(url: &str, me: Holder) -> Result<NatsExecutor, RemoteError> {
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
             .thread_name("nats")
@@ -60,6 +61,7 @@ impl NatsExecutor {
         let inbox = Arc::new(Inbox::default());
         let (js, handles) = rt.block_on(async {
             let (_client, js) = connect(url, "caustic-coordinator").await?;
+            claim::claim(&js, me).await?;
             let handles = setup(&js).await?;
             let done = js
                 .get_stream(DONE_STREAM)
@@ -211,6 +213,13 @@ impl NatsExecutor {
             let _ = tx.send(f.await);
         });
         rx.recv().expect("NATS runtime stopped")
+    }
+
+    /// Gives the pool up, so that another coordinator may start at once (at a clean
+    /// stop; after a crash the claim lapses by itself).
+    pub fn release(&self) {
+        let js = self.js.clone();
+        self.run(async move { claim::release(&js).await });
     }
 
     /// A result, removed from the object store once read.

@@ -21,6 +21,7 @@
 //!   checkpoint to a worker, which returns the checkpoint after its range; the
 //!   coordinator adopts it whole. The chain may move between workers at any unit.
 
+pub mod claim;
 pub mod coordinator;
 pub mod ranges;
 pub mod worker;
@@ -136,6 +137,20 @@ pub enum RemoteError {
     Connect { url: String, msg: String },
     #[error("NATS: {0}")]
     Nats(String),
+    #[error(
+        "another coordinator runs this pool ({holder}); stop it, or give this one another \
+         NATS server (a stopped coordinator's claim lapses {ttl_s} s after it stops)"
+    )]
+    Claimed { holder: String, ttl_s: u64 },
+    #[error(
+        "NATS at {url} is nats-server {version}; caustic needs {min} or later (Debian 12's \
+         package is 2.9): install a current one with deploy/scripts/install-nats-server.sh or \
+         from nats.io",
+        min = MIN_SERVER_TEXT
+    )]
+    TooOld { url: String, version: String },
+    #[error("NATS at {url} runs without JetStream; start nats-server with -js")]
+    NoJetStream { url: String },
 }
 
 impl RemoteError {
@@ -163,8 +178,40 @@ pub async fn connect(
             url: redact(url),
             msg: e.to_string(),
         })?;
+    check_server(&client.server_info(), url)?;
     let js = async_nats::jetstream::new(client.clone());
     Ok((client, js))
+}
+
+/// The oldest nats-server whose JetStream answers our client reads: 2.9 answers
+/// stream requests in a form it cannot parse (tested: 2.9.10 fails at the first
+/// stream request, 2.10.25 and 2.15.1 run every pool test).
+const MIN_SERVER: (u64, u64) = (2, 10);
+const MIN_SERVER_TEXT: &str = "2.10";
+
+/// Refuses, at connect and in words, a server too old or without JetStream, rather
+/// than failing later on a reply that does not parse.
+fn check_server(info: &async_nats::ServerInfo, url: &str) -> Result<(), RemoteError> {
+    if let Some(v) = major_minor(&info.version) {
+        if v < MIN_SERVER {
+            return Err(RemoteError::TooOld {
+                url: redact(url),
+                version: info.version.clone(),
+            });
+        }
+    } else {
+        tracing::warn!(version = %info.version, "cannot read the NATS server's version");
+    }
+    if !info.jetstream {
+        return Err(RemoteError::NoJetStream { url: redact(url) });
+    }
+    Ok(())
+}
+
+/// `(major, minor)` of a version such as `2.10.25` or `v2.11.0-beta`.
+fn major_minor(version: &str) -> Option<(u64, u64)> {
+    let mut parts = version.trim_start_matches('v').split(['.', '-']);
+    Some((parts.next()?.parse().ok()?, parts.next()?.parse().ok()?))
 }
 
 /// `url` without its credentials, for messages.
@@ -253,6 +300,16 @@ async fn work_queue(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn server_versions_compare_as_numbers() {
+        assert_eq!(major_minor("2.9.10"), Some((2, 9)));
+        assert_eq!(major_minor("v2.11.0-beta.1"), Some((2, 11)));
+        assert_eq!(major_minor("garbage"), None);
+        assert!(major_minor("2.9.10").unwrap() < MIN_SERVER);
+        assert!(major_minor("2.10.0").unwrap() >= MIN_SERVER);
+        assert!(major_minor("3.0.0").unwrap() >= MIN_SERVER);
+    }
 
     #[test]
     fn credentials_never_reach_messages() {

@@ -9,6 +9,7 @@ use super::context::{Context, Metrics};
 use super::disk::{self, Retention};
 use super::events::Event;
 use super::limits;
+use super::lock::DirLock;
 use super::run;
 use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Shared, Table};
@@ -87,6 +88,8 @@ pub struct Service {
     ids: std::sync::atomic::AtomicU64,
     /// Becomes true when the server begins to stop: event streams end on it.
     closing: tokio::sync::watch::Sender<bool>,
+    /// The data directory's lock, released by [`Service::shutdown`].
+    dir_lock: Mutex<Option<DirLock>>,
 }
 
 /// How long a pause or cancel of a running job waits for its batch to end.
@@ -100,13 +103,19 @@ impl Service {
     /// Opens the data directory, recovers every job in it, and starts the scheduler.
     pub fn start(config: ServiceConfig) -> Result<Arc<Service>, JobError> {
         let dir = &config.data_dir;
+        std::fs::create_dir_all(dir).map_err(|e| JobError::io(dir, e))?;
+        // Before anything reads or tidies the directory: a second server must not
+        // remove the first one's half-written files or resume its jobs.
+        let lock = DirLock::acquire(dir, "caustic serve")
+            .map_err(|e| JobError::Conflict(e.to_string()))?;
         for sub in ["jobs", "references", "sweeps"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
         }
         let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
         let remote = match &config.nats {
             Some(url) => Some(Arc::new(
-                NatsExecutor::connect(url).map_err(|e| JobError::Internal(e.to_string()))?,
+                NatsExecutor::connect(url, lock.pool_holder())
+                    .map_err(|e| JobError::Internal(e.to_string()))?,
             )),
             None => None,
         };
@@ -151,7 +160,16 @@ impl Service {
             scheduler: Mutex::new(Some(handle)),
             ids: Default::default(),
             closing: tokio::sync::watch::channel(false).0,
+            dir_lock: Mutex::new(Some(lock)),
         }))
+    }
+
+    /// Says in the data directory's lock file where this server can be reached, for
+    /// the message a second server on the same directory prints.
+    pub fn announce(&self, what: &str) {
+        if let Some(lock) = self.dir_lock.lock().expect("dir lock").as_ref() {
+            lock.announce(what);
+        }
     }
 
     /// Tells event streams that the server is stopping, so that they end (with a last
@@ -170,7 +188,11 @@ impl Service {
             let _ = h.join();
             scheduler::checkpoint_all(&self.shared);
             scheduler::retry_unsaved(&self.shared);
+            if let Some(remote) = &self.shared.ctx.remote {
+                remote.release();
+            }
         }
+        self.dir_lock.lock().expect("dir lock").take();
     }
 
     pub fn config(&self) -> &ServiceConfig {
