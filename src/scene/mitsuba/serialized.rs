@@ -2,6 +2,7 @@
 //! optional normals, texture coordinates and colours, triangles), shapes indexed by a
 //! table of offsets at the end of the file. Imported as an inline mesh.
 
+use super::budget::{Budget, Work};
 use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
@@ -28,8 +29,18 @@ pub fn shape(n: &Node, p: &Params, ctx: &mut Ctx) -> Result<GeometryDesc> {
     let file = ctx.file_ref(fnode, name)?;
     let index = p.int("shape_index")?.unwrap_or(0);
     let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-    let bytes = std::fs::read(ctx.path_of(&file)).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
-    let mesh = read(&bytes, index).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
+    let bytes = match ctx.serialized.get(&file) {
+        Some(b) => b.clone(),
+        None => {
+            let path = ctx.path_of(&file);
+            let b = std::fs::read(path).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
+            let b = std::rc::Rc::new(b);
+            ctx.serialized.insert(file.clone(), b.clone());
+            b
+        }
+    };
+    let mesh =
+        read(&bytes, index, &mut ctx.budget).map_err(|e| n.err(format!("\"{name}\": {e}")))?;
     let normals = match (mesh.normals, face_normals) {
         (Some(normals), false) => Some(normals),
         (None, false) => {
@@ -63,8 +74,8 @@ fn u64_at(b: &[u8], at: usize) -> Option<u64> {
     Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
 }
 
-/// Shape `index` of a serialized file.
-fn read(bytes: &[u8], index: i64) -> std::result::Result<Mesh, String> {
+/// Shape `index` of a serialized file, its decompressed bytes spent from `spent`.
+fn read(bytes: &[u8], index: i64, spent: &mut Budget) -> std::result::Result<Mesh, String> {
     let version = bytes.get(2..4).map(|v| u16::from_le_bytes([v[0], v[1]]));
     if bytes.get(0..2) != Some(&[0x1C, 0x04][..]) || !matches!(version, Some(3 | 4)) {
         return Err("not a Mitsuba serialized file (version 3 or 4)".into());
@@ -96,6 +107,7 @@ fn read(bytes: &[u8], index: i64) -> std::result::Result<Mesh, String> {
         budget = budget.checked_sub(n).ok_or_else(|| {
             format!("expands to more than {MAX_EXPANSION} times its compressed size; refused")
         })?;
+        spent.spend(Work::MeshBytes, n)?;
         let mut buf = Vec::new();
         (&mut z)
             .take(n)
@@ -192,15 +204,17 @@ mod tests {
     #[test]
     fn a_written_mesh_reads_back() {
         let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]];
-        let mesh = read(&write_one(&pos, &[[0, 1, 2]]), 0).unwrap();
+        let mesh = read(&write_one(&pos, &[[0, 1, 2]]), 0, &mut Budget::default()).unwrap();
         assert_eq!(mesh.positions, pos);
         assert_eq!(mesh.indices, [[0, 1, 2]]);
         assert!(mesh.normals.is_none());
-        assert!(read(&write_one(&pos, &[[0, 1, 3]]), 0)
-            .err()
-            .unwrap()
-            .contains("out of range"));
-        assert!(read(b"junk", 0).is_err());
+        assert!(
+            read(&write_one(&pos, &[[0, 1, 3]]), 0, &mut Budget::default())
+                .err()
+                .unwrap()
+                .contains("out of range")
+        );
+        assert!(read(b"junk", 0, &mut Budget::default()).is_err());
     }
 
     #[test]
@@ -209,7 +223,7 @@ mod tests {
         let pos = vec![[0.0; 3]; 1 << 20];
         let file = write_one(&pos, &[[0, 1, 2]]);
         assert!(file.len() < (12 << 20) / 64, "{} bytes", file.len());
-        let e = read(&file, 0).err().unwrap();
+        let e = read(&file, 0, &mut Budget::default()).err().unwrap();
         assert!(e.contains("times its compressed size"), "{e}");
     }
 }
