@@ -513,6 +513,37 @@ fn references_that_loop_are_errors_and_shapes_are_bounded_in_all() {
     );
 }
 
+/// Numbers in a file that index the file are checked: a `serialized` offset of
+/// 2^64 - 2 wrapped around to byte 2 (and would panic in a debug build); now it is an
+/// error naming the element and the file.
+#[test]
+fn a_serialized_offset_past_the_end_is_an_error_naming_the_file() {
+    let mut bytes = std::fs::read(data("meshes/tri.serialized")).unwrap();
+    bytes.truncate(bytes.len() - 12); // one offset (u64) and the count (u32)
+    for offset in [0, u64::MAX - 1] {
+        bytes.extend(offset.to_le_bytes());
+    }
+    bytes.extend(2u32.to_le_bytes());
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.serialized"), &bytes).unwrap();
+    let xml = scene(
+        "<shape type=\"serialized\">\n  <string name=\"filename\" value=\"bad.serialized\"/>\n  \
+         <integer name=\"shape_index\" value=\"1\"/>\n</shape>",
+    );
+    std::fs::write(dir.path().join("s.xml"), xml).unwrap();
+    let e = import_file(&dir.path().join("s.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.xml:2:1: <shape type=\"serialized\">: \"bad.serialized\": "),
+        "{e}"
+    );
+    assert!(
+        e.contains("start at byte 18446744073709551614, past the end"),
+        "{e}"
+    );
+}
+
 /// Elements of a file included many times share their base name; each copy gets
 /// the next free `#k` (found in constant time, not by trying every k again).
 #[test]

@@ -67,11 +67,47 @@ struct Mesh {
 }
 
 fn u32_at(b: &[u8], at: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
+    Some(u32::from_le_bytes(
+        b.get(at..at.checked_add(4)?)?.try_into().ok()?,
+    ))
 }
 
 fn u64_at(b: &[u8], at: usize) -> Option<u64> {
-    Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
+    Some(u64::from_le_bytes(
+        b.get(at..at.checked_add(8)?)?.try_into().ok()?,
+    ))
+}
+
+/// Where shape `index` starts, from the table of offsets at the end of the file.
+/// Every number here comes from the file, so every step is checked: an offset of
+/// 2^64 - 2 must be an error, not a wrap to byte 2.
+fn shape_offset(bytes: &[u8], index: i64, v4: bool) -> std::result::Result<usize, String> {
+    let len = bytes.len() as u64;
+    let count = u32_at(bytes, bytes.len().saturating_sub(4)).ok_or("truncated file")?;
+    let index = u64::try_from(index)
+        .ok()
+        .filter(|&i| i < u64::from(count))
+        .ok_or_else(|| format!("shape_index {index}: the file holds {count} shapes"))?;
+    let width: u64 = if v4 { 8 } else { 4 };
+    let table = (u64::from(count) * width)
+        .checked_add(4)
+        .and_then(|end| len.checked_sub(end))
+        .ok_or_else(|| format!("a table of {count} shape offsets does not fit in the file"))?;
+    // Below `len`, so it fits a usize.
+    let at = (table + width * index) as usize;
+    let off = if v4 {
+        u64_at(bytes, at)
+    } else {
+        u32_at(bytes, at).map(u64::from)
+    }
+    .ok_or("truncated offset table")?;
+    match usize::try_from(off) {
+        Ok(start) if off < len => Ok(start),
+        _ => Err(format!(
+            "shape {index} is said to start at byte {off}, past the end of the file \
+             ({len} bytes)"
+        )),
+    }
 }
 
 /// Shape `index` of a serialized file, its decompressed bytes spent from `spent`.
@@ -81,26 +117,14 @@ fn read(bytes: &[u8], index: i64, spent: &mut Budget) -> std::result::Result<Mes
         return Err("not a Mitsuba serialized file (version 3 or 4)".into());
     }
     let v4 = version == Some(4);
-    let start = if index == 0 {
-        0
-    } else {
-        let count = u32_at(bytes, bytes.len().saturating_sub(4)).ok_or("truncated file")? as i64;
-        if index < 0 || index >= count {
-            return Err(format!(
-                "shape_index {index}: the file holds {count} shapes"
-            ));
-        }
-        let width = if v4 { 8 } else { 4 };
-        let table = bytes.len() - 4 - width * count as usize;
-        let at = table + width * index as usize;
-        let off = if v4 {
-            u64_at(bytes, at)
-        } else {
-            u32_at(bytes, at).map(u64::from)
-        };
-        off.ok_or("truncated offset table")? as usize
+    let start = match index {
+        0 => 0,
+        _ => shape_offset(bytes, index, v4)?,
     };
-    let body = bytes.get(start + 4..).ok_or("truncated file")?;
+    let body = start
+        .checked_add(4)
+        .and_then(|at| bytes.get(at..))
+        .ok_or("truncated file")?;
     let mut z = flate2::read::ZlibDecoder::new(body);
     let mut budget = MAX_EXPANSION * body.len() as u64 + 4096;
     let mut take = |n: u64| -> std::result::Result<Vec<u8>, String> {
@@ -215,6 +239,52 @@ mod tests {
                 .contains("out of range")
         );
         assert!(read(b"junk", 0, &mut Budget::default()).is_err());
+    }
+
+    /// `file` (one shape) with its offset table replaced by `offsets` and `count`.
+    fn with_table(file: &[u8], offsets: &[u64], count: u32) -> Vec<u8> {
+        let mut out = file[..file.len() - 12].to_vec();
+        offsets.iter().for_each(|o| out.extend(o.to_le_bytes()));
+        out.extend(count.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn offsets_and_counts_from_the_file_are_checked() {
+        let one = write_one(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
+        let read1 = |bytes: &[u8]| read(bytes, 1, &mut Budget::default()).map(|m| m.indices);
+        // Shape 1 at the start of the file (where shape 0 is) reads as shape 0.
+        assert_eq!(read1(&with_table(&one, &[0, 0], 2)), Ok(vec![[0, 1, 2]]));
+        // 2^64 - 2 used to wrap around to byte 2.
+        let e = read1(&with_table(&one, &[0, u64::MAX - 1], 2)).unwrap_err();
+        assert!(
+            e.contains("start at byte 18446744073709551614, past the end"),
+            "{e}"
+        );
+        let len = one.len() as u64 + 8; // with two offsets
+        let e = read1(&with_table(&one, &[0, len], 2)).unwrap_err();
+        assert!(e.contains("past the end"), "{e}");
+        // A count whose table would be larger than the file (it used to underflow).
+        let e = read1(&with_table(&one, &[0], u32::MAX)).unwrap_err();
+        assert!(e.contains("does not fit in the file"), "{e}");
+        let e = read(&with_table(&one, &[0], 1), -1, &mut Budget::default()).err();
+        assert_eq!(
+            e.as_deref(),
+            Some("shape_index -1: the file holds 1 shapes")
+        );
+    }
+
+    #[test]
+    fn the_import_budget_bounds_what_all_shapes_decompress() {
+        // Distinct vertices, which compress little: the expansion bound allows them.
+        let pos: Vec<[f32; 3]> = (0..1000).map(|i| [i as f32, 0.5, -(i as f32)]).collect();
+        let file = write_one(&pos, &[[0, 1, 2]]);
+        assert!(read(&file, 0, &mut Budget::default()).is_ok());
+        let mut budget = Budget::default();
+        let left = Work::MeshBytes.limit() - 10_000;
+        budget.spend(Work::MeshBytes, left).unwrap();
+        let e = read(&file, 0, &mut budget).err().unwrap();
+        assert!(e.contains("MiB of serialized mesh data"), "{e}");
     }
 
     #[test]
