@@ -127,6 +127,33 @@ fn bad_arguments_fail_with_a_message() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/scene.json"));
 }
 
+/// A scene whose own integrator section no job could run with is refused at load,
+/// naming the field in the scene (it used to fail later, naming no field).
+#[test]
+fn render_names_the_bad_field_of_a_scene_integrator() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.json"),
+    )
+    .unwrap();
+    let bad = text.replace("\"max_depth\": 64", "\"max_depth\": 4294967296");
+    assert_ne!(bad, text);
+    let path = dir.path().join("deep.json");
+    std::fs::write(&path, bad).unwrap();
+    let out = caustic()
+        .args(["render", path.to_str().unwrap(), "--spp", "1"])
+        .arg("-o")
+        .arg(dir.path().join("x.exr"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("deep.json: integrator settings: integrator.max_depth: invalid value"),
+        "{stderr}"
+    );
+}
+
 /// The README's `caustic diff` on a Radiance `.hdr` file (as SmallVCM writes it: flat
 /// scan lines) against an EXR: the values are decoded at the middle of each RGBE step.
 #[test]

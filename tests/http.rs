@@ -44,6 +44,44 @@ fn upload_is_content_addressed_and_listed_with_builtins() {
     assert_eq!(s.delete("/v1/scenes/cornell-box").0, 409);
 }
 
+/// A scene's `integrator` section is every job's default, so it is checked on upload
+/// as a job's settings are: `max_depth` 2^32 uploaded with 201, then every job on
+/// the scene was a 400.
+#[test]
+fn upload_checks_the_scene_integrator_as_a_jobs_settings() {
+    let s = TestServer::start(None);
+    let upload = |integrator: &Value| {
+        let mut v = tiny_scene(8);
+        v["integrator"] = integrator.clone();
+        s.post_bytes("/v1/scenes", v.to_string().as_bytes())
+    };
+    let cases = [
+        (
+            json!({"algorithm": "pt", "max_depth": 1u64 << 32}),
+            "integrator.max_depth: invalid value: integer `4294967296`",
+        ),
+        (
+            json!({"algorithm": "vcm", "max_dept": 5}),
+            "integrator.max_dept: unknown field",
+        ),
+        (
+            json!({"algorithm": "pt", "max_depth": 0}),
+            "max_depth must be at least 1",
+        ),
+        (json!({"algorithm": "pt2"}), "unknown algorithm \"pt2\""),
+    ];
+    for (integrator, words) in cases {
+        let (code, body) = upload(&integrator);
+        assert_eq!(code, 422, "{integrator}: {body}");
+        assert_eq!(body["error"]["code"], "invalid_scene", "{body}");
+        let message = body["error"]["message"].as_str().unwrap_or_default();
+        assert!(message.contains(words), "{integrator}: {message}");
+    }
+    let (code, info) = upload(&json!({"algorithm": "vcm", "max_depth": 6}));
+    assert_eq!(code, 201, "{info}");
+    submit(&s, json!({"scene": info["id"], "halt": {"spp": 1}}));
+}
+
 #[test]
 fn job_runs_to_completion_with_events_images_and_log() {
     let s = TestServer::start(None);

@@ -422,6 +422,156 @@ fn hostile_xml_uploads_are_refused_and_the_server_survives() {
     assert_eq!(s.get_json("/healthz").0, 200);
 }
 
+/// Issue 36's include tree: `scene.xml` and `f1.xml` .. `f30.xml`, each including the
+/// next twice (2^30 includes, 31 deep: under the depth limit); the last holds a sphere.
+fn include_tree() -> Vec<(String, String)> {
+    (0..=30)
+        .map(|i| {
+            let body = if i < 30 {
+                format!(
+                    "<include filename=\"f{0}.xml\"/>\n<include filename=\"f{0}.xml\"/>",
+                    i + 1
+                )
+            } else {
+                "<shape type=\"sphere\"/>".to_string()
+            };
+            let name = if i == 0 {
+                "scene.xml".into()
+            } else {
+                format!("f{i}.xml")
+            };
+            (name, scene(&body))
+        })
+        .collect()
+}
+
+/// The total work of an import is bounded, not only its depth: the include tree, a
+/// few KB, kept a server thread busy for hours; now it is a 422 at the include that
+/// passes the limit, at once, and the server goes on.
+#[test]
+fn an_include_tree_that_multiplies_is_refused_quickly_and_the_server_survives() {
+    let s = server_common::TestServer::start(None);
+    let files = include_tree();
+    let entries: Vec<(&str, &[u8])> = files
+        .iter()
+        .map(|(n, t)| (n.as_str(), t.as_bytes()))
+        .collect();
+    let bundle = server_common::tar_with(&entries);
+    assert!(bundle.len() < 40 << 10, "{} bytes", bundle.len());
+    let t = std::time::Instant::now();
+    let (code, body) = s.post_bytes("/v1/scenes", &bundle);
+    let took = t.elapsed();
+    assert_eq!(code, 422, "{body}");
+    let msg = body["error"]["message"].as_str().unwrap_or_default();
+    assert!(msg.contains("more than 16384 <include>s"), "{msg}");
+    assert!(at_an_include(msg), "names no file and line: {msg}");
+    // Hours before the fix; a bound generous for a loaded machine.
+    assert!(took < std::time::Duration::from_secs(30), "took {took:?}");
+    assert_eq!(s.get_json("/healthz").0, 200);
+    let good = std::fs::read(data("cornell-box.xml")).unwrap();
+    assert_eq!(s.post_bytes("/v1/scenes", &good).0, 201);
+}
+
+/// Does the message hold `NAME.xml:LINE:COL: <include>`, where a limit was crossed?
+fn at_an_include(msg: &str) -> bool {
+    let Some(i) = msg.find(".xml:") else {
+        return false;
+    };
+    let rest = &msg[i + 5..];
+    let end = rest
+        .find(|c: char| !(c.is_ascii_digit() || c == ':'))
+        .unwrap_or(0);
+    end > 0 && rest[end..].starts_with(" <include>")
+}
+
+#[test]
+fn references_that_loop_are_errors_and_shapes_are_bounded_in_all() {
+    // A twosided naming itself, directly or through another, recursed until the
+    // stack overflowed, which aborts the whole server.
+    let selfish = "<bsdf type=\"twosided\" id=\"b\">\n  <ref id=\"b\"/>\n</bsdf>\n\
+                   <shape type=\"sphere\">\n  <ref id=\"b\"/>\n</shape>";
+    assert_error(
+        &[("s.xml", &scene(selfish))],
+        "s.xml:2:1: <bsdf type=\"twosided\" id=\"b\">",
+        &["refers to itself"],
+    );
+    let pair = "<bsdf type=\"twosided\" id=\"a\"><ref id=\"b\"/></bsdf>\n\
+                <bsdf type=\"twosided\" id=\"b\"><ref id=\"a\"/></bsdf>\n\
+                <shape type=\"sphere\"><ref id=\"a\"/></shape>";
+    assert_error(
+        &[("s.xml", &scene(pair))],
+        "s.xml:3:1: <bsdf type=\"twosided\" id=\"b\">",
+        &["twosided inside a twosided"],
+    );
+    // 4097 inclusions of 64 spheres: 262,208 shapes from a few KB.
+    let spheres = scene(&"<shape type=\"sphere\"/>\n".repeat(64));
+    let includes = scene(&"<include filename=\"many.xml\"/>\n".repeat(4097));
+    assert_error(
+        &[("s.xml", &includes), ("many.xml", &spheres)],
+        "many.xml:",
+        &["more than 262144 shapes"],
+    );
+}
+
+/// Numbers in a file that index the file are checked: a `serialized` offset of
+/// 2^64 - 2 wrapped around to byte 2 (and would panic in a debug build); now it is an
+/// error naming the element and the file.
+#[test]
+fn a_serialized_offset_past_the_end_is_an_error_naming_the_file() {
+    let mut bytes = std::fs::read(data("meshes/tri.serialized")).unwrap();
+    bytes.truncate(bytes.len() - 12); // one offset (u64) and the count (u32)
+    for offset in [0, u64::MAX - 1] {
+        bytes.extend(offset.to_le_bytes());
+    }
+    bytes.extend(2u32.to_le_bytes());
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.serialized"), &bytes).unwrap();
+    let xml = scene(
+        "<shape type=\"serialized\">\n  <string name=\"filename\" value=\"bad.serialized\"/>\n  \
+         <integer name=\"shape_index\" value=\"1\"/>\n</shape>",
+    );
+    std::fs::write(dir.path().join("s.xml"), xml).unwrap();
+    let e = import_file(&dir.path().join("s.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.xml:2:1: <shape type=\"serialized\">: \"bad.serialized\": "),
+        "{e}"
+    );
+    assert!(
+        e.contains("start at byte 18446744073709551614, past the end"),
+        "{e}"
+    );
+}
+
+/// Elements of a file included many times share their base name; each copy gets
+/// the next free `#k` (found in constant time, not by trying every k again).
+#[test]
+fn copies_of_an_included_bsdf_get_numbered_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    write(
+        "camera.xml",
+        &std::fs::read_to_string(data("camera.xml")).unwrap(),
+    );
+    write(
+        "one.xml",
+        &scene("<shape type=\"sphere\">\n<bsdf type=\"diffuse\"/>\n</shape>"),
+    );
+    let copies = 3000;
+    let body = "<include filename=\"camera.xml\"/>\n".to_string()
+        + &"<include filename=\"one.xml\"/>\n".repeat(copies);
+    write("s.xml", &scene(&body));
+    let i = import_file(&dir.path().join("s.xml")).unwrap();
+    assert_eq!(i.scene.shapes.len(), copies);
+    assert_eq!(i.scene.materials.len(), copies);
+    assert!(i.scene.materials.contains_key("bsdf@one.xml:3"));
+    assert!(i
+        .scene
+        .materials
+        .contains_key(&format!("bsdf@one.xml:3#{copies}")));
+}
+
 #[test]
 fn post_scenes_takes_xml_and_bundles_holding_it_and_returns_the_warnings() {
     let s = server_common::TestServer::start(None);

@@ -3,6 +3,7 @@
 
 use super::args::ImportArgs;
 use anyhow::Result;
+use caustic::integrator::Settings;
 use caustic::scene::mitsuba::{self, Import};
 use std::path::Path;
 
@@ -18,9 +19,11 @@ pub fn import_xml(path: &Path) -> Result<Import> {
 
 pub fn import(a: &ImportArgs) -> Result<()> {
     let import = import_xml(&a.scene)?;
-    caustic::scene::validate::validate(&import.scene).map_err(|e| {
+    let invalid = |e: &dyn std::fmt::Display| {
         anyhow::anyhow!("{}: the imported scene is invalid: {e}", a.scene.display())
-    })?;
+    };
+    caustic::scene::validate::validate(&import.scene).map_err(|e| invalid(&e))?;
+    Settings::scene_defaults(import.scene.integrator.as_ref()).map_err(|e| invalid(&e))?;
     let mut json = serde_json::to_string_pretty(&import.scene)?;
     json.push('\n');
     match &a.output {

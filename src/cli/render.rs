@@ -31,6 +31,7 @@ pub fn load_scene_and_spp(path: &Path) -> Result<(Scene, Option<u32>)> {
         let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         (scene, None)
     };
+    Settings::for_scene_defaults(&scene).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let s = &scene.stats;
     eprintln!(
         "scene: {} triangles ({} pairs as parallelograms), {} spheres, {} disks, {} lights; BVH {:.1} ms, {:.1} KiB; loaded in {:.1} ms",

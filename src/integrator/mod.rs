@@ -211,10 +211,45 @@ impl Settings {
         Ok(s)
     }
 
+    /// The settings a scene's own `integrator` section gives a job that sets none,
+    /// checked as a job's settings are; a parameter that does not parse is named
+    /// `integrator.<name>`, where the scene says it. What uploads and local renders
+    /// check, so that a scene cannot be stored that no job on it could render.
+    pub fn scene_defaults(section: Option<&serde_json::Value>) -> Result<Settings, SettingsError> {
+        let mut params = section
+            .and_then(serde_json::Value::as_object)
+            .cloned()
+            .unwrap_or_default();
+        let algorithm = params.remove("algorithm");
+        Settings::resolve_named(
+            algorithm.as_ref().and_then(|a| a.as_str()),
+            None,
+            &params,
+            "integrator",
+        )
+    }
+
+    /// [`Settings::scene_defaults`] of a compiled scene, with [`Settings::check_scene`].
+    pub fn for_scene_defaults(scene: &Scene) -> Result<Settings, SettingsError> {
+        let s = Settings::scene_defaults(scene.integrator.as_ref())?;
+        s.check_scene(scene)?;
+        Ok(s)
+    }
+
     pub fn resolve(
         algorithm: Option<&str>,
         scene_default: Option<&serde_json::Value>,
         overrides: &serde_json::Map<String, serde_json::Value>,
+    ) -> Result<Settings, SettingsError> {
+        Settings::resolve_named(algorithm, scene_default, overrides, "params")
+    }
+
+    /// [`Settings::resolve`], naming an override that does not parse `{prefix}.{name}`.
+    fn resolve_named(
+        algorithm: Option<&str>,
+        scene_default: Option<&serde_json::Value>,
+        overrides: &serde_json::Map<String, serde_json::Value>,
+        prefix: &str,
     ) -> Result<Settings, SettingsError> {
         let scene_alg = scene_default
             .and_then(|v| v.get("algorithm"))
@@ -260,7 +295,7 @@ impl Settings {
                     parse(without).is_ok()
                 });
                 SettingsError::Invalid(match culprit {
-                    Some(k) => format!("params.{k}: {e}"),
+                    Some(k) => format!("{prefix}.{k}: {e}"),
                     None => e.to_string(),
                 })
             })?;

@@ -4,6 +4,7 @@
 //! `scene.json` beside it), and compiled once per id, shared by every job on that scene.
 
 use super::JobError;
+use crate::integrator::Settings;
 use crate::scene::{load::read_scene_file, mitsuba, Scene};
 use sha2::{Digest, Sha256};
 use std::collections::HashMap;
@@ -200,8 +201,11 @@ impl SceneStore {
             std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
         }
         let path = tmp.join("scene.json");
-        Scene::load(&path)
+        let scene = Scene::load(&path)
             .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), tmp)))?;
+        // The scene's integrator section is every job's default: checked as a job's
+        // settings are, or each job on the scene would fail.
+        Settings::for_scene_defaults(&scene).map_err(|e| JobError::InvalidScene(e.to_string()))?;
         Ok(())
     }
 

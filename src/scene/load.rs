@@ -179,7 +179,9 @@ pub fn parse_obj(mut reader: impl std::io::BufRead, field: &str, name: &str) -> 
 }
 
 fn append_model(out: &mut MeshData, mesh: tobj::Mesh) {
-    let base = out.positions.len() as u32;
+    // Past u32 (which no upload reaches), the indices saturate and `checked` refuses
+    // them, rather than wrapping onto vertices of an earlier model.
+    let base = u32::try_from(out.positions.len()).unwrap_or(u32::MAX);
     let has_normals = mesh.normals.len() == mesh.positions.len();
     match (&mut out.normals, has_normals) {
         (Some(n), true) => n.extend(

@@ -96,6 +96,14 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             let inner = p
                 .object(&["bsdf"], None)?
                 .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
+            // Also what keeps a twosided that refers to itself, directly or through
+            // others, from recursing until the stack overflows: only twosided nests.
+            if inner.kind() == "twosided" {
+                return Err(inner.err(
+                    "a twosided inside a twosided (or one that refers to itself); remove \
+                     the inner wrapper",
+                ));
+            }
             let mut desc = bsdf(inner, ctx)?;
             match &mut desc {
                 MaterialDesc::Diffuse { two_sided, .. }

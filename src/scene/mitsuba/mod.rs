@@ -5,6 +5,7 @@
 //! image silently.
 
 mod bsdf;
+mod budget;
 mod emitters;
 mod media;
 mod params;
@@ -15,6 +16,7 @@ mod xml;
 
 use super::error::Result;
 use super::format::{MaterialDesc, MediumDesc, SceneFile};
+use budget::{Budget, Work};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Component, Path, PathBuf};
 use xml::Node;
@@ -65,7 +67,10 @@ pub fn import_file(path: &Path) -> Result<Import> {
                 return Err(n.err("a second integrator; remove it"))
             }
             "integrator" => integrator = Some((n, sensor::integrator(n, &mut ctx)?)),
-            "shape" => shapes.push(shapes::shape(n, &mut ctx)?),
+            "shape" => {
+                (ctx.budget).spend(Work::Shapes, 1).map_err(|m| n.err(m))?;
+                shapes.push(shapes::shape(n, &mut ctx)?)
+            }
             "emitter" => lights.push(emitters::emitter(n, &mut ctx)?),
             "bsdf" | "medium" | "texture" | "volume" | "phase" if n.attr("id").is_some() => {}
             "bsdf" | "medium" | "texture" | "volume" | "phase" => ctx.warn(
@@ -130,6 +135,17 @@ pub struct Ctx<'a> {
     pub media: BTreeMap<String, MediumDesc>,
     /// The name given to each converted bsdf or medium element (by address).
     names: HashMap<*const Node, String>,
+    /// The next `#k` suffix to try for each base name: an element in a file included
+    /// many times has the same base name in every copy, and trying every suffix
+    /// from 2 again for each would be quadratic.
+    suffixes: HashMap<String, u32>,
+    /// Whether each mesh file read so far (by plugin and name) has vertex normals:
+    /// read once, however many shapes name it.
+    has_normals: HashMap<(String, String), bool>,
+    /// The serialized files read so far: read once, however many shapes name them.
+    serialized: HashMap<String, std::rc::Rc<Vec<u8>>>,
+    /// Shapes and mesh data produced so far (see `budget`).
+    pub budget: Budget,
 }
 
 impl<'a> Ctx<'a> {
@@ -143,6 +159,10 @@ impl<'a> Ctx<'a> {
             materials: BTreeMap::new(),
             media: BTreeMap::new(),
             names: HashMap::new(),
+            suffixes: HashMap::new(),
+            has_normals: HashMap::new(),
+            serialized: HashMap::new(),
+            budget: Budget::default(),
         })
     }
 
@@ -161,12 +181,20 @@ impl<'a> Ctx<'a> {
             || format!("{kind}@{}:{}", n.loc.file.name, n.loc.line),
             str::to_string,
         );
-        let mut name = base.clone();
-        let mut k = 2;
-        while self.materials.contains_key(&name) || self.media.contains_key(&name) {
-            name = format!("{base}#{k}");
+        let taken = |ctx: &Self, name: &str| {
+            ctx.materials.contains_key(name) || ctx.media.contains_key(name)
+        };
+        let candidate = |k: u32| match k {
+            1 => base.clone(),
+            k => format!("{base}#{k}"),
+        };
+        let mut k = self.suffixes.get(&base).copied().unwrap_or(1);
+        let mut name = candidate(k);
+        while taken(self, &name) {
             k += 1;
+            name = candidate(k);
         }
+        self.suffixes.insert(base, k + 1);
         self.names.insert(n as *const Node, name.clone());
         name
     }

@@ -88,16 +88,25 @@ pub fn shape<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<ShapeDesc> {
 
 /// Mitsuba computes smooth vertex normals for a mesh file without them (unless
 /// `face_normals`), caustic shades such a mesh flat; and caustic cannot drop the
-/// normals a file has.
+/// normals a file has. Each file is read once, however many shapes name it.
 fn mesh_normals(n: &Node, p: &Params, ctx: &mut Ctx, filename: &str) -> Result<()> {
     let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-    let path = ctx.path_of(filename);
-    let mesh = match n.kind() {
-        "obj" => crate::scene::load::load_obj(&path, "filename", filename),
-        _ => crate::scene::load::load_ply(&path, "filename", filename),
-    }
-    .map_err(|e| n.err(e.message))?;
-    match (mesh.normals.is_some(), face_normals) {
+    let key = (n.kind().to_string(), filename.to_string());
+    let has_normals = match ctx.has_normals.get(&key) {
+        Some(&known) => known,
+        None => {
+            let path = ctx.path_of(filename);
+            let mesh = match n.kind() {
+                "obj" => crate::scene::load::load_obj(&path, "filename", filename),
+                _ => crate::scene::load::load_ply(&path, "filename", filename),
+            }
+            .map_err(|e| n.err(e.message))?;
+            let known = mesh.normals.is_some();
+            ctx.has_normals.insert(key, known);
+            known
+        }
+    };
+    match (has_normals, face_normals) {
         (true, true) => Err(n.err(
             "face_normals=\"true\" with a file that has vertex normals: caustic would use \
              them; remove the normals from the file",

@@ -3,6 +3,7 @@
 //! column for messages.
 
 use super::super::error::{Result, SceneError};
+use super::budget::{Budget, Work};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -111,9 +112,13 @@ pub fn read(path: &Path) -> Result<Node> {
         stack: Vec::new(),
         depth: 0,
         substituted: 0,
+        budget: Budget::default(),
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
+    (reader.budget)
+        .spend(Work::XmlBytes, text.len() as u64)
+        .map_err(|m| SceneError::new(&file.name, m))?;
     reader.file(&text, file, path)
 }
 
@@ -128,6 +133,8 @@ struct Reader {
     /// Bytes `$name` references have put in so far: bounded, since a small file with
     /// many references to one long default could otherwise ask for terabytes.
     substituted: usize,
+    /// Elements, includes and bytes read so far, across includes (see `budget`).
+    budget: Budget,
 }
 
 /// Far more than any real scene substitutes.
@@ -218,6 +225,9 @@ impl Reader {
             children: Vec::new(),
             loc,
         };
+        (self.budget)
+            .spend(Work::Elements, 1)
+            .map_err(|m| node.err(m))?;
         let Some(allowed) = allowed_attrs(&node.tag) else {
             return Err(node.err(
                 "unknown element: caustic imports Mitsuba 3 scene elements (shape, bsdf, emitter, \
@@ -300,8 +310,14 @@ impl Reader {
                 "\"{name}\" includes itself (an include cycle); remove one of the includes"
             )));
         }
+        self.budget
+            .spend(Work::Includes, 1)
+            .map_err(|m| inc.err(m))?;
         let text =
             std::fs::read_to_string(&path).map_err(|e| inc.err(format!("\"{name}\": {e}")))?;
+        self.budget
+            .spend(Work::XmlBytes, text.len() as u64)
+            .map_err(|m| inc.err(m))?;
         let file = Arc::new(SrcFile {
             name: rel.to_string_lossy().into_owned(),
             dir: rel.parent().map(Path::to_path_buf).unwrap_or_default(),
