@@ -332,3 +332,28 @@ pub fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
     }
     b.into_inner().unwrap()
 }
+
+/// Every file below `dir`, relative to it, sorted, with the total of their sizes.
+#[allow(dead_code)]
+pub fn stored_files(dir: &std::path::Path) -> (Vec<String>, u64) {
+    fn walk(root: &std::path::Path, dir: &std::path::Path, out: &mut Vec<(String, u64)>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let path = e.path();
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else {
+                let name = path
+                    .strip_prefix(root)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                out.push((name, e.metadata().unwrap().len()));
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(dir, dir, &mut files);
+    files.sort();
+    let total = files.iter().map(|(_, n)| n).sum();
+    (files.into_iter().map(|(name, _)| name).collect(), total)
+}
