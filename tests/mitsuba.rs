@@ -422,36 +422,13 @@ fn hostile_xml_uploads_are_refused_and_the_server_survives() {
     assert_eq!(s.get_json("/healthz").0, 200);
 }
 
-/// Issue 36's include tree: `scene.xml` and `f1.xml` .. `f30.xml`, each including the
-/// next twice (2^30 includes, 31 deep: under the depth limit); the last holds a sphere.
-fn include_tree() -> Vec<(String, String)> {
-    (0..=30)
-        .map(|i| {
-            let body = if i < 30 {
-                format!(
-                    "<include filename=\"f{0}.xml\"/>\n<include filename=\"f{0}.xml\"/>",
-                    i + 1
-                )
-            } else {
-                "<shape type=\"sphere\"/>".to_string()
-            };
-            let name = if i == 0 {
-                "scene.xml".into()
-            } else {
-                format!("f{i}.xml")
-            };
-            (name, scene(&body))
-        })
-        .collect()
-}
-
 /// The total work of an import is bounded, not only its depth: the include tree, a
 /// few KB, kept a server thread busy for hours; now it is a 422 at the include that
 /// passes the limit, at once, and the server goes on.
 #[test]
 fn an_include_tree_that_multiplies_is_refused_quickly_and_the_server_survives() {
     let s = server_common::TestServer::start(None);
-    let files = include_tree();
+    let files = server_common::include_tree();
     let entries: Vec<(&str, &[u8])> = files
         .iter()
         .map(|(n, t)| (n.as_str(), t.as_bytes()))

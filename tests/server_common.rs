@@ -357,3 +357,31 @@ pub fn stored_files(dir: &std::path::Path) -> (Vec<String>, u64) {
     let total = files.iter().map(|(_, n)| n).sum();
     (files.into_iter().map(|(name, _)| name).collect(), total)
 }
+
+/// Issue 36's include tree: `scene.xml` and `f1.xml` .. `f30.xml`, each including the
+/// next twice (2^30 includes, 31 deep: under the depth limit); the last holds a
+/// sphere. A few KB that kept the importer busy for hours.
+#[allow(dead_code)]
+pub fn include_tree() -> Vec<(String, String)> {
+    (0..=30)
+        .map(|i| {
+            let body = if i < 30 {
+                format!(
+                    "<include filename=\"f{0}.xml\"/><include filename=\"f{0}.xml\"/>",
+                    i + 1
+                )
+            } else {
+                "<shape type=\"sphere\"/>".to_string()
+            };
+            let name = if i == 0 {
+                "scene.xml".into()
+            } else {
+                format!("f{i}.xml")
+            };
+            (
+                name,
+                format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n"),
+            )
+        })
+        .collect()
+}
