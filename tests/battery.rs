@@ -3,7 +3,8 @@
 //! mistyped and out-of-range JSON, wrong content types and methods, odd paths, bodies
 //! too large (declared, chunked, lying), idle and slow connections, hostile scene
 //! bundles (unsafe paths, links, lying sizes, corrupt and bomb zips, OBJ `mtllib`
-//! outside the bundle, EXR headers claiming huge images), bad references, job
+//! outside the bundle, EXR headers claiming huge images; `battery/uploads.rs`: imports
+//! whose work multiplies, padded bundles), bad references, job
 //! operations in the wrong state, and missing or wrong tokens.
 //!
 //! For every bad request: the right 4xx status (never 5xx, never a dropped
@@ -21,6 +22,8 @@ mod server_common;
 
 #[path = "battery/inputs.rs"]
 mod inputs;
+#[path = "battery/uploads.rs"]
+mod uploads;
 #[path = "battery/wire.rs"]
 mod wire;
 
@@ -2743,6 +2746,7 @@ fn bad_request_battery() {
     b.run_all(size_cases(&s));
     b.run_all(scene_cases());
     b.run_all(reference_cases());
+    uploads::run(&mut b);
     // Scenes that upload but that this server will not render (above --max-resolution
     // 8192, within the scene format's 16384).
     for (w, h) in [(10000u32, 10000u32), (8193, 1)] {

@@ -82,6 +82,52 @@ fn upload_checks_the_scene_integrator_as_a_jobs_settings() {
     submit(&s, json!({"scene": info["id"], "halt": {"spp": 1}}));
 }
 
+/// A bundle keeps `scene.json` and the files it names: a megabyte of padding was
+/// stored, counted in the scene's size and sent to every worker; now it is dropped
+/// with a warning, and what a worker fetches by id still renders.
+#[test]
+fn bundle_files_the_scene_does_not_name_are_not_stored() {
+    let s = TestServer::start(None);
+    let mut scene = tiny_scene(8);
+    scene["shapes"][1] = json!({"type": "obj", "filename": "m/quad.obj", "material": "m"});
+    let text = scene.to_string();
+    let quad = b"v -2 -1 -2\nv 2 -1 -2\nv 2 -1 2\nv -2 -1 2\nf 4 3 2 1\n";
+    let padding = vec![7u8; 1 << 20];
+    let bundle = tar_with(&[
+        ("scene.json", text.as_bytes()),
+        ("m/quad.obj", quad),
+        ("padding.bin", &padding),
+        ("m/notes.txt", b"not a mesh"),
+    ]);
+    let (code, info) = s.post_bytes("/v1/scenes", &bundle);
+    assert_eq!(code, 201, "{info}");
+    let id = info["id"].as_str().unwrap();
+    let (files, bytes) = stored_files(&s.dir.path().join("scenes").join(id));
+    assert_eq!(files, ["import-warnings.txt", "m/quad.obj", "scene.json"]);
+    assert_eq!(info["size_bytes"].as_u64(), Some(bytes));
+    assert_eq!(
+        info["warnings"],
+        json!([
+            "not stored: 2 files of the bundle that the scene does not name, 1.0 MiB in all: \
+                m/notes.txt (10 B), padding.bin (1.0 MiB)"
+        ])
+    );
+    // What a worker fetches by id: the stored files, and they render.
+    let store = caustic::job::scenes::SceneStore::new(s.dir.path(), 1 << 20).unwrap();
+    let tar = store.bundle(id).unwrap().expect("an uploaded scene");
+    let mut entries: Vec<String> = tar::Archive::new(tar.as_slice())
+        .entries()
+        .unwrap()
+        .map(|e| e.unwrap())
+        .filter(|e| e.header().entry_type().is_file())
+        .map(|e| e.path().unwrap().to_string_lossy().into_owned())
+        .collect();
+    entries.sort();
+    assert_eq!(entries, ["import-warnings.txt", "m/quad.obj", "scene.json"]);
+    let job = submit(&s, json!({"scene": id, "halt": {"spp": 1}}));
+    assert_eq!(s.wait_job(&job)["state"], "completed");
+}
+
 #[test]
 fn job_runs_to_completion_with_events_images_and_log() {
     let s = TestServer::start(None);

@@ -422,36 +422,13 @@ fn hostile_xml_uploads_are_refused_and_the_server_survives() {
     assert_eq!(s.get_json("/healthz").0, 200);
 }
 
-/// Issue 36's include tree: `scene.xml` and `f1.xml` .. `f30.xml`, each including the
-/// next twice (2^30 includes, 31 deep: under the depth limit); the last holds a sphere.
-fn include_tree() -> Vec<(String, String)> {
-    (0..=30)
-        .map(|i| {
-            let body = if i < 30 {
-                format!(
-                    "<include filename=\"f{0}.xml\"/>\n<include filename=\"f{0}.xml\"/>",
-                    i + 1
-                )
-            } else {
-                "<shape type=\"sphere\"/>".to_string()
-            };
-            let name = if i == 0 {
-                "scene.xml".into()
-            } else {
-                format!("f{i}.xml")
-            };
-            (name, scene(&body))
-        })
-        .collect()
-}
-
 /// The total work of an import is bounded, not only its depth: the include tree, a
 /// few KB, kept a server thread busy for hours; now it is a 422 at the include that
 /// passes the limit, at once, and the server goes on.
 #[test]
 fn an_include_tree_that_multiplies_is_refused_quickly_and_the_server_survives() {
     let s = server_common::TestServer::start(None);
-    let files = include_tree();
+    let files = server_common::include_tree();
     let entries: Vec<(&str, &[u8])> = files
         .iter()
         .map(|(n, t)| (n.as_str(), t.as_bytes()))
@@ -641,6 +618,109 @@ fn post_scenes_takes_xml_and_bundles_holding_it_and_returns_the_warnings() {
             .contains("scene.xml:2:1: <shape type=\\\"bezier\\\">"),
         "{body}"
     );
+}
+
+/// An XML bundle stores `scene.json` and the files it names; the XML files and the
+/// `serialized` meshes it inlined go without a word, anything else with a warning.
+#[test]
+fn an_xml_bundle_keeps_the_json_and_the_files_it_names() {
+    let s = server_common::TestServer::start(None);
+    let read = |name: &str| std::fs::read(data(name)).unwrap();
+    let files = [
+        "lit.xml",
+        "base.xml",
+        "camera.xml",
+        "stage.xml",
+        "meshes/tri.obj",
+        "meshes/tri.serialized",
+    ];
+    let cases = [
+        (
+            "shape-obj.xml",
+            vec!["meshes/tri.obj"],
+            "meshes/tri.serialized (",
+        ),
+        ("shape-serialized.xml", vec![], "meshes/tri.obj ("),
+    ];
+    for (main, kept, dropped) in cases {
+        let mut entries: Vec<(&str, Vec<u8>)> = files.iter().map(|n| (*n, read(n))).collect();
+        entries.push(("scene.xml", read(main)));
+        let refs: Vec<(&str, &[u8])> = entries.iter().map(|(n, d)| (*n, d.as_slice())).collect();
+        let (code, info) = s.post_bytes("/v1/scenes", &server_common::tar_with(&refs));
+        assert_eq!(code, 201, "{main}: {info}");
+        let dir = s
+            .dir
+            .path()
+            .join("scenes")
+            .join(info["id"].as_str().unwrap());
+        let mut want = vec!["import-warnings.txt", "scene.json"];
+        want.extend(kept);
+        want.sort();
+        assert_eq!(server_common::stored_files(&dir).0, want, "{main}");
+        let warnings = info["warnings"].to_string();
+        let line = "not stored: 1 file of the bundle that the scene does not name";
+        assert!(warnings.contains(line), "{main}: {warnings}");
+        assert!(warnings.contains(dropped), "{main}: {warnings}");
+    }
+}
+
+/// `caustic import X.xml -o elsewhere/scene.json` writes a scene that renders from
+/// there: its files are copied beside it, or, when the XML's folder is inside the
+/// output's, named by the way down; a different file in the way is an error.
+#[test]
+fn import_to_another_folder_writes_a_scene_that_renders_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src");
+    std::fs::create_dir_all(src.join("meshes")).unwrap();
+    for name in [
+        "shape-obj.xml",
+        "lit.xml",
+        "base.xml",
+        "camera.xml",
+        "stage.xml",
+        "meshes/tri.obj",
+    ] {
+        std::fs::copy(data(name), src.join(name)).unwrap();
+    }
+    let xml = src.join("shape-obj.xml");
+    let render = |scene: &Path| {
+        let exr = dir.path().join("out.exr");
+        let r = caustic(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--spp",
+            "1",
+            "-o",
+            exr.to_str().unwrap(),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    let import_to =
+        |out: &Path| caustic(&["import", xml.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let elsewhere = dir.path().join("elsewhere/deeper/scene.json");
+    let r = import_to(&elsewhere);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("copied 1 file the scene names"));
+    assert_eq!(mesh_file(&elsewhere), "meshes/tri.obj");
+    render(&elsewhere);
+    let above = dir.path().join("above.json");
+    assert!(import_to(&above).status.success());
+    assert_eq!(mesh_file(&above), "src/meshes/tri.obj");
+    render(&above);
+    std::fs::write(
+        dir.path().join("elsewhere/deeper/meshes/tri.obj"),
+        "v 0 0 0\n",
+    )
+    .unwrap();
+    let r = import_to(&elsewhere);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("already exists and differs"));
+}
+
+/// The file the last shape of a written JSON scene names.
+fn mesh_file(path: &Path) -> serde_json::Value {
+    let scene = read_scene_file(path).unwrap();
+    serde_json::to_value(scene.shapes.last().unwrap()).unwrap()["filename"].clone()
 }
 
 fn caustic(args: &[&str]) -> std::process::Output {

@@ -332,3 +332,56 @@ pub fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
     }
     b.into_inner().unwrap()
 }
+
+/// Every file below `dir`, relative to it, sorted, with the total of their sizes.
+#[allow(dead_code)]
+pub fn stored_files(dir: &std::path::Path) -> (Vec<String>, u64) {
+    fn walk(root: &std::path::Path, dir: &std::path::Path, out: &mut Vec<(String, u64)>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let path = e.path();
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else {
+                let name = path
+                    .strip_prefix(root)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                out.push((name, e.metadata().unwrap().len()));
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(dir, dir, &mut files);
+    files.sort();
+    let total = files.iter().map(|(_, n)| n).sum();
+    (files.into_iter().map(|(name, _)| name).collect(), total)
+}
+
+/// Issue 36's include tree: `scene.xml` and `f1.xml` .. `f30.xml`, each including the
+/// next twice (2^30 includes, 31 deep: under the depth limit); the last holds a
+/// sphere. A few KB that kept the importer busy for hours.
+#[allow(dead_code)]
+pub fn include_tree() -> Vec<(String, String)> {
+    (0..=30)
+        .map(|i| {
+            let body = if i < 30 {
+                format!(
+                    "<include filename=\"f{0}.xml\"/><include filename=\"f{0}.xml\"/>",
+                    i + 1
+                )
+            } else {
+                "<shape type=\"sphere\"/>".to_string()
+            };
+            let name = if i == 0 {
+                "scene.xml".into()
+            } else {
+                format!("f{i}.xml")
+            };
+            (
+                name,
+                format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n"),
+            )
+        })
+        .collect()
+}

@@ -272,8 +272,10 @@ pub struct WorkerArgs {
 pub struct ImportArgs {
     /// The Mitsuba 3 XML scene.
     pub scene: PathBuf,
-    /// Where to write the JSON scene (standard output when not given). File references
-    /// stay relative to the XML's folder, so write it there.
+    /// Where to write the JSON scene (standard output when not given, its file
+    /// references relative to the XML's folder). In another folder, the files the
+    /// scene names are copied beside it (or named by their path from there, when the
+    /// XML's folder is inside it).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 }

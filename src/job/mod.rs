@@ -6,6 +6,7 @@ pub mod context;
 pub mod disk;
 pub mod events;
 pub mod failpoint;
+mod keep;
 pub mod limits;
 pub mod lock;
 pub mod remote;

@@ -1,13 +1,14 @@
 //! Scene storage: uploads (one JSON document or Mitsuba XML scene, or a tar / zip
 //! bundle with its meshes and maps) are validated, stored under
-//! `<data-dir>/scenes/<id>/` with id = content hash (an XML scene imported into
-//! `scene.json` beside it), and compiled once per id, shared by every job on that scene.
+//! `<data-dir>/scenes/<id>/` with id = hash of the upload (an XML scene imported into
+//! `scene.json`; only `scene.json` and the files it names are kept), and compiled once
+//! per id, shared by every job on that scene.
 
-use super::JobError;
+use super::{keep, JobError};
 use crate::integrator::Settings;
-use crate::scene::{load::read_scene_file, mitsuba, Scene};
+use crate::scene::{files, load::read_scene_file, mitsuba, Scene};
 use sha2::{Digest, Sha256};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -81,14 +82,16 @@ pub struct SceneInfo {
     pub lights: usize,
     /// Bytes of the stored bundle (0 for built-ins).
     pub size_bytes: u64,
-    /// What the import of a Mitsuba XML scene approximated, one line each (none for
-    /// JSON scenes).
+    /// What the upload changed, one line each: what the import of a Mitsuba XML
+    /// scene approximated, and the bundle's files that were not stored because the
+    /// scene does not name them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
 }
 
-/// Where an XML upload's import warnings are kept, next to its `scene.json`.
-const IMPORT_WARNINGS: &str = "import-warnings.txt";
+/// Where an upload's warnings are kept, next to its `scene.json` (the name is older
+/// than warnings about anything but imports).
+const WARNINGS: &str = "import-warnings.txt";
 
 pub struct SceneStore {
     dir: PathBuf,
@@ -195,17 +198,29 @@ impl SceneStore {
             ));
         }
         let main = find_scene_json(tmp)?;
-        if mitsuba::is_xml_path(&main) {
-            import_xml(&main, tmp)?;
-        } else if main != tmp.join("scene.json") {
-            std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
-        }
+        let (mut warnings, sources) = if mitsuba::is_xml_path(&main) {
+            let import = import_xml(&main, tmp)?;
+            (import.warnings, import.sources)
+        } else {
+            if main != tmp.join("scene.json") {
+                std::fs::rename(&main, tmp.join("scene.json")).map_err(|e| JobError::io(tmp, e))?;
+            }
+            (Vec::new(), Vec::new())
+        };
         let path = tmp.join("scene.json");
-        let scene = Scene::load(&path)
-            .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), tmp)))?;
-        // The scene's integrator section is every job's default: checked as a job's
-        // settings are, or each job on the scene would fail.
-        Settings::for_scene_defaults(&scene).map_err(|e| JobError::InvalidScene(e.to_string()))?;
+        {
+            let scene = Scene::load(&path)
+                .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), tmp)))?;
+            // The scene's integrator section is every job's default: checked as a
+            // job's settings are, or each job on the scene would fail.
+            Settings::for_scene_defaults(&scene)
+                .map_err(|e| JobError::InvalidScene(e.to_string()))?;
+        }
+        warnings.extend(keep_only_needed(tmp, &sources)?);
+        if !warnings.is_empty() {
+            let text = warnings.join("\n");
+            std::fs::write(tmp.join(WARNINGS), text).map_err(|e| JobError::io(tmp, e))?;
+        }
         Ok(())
     }
 
@@ -291,7 +306,7 @@ impl SceneStore {
             } else {
                 super::disk::dir_size(&self.scene_dir(id))
             },
-            warnings: std::fs::read_to_string(self.scene_dir(id).join(IMPORT_WARNINGS))
+            warnings: std::fs::read_to_string(self.scene_dir(id).join(WARNINGS))
                 .map(|t| t.lines().map(str::to_string).collect())
                 .unwrap_or_default(),
         })
@@ -343,21 +358,32 @@ fn hex16(digest: &[u8]) -> String {
     digest[..8].iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// Imports the Mitsuba XML scene `main` of an upload in `dir` into `dir/scene.json`,
-/// keeping the import's warnings beside it.
-fn import_xml(main: &Path, dir: &Path) -> Result<(), JobError> {
+/// Imports the Mitsuba XML scene `main` of an upload in `dir` into `dir/scene.json`.
+fn import_xml(main: &Path, dir: &Path) -> Result<mitsuba::Import, JobError> {
     let import = mitsuba::import_file(main)
         .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), dir)))?;
     let json = serde_json::to_vec_pretty(&import.scene)
         .map_err(|e| JobError::Internal(format!("imported scene: {e}")))?;
-    let write = |name: &str, bytes: &[u8]| {
-        std::fs::write(dir.join(name), bytes).map_err(|e| JobError::io(dir, e))
-    };
-    write("scene.json", &json)?;
-    if !import.warnings.is_empty() {
-        write(IMPORT_WARNINGS, import.warnings.join("\n").as_bytes())?;
-    }
-    Ok(())
+    std::fs::write(dir.join("scene.json"), json).map_err(|e| JobError::io(dir, e))?;
+    Ok(import)
+}
+
+/// Drops what the upload in `dir` holds beside its scene and the files the scene
+/// needs; returns the warning saying so, unless all that went is what the import
+/// read (`sources`, names in the bundle). The id stays the hash of the upload, so
+/// the same upload finds the same stored scene, and workers fetch what is stored.
+fn keep_only_needed(dir: &Path, sources: &[String]) -> Result<Option<String>, JobError> {
+    let root = dir.canonicalize().map_err(|e| JobError::io(dir, e))?;
+    let scene_path = root.join("scene.json");
+    let mut scene = read_scene_file(&scene_path)
+        .map_err(|e| JobError::Internal(format!("stored scene: {e}")))?;
+    let mut needed: HashSet<PathBuf> = files::needed(&mut scene, &root).into_iter().collect();
+    needed.insert(scene_path);
+    let dropped = keep::drop_all_but(&root, &needed).map_err(|e| JobError::io(dir, e))?;
+    let expected: HashSet<PathBuf> = (sources.iter().map(PathBuf::from))
+        .chain([PathBuf::from(WARNINGS)])
+        .collect();
+    Ok(keep::warning(&dropped, &expected))
 }
 
 /// `scene.json` at the top, else the only top-level `.json` file; else a Mitsuba

@@ -2,6 +2,7 @@
 //! integrators render (BVH, materials, lights, camera).
 
 pub mod error;
+pub mod files;
 pub mod format;
 pub mod load;
 mod media;

@@ -61,7 +61,7 @@ mod raw;
 mod vdb;
 mod vol;
 
-pub use raw::{decode_raw, write_raw};
+pub use raw::{decode_raw, raw_data_file, write_raw};
 pub use vol::{decode_vol, write_vol};
 
 use std::fs::File;

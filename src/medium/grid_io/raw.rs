@@ -88,6 +88,16 @@ fn resolve_data(header: &Path, name: &str) -> Result<PathBuf> {
     }
 }
 
+/// The data file the raw grid header at `path` names, resolved as the reader
+/// resolves it; `None` when `path` is not a `.json` header or not a valid one.
+pub fn raw_data_file(path: &Path) -> Option<PathBuf> {
+    if super::Format::of(path).ok()? != super::Format::Raw {
+        return None;
+    }
+    let text = std::fs::read(path).ok()?;
+    resolve_data(path, &parse_raw_header(path, &text).ok()?.data).ok()
+}
+
 /// Writes `json_path` (the header) and the data next to it, named after the header
 /// with the extension `.raw`.
 pub fn write_raw(json_path: &Path, grid: &DenseGrid) -> io::Result<()> {

@@ -29,6 +29,9 @@ pub struct Import {
     pub warnings: Vec<String>,
     /// The sampler's `sample_count`: samples per pixel, the render's default length.
     pub spp: Option<u32>,
+    /// The files the import read and the scene no longer needs (the XML files, the
+    /// `serialized` files now inline), relative to the main file's folder.
+    pub sources: Vec<String>,
 }
 
 /// Does this file content look like XML (rather than a JSON scene or an archive)?
@@ -50,7 +53,7 @@ pub fn is_xml_path(path: &Path) -> bool {
 /// Imports a Mitsuba 3 XML scene file; the files it names resolve next to it (or next
 /// to the file that includes them) and end up relative to its folder.
 pub fn import_file(path: &Path) -> Result<Import> {
-    let root = xml::read(path)?;
+    let (root, mut sources) = xml::read(path)?;
     let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mut ctx = Ctx::new(&root, main_dir)?;
     let mut camera = None;
@@ -119,10 +122,14 @@ pub fn import_file(path: &Path) -> Result<Import> {
         light_selection: Default::default(),
         integrator: Some(integrator),
     };
+    sources.extend(ctx.serialized.into_keys());
+    sources.sort();
+    sources.dedup();
     Ok(Import {
         scene,
         warnings: ctx.warnings,
         spp,
+        sources,
     })
 }
 
@@ -208,11 +215,7 @@ impl<'a> Ctx<'a> {
                 rel.display()
             )));
         }
-        Ok(rel
-            .components()
-            .map(|c| c.as_os_str().to_string_lossy())
-            .collect::<Vec<_>>()
-            .join("/"))
+        Ok(crate::scene::files::slashed(&rel))
     }
 
     pub fn path_of(&self, rel: &str) -> PathBuf {

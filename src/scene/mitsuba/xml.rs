@@ -95,8 +95,9 @@ fn allowed_attrs(tag: &str) -> Option<&'static [&'static str]> {
     })
 }
 
-/// Reads the main scene file and everything it includes.
-pub fn read(path: &Path) -> Result<Node> {
+/// Reads the main scene file and everything it includes; also the names (relative
+/// to the main file's folder) of the files read, the main one first.
+pub fn read(path: &Path) -> Result<(Node, Vec<String>)> {
     let name = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -113,13 +114,15 @@ pub fn read(path: &Path) -> Result<Node> {
         depth: 0,
         substituted: 0,
         budget: Budget::default(),
+        read: vec![file.name.clone()],
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
     (reader.budget)
         .spend(Work::XmlBytes, text.len() as u64)
         .map_err(|m| SceneError::new(&file.name, m))?;
-    reader.file(&text, file, path)
+    let root = reader.file(&text, file, path)?;
+    Ok((root, reader.read))
 }
 
 struct Reader {
@@ -135,6 +138,8 @@ struct Reader {
     substituted: usize,
     /// Elements, includes and bytes read so far, across includes (see `budget`).
     budget: Budget,
+    /// The files read, by their names relative to the main file's folder.
+    read: Vec<String>,
 }
 
 /// Far more than any real scene substitutes.
@@ -322,6 +327,7 @@ impl Reader {
             name: rel.to_string_lossy().into_owned(),
             dir: rel.parent().map(Path::to_path_buf).unwrap_or_default(),
         });
+        self.read.push(file.name.clone());
         self.file(&text, file, &path)
     }
 }

@@ -1,0 +1,57 @@
+//! The files a scene names: mesh files, environment maps, media grids, and the data
+//! file a raw grid's header names in turn. One list for whatever needs it: what an
+//! upload keeps, what `caustic import` rewrites or copies.
+
+use super::format::{GeometryDesc, LightDesc, MediumDesc, SceneFile};
+use std::path::{Path, PathBuf};
+
+/// Every file reference of a scene, with the field that holds it
+/// (`shapes[2].filename`), in the scene's order.
+pub fn references_mut(scene: &mut SceneFile) -> Vec<(String, &mut String)> {
+    let mut out = Vec::new();
+    for (i, s) in scene.shapes.iter_mut().enumerate() {
+        if let GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } = &mut s.geometry {
+            out.push((format!("shapes[{i}].filename"), filename));
+        }
+    }
+    for (i, l) in scene.lights.iter_mut().enumerate() {
+        if let LightDesc::Envmap { filename, .. } = l {
+            out.push((format!("lights[{i}].filename"), filename));
+        }
+    }
+    for (name, m) in scene.media.iter_mut() {
+        if let MediumDesc::Grid {
+            file, albedo_file, ..
+        } = m
+        {
+            out.push((format!("media.{name}.file"), file));
+            if let Some(albedo) = albedo_file {
+                out.push((format!("media.{name}.albedo_file"), albedo));
+            }
+        }
+    }
+    out
+}
+
+/// The files a scene in `dir` needs, as canonical paths: each reference that
+/// exists, and the data file of each raw grid header among them. (Mutable only to
+/// share [`references_mut`]; nothing changes.)
+pub fn needed(scene: &mut SceneFile, dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for (_, name) in references_mut(scene) {
+        let Ok(path) = dir.join(name.as_str()).canonicalize() else {
+            continue;
+        };
+        out.extend(crate::medium::grid_io::raw_data_file(&path));
+        out.push(path);
+    }
+    out
+}
+
+/// A relative path as a scene writes it: `/` between components, whatever the system.
+pub fn slashed(path: &Path) -> String {
+    (path.components())
+        .map(|c| c.as_os_str().to_string_lossy())
+        .collect::<Vec<_>>()
+        .join("/")
+}
