@@ -253,6 +253,12 @@ impl Bvh4 {
         self.spheres.is_empty()
     }
 
+    /// Levels of inner nodes, from the bound the builder set on the walk's stack.
+    #[cfg(test)]
+    pub fn depth(&self) -> usize {
+        self.stack_len.saturating_sub(1) / 3
+    }
+
     #[cfg(test)]
     pub fn is_flat(&self) -> bool {
         self.flat_len > 0
