@@ -80,6 +80,9 @@ pub struct Accel {
 }
 
 impl Accel {
+    /// Most primitives one tree holds.
+    pub const MAX_PRIMITIVES: usize = super::bvh4::MAX_PRIMITIVES;
+
     pub fn build(prims: Vec<Prim>, meta: Vec<PrimMeta>) -> Self {
         let start = Instant::now();
         if prims.is_empty() {

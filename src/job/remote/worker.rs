@@ -76,7 +76,8 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         )
         .await
         .map_err(RemoteError::nats)?;
-    let store = SceneStore::new(&opts.cache_dir, opts.max_scene).map_err(RemoteError::nats)?;
+    let store = SceneStore::new(&opts.cache_dir, opts.max_scene, pool.clone())
+        .map_err(RemoteError::nats)?;
     tracing::info!(worker = %opts.name, threads = pool.current_num_threads(), "worker ready");
     let info = Arc::new(Mutex::new(WorkerInfo {
         name: opts.name.clone(),

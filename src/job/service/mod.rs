@@ -103,7 +103,16 @@ impl Service {
         for sub in ["jobs", "references", "sweeps"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
         }
-        let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
+        // One pool for everything the server computes: renders and scene compiles.
+        let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
+        if config.workers > 0 {
+            pool = pool.num_threads(config.workers);
+        }
+        let pool = Arc::new(
+            pool.build()
+                .map_err(|e| JobError::Internal(e.to_string()))?,
+        );
+        let scenes = Arc::new(SceneStore::new(dir, config.max_upload, pool.clone())?);
         let remote = match &config.nats {
             Some(url) => Some(Arc::new(
                 NatsExecutor::connect(url).map_err(|e| JobError::Internal(e.to_string()))?,
@@ -133,13 +142,6 @@ impl Service {
             retention: config.retention,
             stepped: Condvar::new(),
         });
-        let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
-        if config.workers > 0 {
-            pool = pool.num_threads(config.workers);
-        }
-        let pool = pool
-            .build()
-            .map_err(|e| JobError::Internal(e.to_string()))?;
         let s = shared.clone();
         let handle = std::thread::Builder::new()
             .name("scheduler".into())
