@@ -99,6 +99,7 @@ pub struct SceneStore {
     pool: Arc<rayon::ThreadPool>,
     /// Taken by callers from outside the pool while they compile (see `compiled`).
     compiling: Mutex<()>,
+    budget: CompileBudget,
 }
 
 fn bad(msg: impl Into<String>) -> JobError {
@@ -120,13 +121,31 @@ impl SceneStore {
             compilations: AtomicU64::new(0),
             pool,
             compiling: Mutex::new(()),
+            budget: CompileBudget::SERVER,
         })
     }
 
-    /// Compiles the scene file at `path` on the pool, within the server's budget.
+    /// The store with another compile budget than [`CompileBudget::SERVER`].
+    pub fn with_budget(self, budget: CompileBudget) -> Self {
+        SceneStore { budget, ..self }
+    }
+
+    /// The turn to compile, for a caller from outside the pool; a pool thread takes
+    /// none (see `compiled`). Compiles from outside happen one at a time, so their
+    /// memory peaks do not add up.
+    fn turn(&self) -> Option<std::sync::MutexGuard<'_, ()>> {
+        let outside = self.pool.current_thread_index().is_none();
+        outside.then(|| self.compiling.lock().expect("compile turn"))
+    }
+
+    /// Compiles the scene file at `path` on the pool, within the budget, in turn.
     fn compile_file(&self, path: &Path) -> Result<Scene, SceneError> {
-        self.pool
-            .install(|| Scene::load_within(path, &CompileBudget::SERVER))
+        let _turn = self.turn();
+        self.load_on_pool(path)
+    }
+
+    fn load_on_pool(&self, path: &Path) -> Result<Scene, SceneError> {
+        self.pool.install(|| Scene::load_within(path, &self.budget))
     }
 
     /// How many times a scene was compiled (BVH built) since start.
@@ -247,19 +266,19 @@ impl SceneStore {
 
     /// The compiled scene, from the cache or compiled now (once per id).
     ///
-    /// The compile runs on the pool, and no lock is held while it does: the scheduler
-    /// asks for scenes from the pool's threads, and one of them blocked on a lock held
-    /// by a thread that waits for the pool would wait forever (with `--workers 1`, at
-    /// once). So callers from outside the pool compile one at a time (and find the
-    /// scene cached when their turn comes), while the pool's threads never wait for
-    /// another's compile; in the rare race both compile, and the first one stays.
+    /// The compile runs on the pool, and no lock a pool thread may wait for is held
+    /// while it does: the scheduler asks for scenes from the pool's threads, and one
+    /// of them blocked on a lock held by a thread that waits for the pool would wait
+    /// forever (with `--workers 1`, at once). So callers from outside the pool take
+    /// turns (and find the scene cached when theirs comes), while the pool's threads
+    /// never wait for another's compile; in the rare race both compile, and the first
+    /// one stays.
     pub fn compiled(&self, id: &str) -> Result<Arc<Scene>, JobError> {
         Self::check_id(id)?;
         if let Some(s) = self.cached(id) {
             return Ok(s);
         }
-        let outside = self.pool.current_thread_index().is_none();
-        let _turn = outside.then(|| self.compiling.lock().expect("compile turn"));
+        let _turn = self.turn();
         if let Some(s) = self.cached(id) {
             return Ok(s);
         }
@@ -267,13 +286,13 @@ impl SceneStore {
             let file = crate::scene::load::parse_scene(text)
                 .map_err(|e| JobError::Internal(format!("built-in {id}: {e}")))?;
             self.pool
-                .install(|| Scene::compile_within(&file, None, &CompileBudget::SERVER))
+                .install(|| Scene::compile_within(&file, None, &self.budget))
         } else {
             let path = self.scene_dir(id).join("scene.json");
             if !path.exists() {
                 return Err(JobError::NotFound(format!("scene {id}")));
             }
-            self.compile_file(&path)
+            self.load_on_pool(&path)
         }
         .map_err(|e| JobError::InvalidScene(e.to_string()))?;
         self.compilations.fetch_add(1, Ordering::Relaxed);

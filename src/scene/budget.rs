@@ -1,9 +1,10 @@
 //! Bounds on the work of compiling one scene. The BVH build is O(n log n) in the
 //! primitive count whatever the geometry (`geometry::bvh`), and the light
 //! distributions are linear in it, so the count bounds a compile's time and memory
-//! (about 250 bytes a primitive at its peak). Meshes are read before they are counted,
-//! but one mesh is bounded by the upload; the count catches the amplification, many
-//! shapes naming one file.
+//! (at its peak about 1 KiB a primitive, most of it the binary tree, its flattening
+//! and the primitives' copies). Meshes are read before they are counted, but one mesh
+//! is bounded by the upload; the count catches the amplification, many shapes naming
+//! one file.
 
 use super::error::{Result, SceneError};
 use crate::geometry::Accel;
@@ -20,10 +21,10 @@ impl CompileBudget {
         max_primitives: Accel::MAX_PRIMITIVES,
     };
 
-    /// For scenes a server compiles for its clients: 2^23 primitives, about 2 GiB at
-    /// the compile's peak and half a minute on one core.
+    /// For scenes a server compiles for its clients: 2^21 primitives (a 2M-triangle
+    /// mesh), about 2 GiB at the compile's peak and 10 s of this 2-core machine.
     pub const SERVER: CompileBudget = CompileBudget {
-        max_primitives: 1 << 23,
+        max_primitives: 1 << 21,
     };
 
     /// Refuses the shape at `path` when it brings the scene to `total` primitives

@@ -18,6 +18,7 @@ use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
 use crate::job::remote::coordinator::NatsExecutor;
+use crate::scene::CompileBudget;
 use recover::recover;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -31,6 +32,8 @@ pub struct ServiceConfig {
     pub workers: usize,
     /// Largest accepted upload (scene bundle or reference EXR), bytes.
     pub max_upload: u64,
+    /// Most primitives a scene may compile to ([`CompileBudget`]).
+    pub max_primitives: usize,
     /// Largest image side a job may render.
     pub max_resolution: u32,
     /// Jobs whose render state is held in memory at once (the others wait queued,
@@ -53,6 +56,7 @@ impl ServiceConfig {
             data_dir: data_dir.into(),
             workers: 0,
             max_upload: 256 << 20,
+            max_primitives: CompileBudget::SERVER.max_primitives,
             max_resolution: 8192,
             max_active_jobs: 4,
             retention: Retention::default(),
@@ -112,7 +116,11 @@ impl Service {
             pool.build()
                 .map_err(|e| JobError::Internal(e.to_string()))?,
         );
-        let scenes = Arc::new(SceneStore::new(dir, config.max_upload, pool.clone())?);
+        let budget = CompileBudget {
+            max_primitives: config.max_primitives,
+        };
+        let scenes = SceneStore::new(dir, config.max_upload, pool.clone())?.with_budget(budget);
+        let scenes = Arc::new(scenes);
         let remote = match &config.nats {
             Some(url) => Some(Arc::new(
                 NatsExecutor::connect(url).map_err(|e| JobError::Internal(e.to_string()))?,
