@@ -225,6 +225,9 @@ pub struct ServeArgs {
     /// Largest upload in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_upload_mib: u64,
+    /// Most primitives (triangles, spheres, ...) a scene may compile to.
+    #[arg(long, default_value_t = caustic::scene::CompileBudget::SERVER.max_primitives)]
+    pub max_primitives: usize,
     /// Jobs whose render state is held in memory at once; the others wait queued,
     /// their checkpoints on disk (a job of higher priority sets a lower one aside).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
@@ -266,6 +269,9 @@ pub struct WorkerArgs {
     /// Largest scene bundle accepted, in MiB.
     #[arg(long, default_value_t = 256)]
     pub max_scene_mib: u64,
+    /// Most primitives a scene may compile to (as the coordinator's `--max-primitives`).
+    #[arg(long, default_value_t = caustic::scene::CompileBudget::SERVER.max_primitives)]
+    pub max_primitives: usize,
 }
 
 #[derive(Args)]

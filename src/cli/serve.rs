@@ -9,6 +9,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
     config.workers = a.workers.unwrap_or(0);
     config.max_resolution = a.max_resolution;
     config.max_upload = a.max_upload_mib << 20;
+    config.max_primitives = a.max_primitives;
     config.max_active_jobs = a.max_active_jobs as usize;
     config.retention = retention(&a)?;
     if !(a.request_timeout.is_finite() && a.request_timeout > 0.0) {
@@ -123,6 +124,7 @@ pub fn worker(a: WorkerArgs) -> Result<()> {
         threads: a.threads.unwrap_or(0),
         cache_dir: a.cache_dir,
         max_scene: a.max_scene_mib << 20,
+        max_primitives: a.max_primitives,
     })?;
     Ok(())
 }

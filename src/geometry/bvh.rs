@@ -2,6 +2,9 @@
 //! Meister and Bittner 2018), flattened into our own four-wide tree and traversed
 //! with SIMD slab and triangle tests (see `bvh4`). Closest-hit and any-hit (shadow)
 //! queries over triangles, spheres and disks.
+//!
+//! PLOC takes quadratic time on copies of one primitive and other inputs whose
+//! merge costs tie (see `rounds`); those get a top-down tree instead (`top_down`).
 
 use super::bvh4::Bvh4;
 use super::primitive::{surface_point, Prim, PrimHit, PrimMeta};
@@ -9,8 +12,13 @@ use super::{Interaction, Ray};
 use crate::math::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
+use obvhs::bvh2::Bvh2;
 use obvhs::BvhBuildParams;
+use rounds::{ploc_rounds, Limits};
 use std::time::{Duration, Instant};
+
+mod rounds;
+mod top_down;
 
 // `Hit` lives beside `Ray` in `geometry`, where `bvh4` takes it without depending on
 // this module; the old path stays.
@@ -30,6 +38,35 @@ fn build_params(prims: usize) -> BvhBuildParams {
     p
 }
 
+/// Natural geometry takes a few dozen rounds and searches 3 to 6 boxes per primitive
+/// (meshes, clouds of triangles, 4k to 1M of them); a build beyond these bounds would
+/// run long and make a deep tree, so it is left to `top_down`.
+const PLOC_LIMITS: Limits = Limits {
+    rounds: 256,
+    searched_per_box: 16,
+};
+
+/// Which builder made the binary tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Builder {
+    /// obvhs's PLOC, after this many merge rounds.
+    Ploc { rounds: usize },
+    /// The top-down builder, for an input PLOC would take too long on.
+    TopDown,
+}
+
+/// The binary tree, from obvhs where it builds in bounded time, else from `top_down`.
+fn build_binary(aabbs: &[Aabb]) -> (Bvh2, Builder) {
+    let params = build_params(aabbs.len());
+    match ploc_rounds(aabbs, &params, PLOC_LIMITS) {
+        Some(r) => {
+            let bvh = build_bvh2(aabbs, params, &mut Duration::default());
+            (bvh, Builder::Ploc { rounds: r.rounds })
+        }
+        None => (top_down::build(aabbs), Builder::TopDown),
+    }
+}
+
 pub struct Accel {
     tree: Bvh4,
     /// Primitives in the tree's leaf order, so that leaves are runs of them.
@@ -38,10 +75,14 @@ pub struct Accel {
     /// `Prim::flat_normal` of each primitive, in the same order.
     normals: Vec<Vec3A>,
     pub build_time: Duration,
+    pub builder: Builder,
     pub bounds: Aabb,
 }
 
 impl Accel {
+    /// Most primitives one tree holds.
+    pub const MAX_PRIMITIVES: usize = super::bvh4::MAX_PRIMITIVES;
+
     pub fn build(prims: Vec<Prim>, meta: Vec<PrimMeta>) -> Self {
         let start = Instant::now();
         if prims.is_empty() {
@@ -51,11 +92,12 @@ impl Accel {
                 meta,
                 normals: Vec::new(),
                 build_time: start.elapsed(),
+                builder: Builder::TopDown,
                 bounds: Aabb::empty(),
             };
         }
         let aabbs: Vec<Aabb> = prims.iter().map(Prim::aabb).collect();
-        let bvh2 = build_bvh2(&aabbs, build_params(prims.len()), &mut Duration::default());
+        let (bvh2, builder) = build_binary(&aabbs);
         let (tree, order) = Bvh4::from_bvh2(&bvh2, &prims);
         let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
         Accel {
@@ -64,6 +106,7 @@ impl Accel {
             prims,
             meta: order.iter().map(|&i| meta[i as usize]).collect(),
             build_time: start.elapsed(),
+            builder,
             bounds: *bvh2.nodes[0].aabb(),
         }
     }
@@ -529,6 +572,80 @@ mod tests {
             assert!(empty.intersect(&ray).is_none());
             assert!(!empty.occluded(&ray));
         }
+    }
+
+    /// Sets on which PLOC's merge costs tie or chain: copies of one triangle and of one
+    /// sphere, zero-area triangles on one line (the scene drops those, the BVH must not
+    /// rely on it), triangles turned about one centre, spheres growing about one centre
+    /// and along a line.
+    fn coincident_sets(n: usize) -> Vec<(&'static str, Vec<Prim>)> {
+        let tri = |p0: Vec3A, p1: Vec3A, p2: Vec3A| Prim::Tri {
+            p0,
+            e1: p1 - p0,
+            e2: p2 - p0,
+        };
+        let f = |i: usize| i as f32 / n as f32;
+        let turned = |i: usize| {
+            let (s, c) = (f(i) * std::f32::consts::TAU).sin_cos();
+            let (u, v) = (Vec3A::new(c, s, 0.0), Vec3A::new(-s, c, 0.0));
+            tri(u, -0.5 * u + 0.87 * v, -0.5 * u - 0.87 * v)
+        };
+        let sphere = |c, r| Prim::Sphere { c, r };
+        vec![
+            (
+                "copies of a triangle",
+                vec![tri(Vec3A::ZERO, Vec3A::X, Vec3A::Y); n],
+            ),
+            ("copies of a sphere", vec![sphere(Vec3A::ONE, 0.5); n]),
+            (
+                "segments on a line",
+                (0..n)
+                    .map(|i| tri(Vec3A::ZERO, Vec3A::X * (1.0 + f(i)), Vec3A::X))
+                    .collect(),
+            ),
+            ("turned about a centre", (0..n).map(turned).collect()),
+            (
+                "concentric spheres",
+                (0..n).map(|i| sphere(Vec3A::ZERO, 1.0 + f(i))).collect(),
+            ),
+            (
+                "spheres growing along a line",
+                (0..n)
+                    .map(|i| sphere(Vec3A::X * f(i), 1.0 + f(i)))
+                    .collect(),
+            ),
+        ]
+    }
+
+    /// On these (but the turned triangles, which take a few hundred rounds), PLOC
+    /// merged one pair per round: as many rounds as primitives, a quadratic build (32k
+    /// copies of a triangle took 40 s) and a binary tree as deep as it is wide (a
+    /// four-wide one hundreds deep here). The tree must be logarithmically deep.
+    #[test]
+    fn coincident_primitives_build_a_shallow_tree() {
+        for (name, prims) in coincident_sets(2048) {
+            let depth = build(&prims).tree.depth();
+            assert!(depth <= 12, "{name}: four-wide depth {depth}");
+        }
+    }
+
+    /// Hits on copies and coincident primitives are still the closest, and any of
+    /// the primitives at that distance.
+    #[test]
+    fn agrees_with_brute_force_on_coincident_primitives() {
+        let mut rng = Rng::new(15, 0, 0);
+        for (_, prims) in coincident_sets(300) {
+            for accel in variants(&prims) {
+                check_many(&accel, &prims, &mut rng, 150);
+            }
+        }
+    }
+
+    /// Normal geometry keeps obvhs's tree.
+    #[test]
+    fn random_primitives_are_built_by_ploc() {
+        let prims = random_prims(&mut Rng::new(16, 0, 0), 3000, 1.0, true);
+        assert!(matches!(build(&prims).builder, Builder::Ploc { .. }));
     }
 
     /// 100k tiny triangles: a deep tree whose leaves are far smaller than the scene.

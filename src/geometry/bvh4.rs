@@ -53,6 +53,9 @@ const PRIMS: u32 = 1 << 30;
 const COUNT_SHIFT: u32 = 27;
 const SPHERES: u32 = 1 << 26;
 const INDEX_MASK: u32 = SPHERES - 1;
+/// Most primitives a tree can hold: a leaf names its first primitive (or pack) in the
+/// bits below SPHERES.
+pub const MAX_PRIMITIVES: usize = INDEX_MASK as usize;
 /// Most packs or primitives one leaf reference can hold.
 const MAX_RUN: usize = 7;
 /// An unused slot: its box is empty, so no ray reaches it, and should a NaN ray get
@@ -251,6 +254,12 @@ impl Bvh4 {
     #[cfg(test)]
     pub fn sphere_packs_empty(&self) -> bool {
         self.spheres.is_empty()
+    }
+
+    /// Levels of inner nodes, from the bound the builder set on the walk's stack.
+    #[cfg(test)]
+    pub fn depth(&self) -> usize {
+        self.stack_len.saturating_sub(1) / 3
     }
 
     #[cfg(test)]

@@ -6,7 +6,7 @@
 
 use super::{keep, JobError};
 use crate::integrator::Settings;
-use crate::scene::{files, load::read_scene_file, mitsuba, Scene};
+use crate::scene::{files, load::read_scene_file, mitsuba, CompileBudget, Scene, SceneError};
 use sha2::{Digest, Sha256};
 use std::collections::{HashMap, HashSet};
 use std::io::Read;
@@ -98,6 +98,12 @@ pub struct SceneStore {
     max_upload: u64,
     cache: Mutex<HashMap<String, Arc<Scene>>>,
     compilations: AtomicU64,
+    /// The server's (or worker's) render pool: every compile runs there, so that the
+    /// BVH build's parallel parts use its threads, not rayon's global pool.
+    pool: Arc<rayon::ThreadPool>,
+    /// Taken by callers from outside the pool while they compile (see `compiled`).
+    compiling: Mutex<()>,
+    budget: CompileBudget,
 }
 
 fn bad(msg: impl Into<String>) -> JobError {
@@ -105,7 +111,11 @@ fn bad(msg: impl Into<String>) -> JobError {
 }
 
 impl SceneStore {
-    pub fn new(data_dir: &Path, max_upload: u64) -> Result<Self, JobError> {
+    pub fn new(
+        data_dir: &Path,
+        max_upload: u64,
+        pool: Arc<rayon::ThreadPool>,
+    ) -> Result<Self, JobError> {
         let dir = data_dir.join("scenes");
         std::fs::create_dir_all(&dir).map_err(|e| JobError::io(&dir, e))?;
         Ok(SceneStore {
@@ -113,7 +123,33 @@ impl SceneStore {
             max_upload,
             cache: Mutex::new(HashMap::new()),
             compilations: AtomicU64::new(0),
+            pool,
+            compiling: Mutex::new(()),
+            budget: CompileBudget::SERVER,
         })
+    }
+
+    /// The store with another compile budget than [`CompileBudget::SERVER`].
+    pub fn with_budget(self, budget: CompileBudget) -> Self {
+        SceneStore { budget, ..self }
+    }
+
+    /// The turn to compile, for a caller from outside the pool; a pool thread takes
+    /// none (see `compiled`). Compiles from outside happen one at a time, so their
+    /// memory peaks do not add up.
+    fn turn(&self) -> Option<std::sync::MutexGuard<'_, ()>> {
+        let outside = self.pool.current_thread_index().is_none();
+        outside.then(|| self.compiling.lock().expect("compile turn"))
+    }
+
+    /// Compiles the scene file at `path` on the pool, within the budget, in turn.
+    fn compile_file(&self, path: &Path) -> Result<Scene, SceneError> {
+        let _turn = self.turn();
+        self.load_on_pool(path)
+    }
+
+    fn load_on_pool(&self, path: &Path) -> Result<Scene, SceneError> {
+        self.pool.install(|| Scene::load_within(path, &self.budget))
     }
 
     /// How many times a scene was compiled (BVH built) since start.
@@ -209,7 +245,8 @@ impl SceneStore {
         };
         let path = tmp.join("scene.json");
         {
-            let scene = Scene::load(&path)
+            let scene = self
+                .compile_file(&path)
                 .map_err(|e| JobError::InvalidScene(without_folder(&e.to_string(), tmp)))?;
             // The scene's integrator section is every job's default: checked as a
             // job's settings are, or each job on the scene would fail.
@@ -248,33 +285,52 @@ impl SceneStore {
     }
 
     /// The compiled scene, from the cache or compiled now (once per id).
+    ///
+    /// The compile runs on the pool, and no lock a pool thread may wait for is held
+    /// while it does: the scheduler asks for scenes from the pool's threads, and one
+    /// of them blocked on a lock held by a thread that waits for the pool would wait
+    /// forever (with `--workers 1`, at once). So callers from outside the pool take
+    /// turns (and find the scene cached when theirs comes), while the pool's threads
+    /// never wait for another's compile; in the rare race both compile, and the first
+    /// one stays.
     pub fn compiled(&self, id: &str) -> Result<Arc<Scene>, JobError> {
         Self::check_id(id)?;
-        let mut cache = self.cache.lock().expect("scene cache");
-        if let Some(s) = cache.get(id) {
-            return Ok(s.clone());
+        if let Some(s) = self.cached(id) {
+            return Ok(s);
+        }
+        let _turn = self.turn();
+        if let Some(s) = self.cached(id) {
+            return Ok(s);
         }
         let scene = if let Some(text) = Self::builtin(id) {
             let file = crate::scene::load::parse_scene(text)
                 .map_err(|e| JobError::Internal(format!("built-in {id}: {e}")))?;
-            Scene::compile(&file, None)
+            self.pool
+                .install(|| Scene::compile_within(&file, None, &self.budget))
         } else {
             let path = self.scene_dir(id).join("scene.json");
             if !path.exists() {
                 return Err(JobError::NotFound(format!("scene {id}")));
             }
-            Scene::load(&path)
+            self.load_on_pool(&path)
         }
         .map_err(|e| JobError::InvalidScene(e.to_string()))?;
         self.compilations.fetch_add(1, Ordering::Relaxed);
         tracing::info!(
             scene = id,
             bvh_ms = scene.stats.bvh_build.as_secs_f64() * 1e3,
+            bvh_threads = scene.stats.bvh_threads,
             "compiled scene"
         );
-        let scene = Arc::new(scene);
-        cache.insert(id.to_string(), scene.clone());
-        Ok(scene)
+        let mut cache = self.cache.lock().expect("scene cache");
+        Ok(cache
+            .entry(id.to_string())
+            .or_insert_with(|| Arc::new(scene))
+            .clone())
+    }
+
+    fn cached(&self, id: &str) -> Option<Arc<Scene>> {
+        self.cache.lock().expect("scene cache").get(id).cloned()
     }
 
     pub fn info(&self, id: &str) -> Result<SceneInfo, JobError> {
@@ -565,4 +621,58 @@ fn unpack_zip(bytes: &[u8], dest: &Path, limit: u64) -> Result<(), JobError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    fn pool(threads: usize) -> Arc<rayon::ThreadPool> {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+        Arc::new(pool.unwrap())
+    }
+
+    /// Compiles see the store's pool (one thread more than rayon's global pool has),
+    /// for built-in and uploaded scenes alike.
+    #[test]
+    fn scenes_compile_on_the_stores_pool() {
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) + 1;
+        let dir = tempfile::tempdir().unwrap();
+        let store = SceneStore::new(dir.path(), 1 << 20, pool(threads)).unwrap();
+        assert_eq!(
+            store.compiled("cornell-box").unwrap().stats.bvh_threads,
+            threads
+        );
+        let id = store.upload(BUILTIN[1].1.as_bytes()).unwrap();
+        assert_eq!(store.compiled(&id).unwrap().stats.bvh_threads, threads);
+        assert_eq!(store.compilations(), 2);
+    }
+
+    /// A pool thread asking for a scene while a caller from outside compiles it must
+    /// not wait for that compile: it is queued for the pool's one thread. Here the
+    /// thread is kept busy until the outside caller has had time to start (and queue)
+    /// its compile, then asks for the same scene; a deadlock shows as a time-out.
+    #[test]
+    fn a_pool_thread_never_waits_for_an_outside_compile() {
+        let dir = tempfile::tempdir().unwrap();
+        let one = pool(1);
+        let store = Arc::new(SceneStore::new(dir.path(), 1 << 20, one.clone()).unwrap());
+        let (done, finished) = mpsc::channel();
+        let (go, wait) = mpsc::channel::<()>();
+        let (s, d) = (store.clone(), done.clone());
+        one.spawn(move || {
+            wait.recv().unwrap();
+            d.send(s.compiled("cornell-box").map(|_| ())).unwrap();
+        });
+        let s = store.clone();
+        std::thread::spawn(move || done.send(s.compiled("cornell-box").map(|_| ())).unwrap());
+        std::thread::sleep(Duration::from_millis(300));
+        go.send(()).unwrap();
+        for _ in 0..2 {
+            let r = finished.recv_timeout(Duration::from_secs(60));
+            r.expect("a compile never finished").unwrap();
+        }
+    }
 }

@@ -126,7 +126,7 @@ fn to_evict(t: &Table, max_active: usize) -> Option<String> {
 }
 
 /// The scheduler thread's loop; returns when `shared.shutdown` is set.
-pub fn run(shared: Arc<Shared>, pool: rayon::ThreadPool) {
+pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
     let mut housekeeping = Housekeeping::default();
     // After a failed eviction (no room for the checkpoint), wait before the next.
     let mut evictions_from = Instant::now();

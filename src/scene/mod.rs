@@ -1,6 +1,7 @@
 //! Scenes: the file format, loading and validation, and the compiled [`Scene`] that
 //! integrators render (BVH, materials, lights, camera).
 
+mod budget;
 pub mod error;
 pub mod files;
 pub mod format;
@@ -10,6 +11,7 @@ pub mod mitsuba;
 mod shapes;
 pub mod validate;
 
+pub use budget::CompileBudget;
 pub use error::SceneError;
 pub use format::SceneFile;
 
@@ -72,6 +74,8 @@ pub struct SceneStats {
     pub disks: usize,
     pub degenerate_dropped: usize,
     pub bvh_build: Duration,
+    /// Threads of the rayon pool the BVH was built on (a server's: its `--workers`).
+    pub bvh_threads: usize,
     pub bvh_bytes: usize,
 }
 
@@ -130,15 +134,30 @@ pub struct Scene {
 impl Scene {
     /// Loads, validates and compiles a scene file; assets resolve next to it.
     pub fn load(path: &Path) -> Result<Scene> {
+        Scene::load_within(path, &CompileBudget::LOCAL)
+    }
+
+    /// [`Scene::load`], refusing a scene that exceeds `budget`.
+    pub fn load_within(path: &Path, budget: &CompileBudget) -> Result<Scene> {
         let file = load::read_scene_file(path)?;
         let base = path.parent().unwrap_or(Path::new("."));
-        Scene::compile(&file, Some(base))
+        Scene::compile_within(&file, Some(base), budget)
     }
 
     /// Compiles a parsed scene. Without `base`, file references are refused.
     pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
+        Scene::compile_within(file, base, &CompileBudget::LOCAL)
+    }
+
+    /// [`Scene::compile`], refusing a scene that exceeds `budget`. The compile's
+    /// parallel parts (the BVH build) run on the calling thread's rayon pool.
+    pub fn compile_within(
+        file: &SceneFile,
+        base: Option<&Path>,
+        budget: &CompileBudget,
+    ) -> Result<Scene> {
         validate::validate(file)?;
-        shapes::compile(file, base)
+        shapes::compile(file, base, budget)
     }
 
     /// Closest surface along the ray, with normals on the shape's front side.

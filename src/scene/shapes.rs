@@ -4,7 +4,7 @@
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
-use super::{Scene, SceneStats, ShapeInfo};
+use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;
 use crate::geometry::{Accel, Prim, PrimMeta};
 use crate::light::DirectionalLight;
@@ -123,6 +123,7 @@ const CUBE_INDICES: [[u32; 3]; 12] = [
 /// Builds the primitives of every shape; returns them with the per-shape info.
 struct Builder<'a> {
     base: Option<&'a Path>,
+    budget: &'a CompileBudget,
     prims: Vec<Prim>,
     meta: Vec<PrimMeta>,
     stats: SceneStats,
@@ -221,6 +222,8 @@ impl Builder<'_> {
                 shading = n;
             }
         }
+        self.budget
+            .check_primitives(path, self.prims.len() + prims.len())?;
         for (k, p) in prims.iter().enumerate() {
             self.prims.push(*p);
             self.meta.push(PrimMeta {
@@ -436,7 +439,7 @@ fn light(path: &str, l: &LightDesc, base: Option<&Path>) -> Result<Light> {
     })
 }
 
-pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
+pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) -> Result<Scene> {
     let names: BTreeMap<&str, u32> = file
         .materials
         .keys()
@@ -458,6 +461,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
     let medium_ref = |m: &Option<String>| m.as_deref().map(|n| medium_names[n]);
     let mut b = Builder {
         base,
+        budget,
         prims: Vec::new(),
         meta: Vec::new(),
         stats: SceneStats::default(),
@@ -511,6 +515,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>) -> Result<Scene> {
     };
     let accel = Accel::build(prims, meta);
     b.stats.bvh_build = accel.build_time;
+    b.stats.bvh_threads = rayon::current_num_threads();
     b.stats.bvh_bytes = accel.memory_bytes();
     let camera = camera(file);
     let sphere = if accel.prim_count() > 0 {

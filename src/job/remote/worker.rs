@@ -11,7 +11,7 @@ use crate::integrator::driver::iterate_exact;
 use crate::integrator::RenderStats;
 use crate::job::scenes::SceneStore;
 use crate::job::store::Checkpoint;
-use crate::scene::Scene;
+use crate::scene::{CompileBudget, Scene};
 use async_nats::jetstream::consumer::{pull, AckPolicy, PullConsumer};
 use async_nats::jetstream::object_store::ObjectStore;
 use async_nats::jetstream::{AckKind, Context as Js, Message};
@@ -31,6 +31,8 @@ pub struct WorkerOptions {
     pub cache_dir: PathBuf,
     /// Largest scene bundle accepted, in bytes.
     pub max_scene: u64,
+    /// Most primitives a scene may compile to.
+    pub max_primitives: usize,
 }
 
 /// Runs the worker until the process is stopped (or NATS refuses it).
@@ -76,7 +78,12 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         )
         .await
         .map_err(RemoteError::nats)?;
-    let store = SceneStore::new(&opts.cache_dir, opts.max_scene).map_err(RemoteError::nats)?;
+    let budget = CompileBudget {
+        max_primitives: opts.max_primitives,
+    };
+    let store = SceneStore::new(&opts.cache_dir, opts.max_scene, pool.clone())
+        .map_err(RemoteError::nats)?
+        .with_budget(budget);
     tracing::info!(worker = %opts.name, threads = pool.current_num_threads(), "worker ready");
     let info = Arc::new(Mutex::new(WorkerInfo {
         name: opts.name.clone(),

@@ -19,6 +19,7 @@ use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
 use crate::job::remote::coordinator::NatsExecutor;
+use crate::scene::CompileBudget;
 use recover::recover;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -32,6 +33,8 @@ pub struct ServiceConfig {
     pub workers: usize,
     /// Largest accepted upload (scene bundle or reference EXR), bytes.
     pub max_upload: u64,
+    /// Most primitives a scene may compile to ([`CompileBudget`]).
+    pub max_primitives: usize,
     /// Largest image side a job may render.
     pub max_resolution: u32,
     /// Jobs whose render state is held in memory at once (the others wait queued,
@@ -54,6 +57,7 @@ impl ServiceConfig {
             data_dir: data_dir.into(),
             workers: 0,
             max_upload: 256 << 20,
+            max_primitives: CompileBudget::SERVER.max_primitives,
             max_resolution: 8192,
             max_active_jobs: 4,
             retention: Retention::default(),
@@ -111,7 +115,20 @@ impl Service {
         for sub in ["jobs", "references", "sweeps"] {
             std::fs::create_dir_all(dir.join(sub)).map_err(|e| JobError::io(dir, e))?;
         }
-        let scenes = Arc::new(SceneStore::new(dir, config.max_upload)?);
+        // One pool for everything the server computes: renders and scene compiles.
+        let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
+        if config.workers > 0 {
+            pool = pool.num_threads(config.workers);
+        }
+        let pool = Arc::new(
+            pool.build()
+                .map_err(|e| JobError::Internal(e.to_string()))?,
+        );
+        let budget = CompileBudget {
+            max_primitives: config.max_primitives,
+        };
+        let scenes = SceneStore::new(dir, config.max_upload, pool.clone())?.with_budget(budget);
+        let scenes = Arc::new(scenes);
         let remote = match &config.nats {
             Some(url) => Some(Arc::new(
                 NatsExecutor::connect(url, lock.pool_holder())
@@ -142,13 +159,6 @@ impl Service {
             retention: config.retention,
             stepped: Condvar::new(),
         });
-        let mut pool = rayon::ThreadPoolBuilder::new().thread_name(|i| format!("render-{i}"));
-        if config.workers > 0 {
-            pool = pool.num_threads(config.workers);
-        }
-        let pool = pool
-            .build()
-            .map_err(|e| JobError::Internal(e.to_string()))?;
         let s = shared.clone();
         let handle = std::thread::Builder::new()
             .name("scheduler".into())

@@ -76,7 +76,9 @@ fn bundle(data: &[u8]) -> String {
             tempfile::tempdir()
         };
         let dir = dir.expect("temp dir for the scene store");
-        let store = SceneStore::new(dir.path(), BUNDLE_LIMIT).expect("scene store");
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
+        let pool = std::sync::Arc::new(pool.expect("compile pool"));
+        let store = SceneStore::new(dir.path(), BUNDLE_LIMIT, pool).expect("scene store");
         (dir, store)
     });
     let id = match store.upload(data) {
