@@ -7,6 +7,7 @@ pub mod disk;
 pub mod events;
 pub mod failpoint;
 pub mod limits;
+pub mod memory;
 pub mod remote;
 pub mod run;
 pub mod scenes;
