@@ -305,6 +305,35 @@ fn pilot(scene: &Scene, max_depth: u32, roulette: bool) -> Walk {
 mod tests {
     use super::*;
 
+    /// A point light inside a white two-sided sphere: without roulette every light
+    /// path stores a vertex at every bounce, to `max_depth`.
+    fn furnace() -> Scene {
+        let json = r#"{"format": 1,
+            "camera": {"look_at": {"origin": [0, 0, 0.5], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 40},
+            "film": {"width": 4, "height": 4},
+            "materials": {"white": {"type": "diffuse", "reflectance": [1, 1, 1], "two_sided": true}},
+            "shapes": [{"type": "sphere", "radius": 1, "material": "white"}],
+            "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]}]}"#;
+        let file = crate::scene::load::parse_scene(json).unwrap();
+        Scene::compile(&file, None).unwrap()
+    }
+
+    #[test]
+    fn the_pilot_counts_vertices_and_extends_paths_beyond_its_depth() {
+        let scene = furnace();
+        let facts = Facts::new(&scene);
+        // Stored at lengths 1 to max_depth - 1; the first straight from the light.
+        let short = facts.walk(8, false);
+        assert!((short.surface - 7.0).abs() < 0.05, "{short:?}");
+        assert!((short.direct - 1.0).abs() < 0.01, "{short:?}");
+        assert_eq!(short.medium, 0.0);
+        // Deeper than the pilot: extended, not cut at its depth.
+        let deep = facts.walk(640, false);
+        assert!(deep.surface > 600.0, "{deep:?}");
+        // Russian roulette by albedo 1 keeps every path too.
+        assert_eq!(facts.walk(8, true), short);
+    }
+
     #[test]
     fn human_figures() {
         assert_eq!(human(0), "0 bytes");

@@ -92,3 +92,58 @@ pub fn check(
         budget >> 20
     )))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(size: u32) -> Scene {
+        let json = format!(
+            r#"{{"format": 1,
+            "camera": {{"look_at": {{"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0]}}, "fov": 40}},
+            "film": {{"width": {size}, "height": {size}}},
+            "materials": {{"m": {{"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}}}},
+            "shapes": [{{"type": "sphere", "radius": 1, "material": "m"}}],
+            "lights": [{{"type": "point", "position": [0, 2, 2], "intensity": [1, 1, 1]}}]}}"#
+        );
+        let file = crate::scene::load::parse_scene(&json).unwrap();
+        Scene::compile(&file, None).unwrap()
+    }
+
+    fn spec(v: serde_json::Value) -> JobSpec {
+        serde_json::from_value(v).unwrap()
+    }
+
+    /// A film-bound job: the message names the film as what drives it, and the checkpoint
+    /// copies, at about 360 bytes a pixel, dominate `pt`'s estimate.
+    #[test]
+    fn a_film_bound_job_names_the_film() {
+        let scene = scene(1024);
+        let pt = Settings::resolve(Some("pt"), None, &serde_json::Map::new()).unwrap();
+        let job = spec(serde_json::json!({"scene": "s", "halt": {"spp": 1}}));
+        let e = estimate(&pt, &scene, &job);
+        let per_pixel = e.total() as f64 / (1024.0 * 1024.0);
+        assert!(
+            (300.0..450.0).contains(&per_pixel),
+            "{per_pixel} bytes a pixel: {e:?}"
+        );
+        assert!(check(&pt, &scene, &job, e.total()).is_ok());
+        let err = check(&pt, &scene, &job, 100 << 20).unwrap_err().to_string();
+        assert!(
+            err.starts_with("pt: film 1024x1024 needs about 3") && err.contains("100 MiB per job"),
+            "{err}"
+        );
+        // A reference image is held too.
+        let with_ref = spec(serde_json::json!({"scene": "s", "halt": {"spp": 1},
+            "reference": {"upload": "0123456789abcdef"}}));
+        let more = estimate(&pt, &scene, &with_ref).total() - e.total();
+        assert_eq!(more, Image::bytes_for(1024, 1024));
+    }
+
+    #[test]
+    fn the_default_budget_shares_the_machine() {
+        let one = default_budget(1);
+        assert!(one >= 256 << 20, "{one}");
+        assert!(default_budget(4) <= one / 4 + 1);
+    }
+}
