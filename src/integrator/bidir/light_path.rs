@@ -328,7 +328,7 @@ pub(crate) fn store_memory(e: &mut Estimate, plan: &StorePlan, has_media: bool) 
     let chunks = plan.paths.div_ceil(PATHS_PER_TASK);
     let budget = Budget::new(plan.max_vertex_mib, chunks);
     let per_chunk = plan.paths as f64 / chunks as f64;
-    let capped = |what: f64, budget: usize| -> (f64, bool) {
+    let cap = |what: f64, budget: usize| -> (f64, bool) {
         let over = what > budget as f64;
         (what.min(budget as f64), over)
     };
@@ -336,7 +336,7 @@ pub(crate) fn store_memory(e: &mut Estimate, plan: &StorePlan, has_media: bool) 
     let w = plan.walk;
     let mut kept = 0.0;
     if plan.technique.stores() {
-        let (v, over) = capped(per_chunk * w.vertices(), budget.vertices);
+        let (v, over) = cap(per_chunk * w.vertices(), budget.vertices);
         let room = RESERVED_VERTICES.min(budget.vertices) as f64;
         let capacity = budgeted(v, room, budget.vertices as f64);
         let bytes = chunks as f64 * array::<LightVertex>(capacity);
@@ -348,7 +348,7 @@ pub(crate) fn store_memory(e: &mut Estimate, plan: &StorePlan, has_media: bool) 
         };
     }
     let keep_segments = plan.keep_segments && has_media;
-    let (sv, s_over) = capped(per_chunk * w.segments, budget.segments);
+    let (sv, s_over) = cap(per_chunk * w.segments, budget.segments);
     if keep_segments {
         let capacity = budgeted(sv, 0.0, budget.segments as f64);
         let bytes = chunks as f64 * array::<LightSegment>(capacity);
