@@ -57,6 +57,10 @@ const RSS_BOUND_MIB: u64 = 600;
 /// the server needs (its normal peak is tens of MiB resident).
 const ADDRESS_SPACE_LIMIT: u64 = 8 << 30;
 
+/// The main server's memory budget per job (`--max-job-mib`): below [`RSS_BOUND_MIB`],
+/// so that no job it accepts can take it past the bound.
+const JOB_MIB: &str = "512";
+
 /// The long job: renders while the battery runs.
 const LONG_SIZE: u32 = 32;
 const LONG_SPP: u64 = 20000;
@@ -2106,6 +2110,48 @@ fn scene_cases() -> Vec<Case> {
     .collect()
 }
 
+/// Issue 36: the memory-heavy job (`vpl` with 2^24 light paths per iteration on a 256 x
+/// 256 film: 1.2 GiB resident when it ran) is refused at once with its figure and the
+/// parameter behind it, alone and in a sweep.
+fn memory_section(b: &mut Battery) {
+    let scene = tiny_scene(256).to_string();
+    let Some(r) = b.run(case(
+        "scene: 256x256, for the memory cases",
+        upload(scene),
+        &[201],
+    )) else {
+        return;
+    };
+    let Some(s) = r.json().and_then(|v| v["id"].as_str().map(String::from)) else {
+        return;
+    };
+    let heavy = json!({"count": 16777216});
+    let quick = Duration::from_secs(10);
+    b.run_all(vec![
+        case(
+            "job: vpl with light_paths.count 2^24 on 256x256 (memory above --max-job-mib)",
+            post_job(spec(
+                &s,
+                json!({"algorithm": "vpl", "params": {"light_paths": heavy}}),
+            )),
+            &[400],
+        )
+        .mentions("light_paths.count = 16777216 needs about")
+        .within(quick),
+        case(
+            "sweep: one of its vpl jobs above --max-job-mib",
+            post_sweep(
+                json!({"base": {"scene": s, "algorithm": "vpl", "halt": {"spp": 1}},
+                       "grid": {"params.light_paths": [{"count": 16}, heavy]}})
+                .to_string(),
+            ),
+            &[400],
+        )
+        .mentions("--max-job-mib")
+        .within(quick),
+    ]);
+}
+
 fn tar_scene_again(text: &str) -> TarEntry<'_> {
     file("scene.json", text.as_bytes())
 }
@@ -2641,6 +2687,8 @@ fn bad_request_battery() {
             &upload_mib,
             "--request-timeout",
             &timeout,
+            "--max-job-mib",
+            JOB_MIB,
         ],
     );
     let auth = start(auth_data.path(), &["--token", "secret"]);
@@ -2781,6 +2829,7 @@ fn bad_request_battery() {
     b.run_all(coincident_primitive_cases());
     b.run_all(reference_cases());
     uploads::run(&mut b);
+    memory_section(&mut b);
     // Scenes that upload but that this server will not render (above --max-resolution
     // 8192, within the scene format's 16384).
     for (w, h) in [(10000u32, 10000u32), (8193, 1)] {

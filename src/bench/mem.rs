@@ -14,15 +14,19 @@ pub fn reset_peak_rss() -> bool {
 /// The peak resident set since the process started or the last [`reset_peak_rss`].
 pub fn peak_rss_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kib: u64 = status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))?
+    Some(proc_kib(&status, "VmHWM:")? * 1024)
+}
+
+/// The figure of the line that starts with `key` in a /proc file whose figures are in
+/// KiB (`status`, `meminfo`): `VmHWM:    1234 kB`.
+pub fn proc_kib(text: &str, key: &str) -> Option<u64> {
+    text.lines()
+        .find_map(|l| l.strip_prefix(key))?
         .trim()
         .strip_suffix("kB")?
         .trim()
         .parse()
-        .ok()?;
-    Some(kib * 1024)
+        .ok()
 }
 
 /// `peak_rss_bytes` in MiB for a table, or "-".

@@ -232,6 +232,11 @@ pub struct ServeArgs {
     /// their checkpoints on disk (a job of higher priority sets a lower one aside).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_active_jobs: u32,
+    /// Largest estimated peak memory of one job, in MiB: jobs above it are refused when
+    /// submitted (default: the machine's memory, or its container's limit, divided by
+    /// --max-active-jobs).
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_job_mib: Option<u64>,
     /// Delete finished jobs (completed, cancelled, failed) this many days after they
     /// ended. Running, queued and paused jobs are never deleted.
     #[arg(long, value_name = "DAYS")]

@@ -11,6 +11,10 @@ pub fn serve(a: ServeArgs) -> Result<()> {
     config.max_upload = a.max_upload_mib << 20;
     config.max_primitives = a.max_primitives;
     config.max_active_jobs = a.max_active_jobs as usize;
+    config.max_job = match a.max_job_mib {
+        Some(mib) => mib.saturating_mul(1 << 20),
+        None => caustic::job::memory::default_budget(config.max_active_jobs),
+    };
     config.retention = retention(&a)?;
     if !(a.request_timeout.is_finite() && a.request_timeout > 0.0) {
         bail!(

@@ -58,6 +58,13 @@ impl Film {
         }
     }
 
+    /// Bytes the sums of a `width` x `height` film with `layers` layers hold (what a
+    /// job's memory estimate counts for it).
+    pub fn bytes_for(width: u32, height: u32, layers: usize) -> u64 {
+        let per_image = pixel_count(width, height) * std::mem::size_of::<[f64; 3]>();
+        (per_image * (1 + layers)) as u64
+    }
+
     pub fn width(&self) -> u32 {
         self.width
     }
@@ -288,6 +295,9 @@ pub struct TileBuffer {
 }
 
 impl TileBuffer {
+    /// Bytes per pixel of tile buffers covering a film.
+    pub const PIXEL_BYTES: usize = std::mem::size_of::<[f64; 3]>();
+
     pub fn new(tile: Tile) -> Self {
         Self {
             tile,

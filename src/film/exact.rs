@@ -61,6 +61,12 @@ impl ExactSums {
         }
     }
 
+    /// Bytes the sums of a `width` x `height` film with `layers` layers hold.
+    pub fn bytes_for(width: u32, height: u32, layers: usize) -> u64 {
+        let per_image = pixel_count(width, height) * std::mem::size_of::<[i128; 3]>();
+        (per_image * (1 + layers)) as u64
+    }
+
     pub fn size(&self) -> (u32, u32) {
         (self.width, self.height)
     }

@@ -9,6 +9,11 @@ pub struct Image {
 }
 
 impl Image {
+    /// Bytes the pixels of a `width` x `height` image hold.
+    pub fn bytes_for(width: u32, height: u32) -> u64 {
+        (pixel_count(width, height) * std::mem::size_of::<Rgb>()) as u64
+    }
+
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
         Self::from_pixels(width, height, vec![Rgb::ZERO; pixel_count(width, height)])

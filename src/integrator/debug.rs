@@ -1,6 +1,7 @@
 //! Debug views: shading normals and albedo at the first visible surface.
 
-use super::pixels::render_pixels;
+use super::memory::{Estimate, Facts};
+use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::material::Material;
@@ -10,6 +11,15 @@ use crate::scene::Scene;
 pub enum DebugIntegrator {
     Normals,
     Albedo,
+}
+
+impl DebugIntegrator {
+    /// A job's memory (module `memory`): the camera pass's tile buffers.
+    pub fn memory(facts: &Facts) -> Estimate {
+        let mut e = Estimate::default();
+        tile_memory(&mut e, facts);
+        e
+    }
 }
 
 impl Integrator for DebugIntegrator {

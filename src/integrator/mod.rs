@@ -11,6 +11,7 @@ pub mod common;
 mod debug;
 pub mod driver;
 pub mod many;
+pub mod memory;
 mod pixels;
 pub mod ppb;
 pub mod pt;
@@ -357,6 +358,53 @@ impl Settings {
             Settings::Vbl(s) => s.validate().map_err(SettingsError::Invalid),
             Settings::Ppb(s) => s.validate().map_err(SettingsError::Invalid),
             _ => Ok(()),
+        }
+    }
+
+    /// The peak memory of a job with these settings on `scene`, by part (module
+    /// [`memory`]): the algorithm's own stores, then the film and exact sums every
+    /// job keeps (twice the sums for a chained integrator, whose sums are rebuilt
+    /// each iteration).
+    pub fn memory(&self, scene: &Scene) -> memory::Estimate {
+        let f = memory::Facts::new(scene);
+        let mut e = match self {
+            Settings::Pt(s) => s.memory(&f),
+            Settings::Volpath(s) => s.memory(&f),
+            Settings::Lt(s) => s.memory(bidir::Technique::Lt, &f),
+            Settings::Bpt(s) => s.memory(bidir::Technique::Bpt, &f),
+            Settings::Bpm(s) => s.memory(bidir::Technique::Bpm, &f),
+            Settings::Vcm(s) => s.memory(bidir::Technique::Vcm, &f),
+            Settings::Upbp(s) => s.memory(s.technique_of("upbp"), &f),
+            Settings::Ppm(s) | Settings::Sppm(s) => s.memory(&f),
+            Settings::Vpm(s) => s.memory(&f),
+            Settings::Vpl(s) => s.memory(&f),
+            Settings::Vrl(s) => s.memory(&f),
+            Settings::Vbl(s) => s.memory(&f),
+            Settings::Ppb(s) => s.memory(&f),
+            Settings::Normals {} | Settings::Albedo {} => debug::DebugIntegrator::memory(&f),
+        };
+        let (w, h) = (scene.width(), scene.height());
+        let layers = self.layers();
+        let chained = matches!(self, Settings::Ppm(_) | Settings::Sppm(_));
+        let sums = crate::film::ExactSums::bytes_for(w, h, layers) * (1 + chained as u64);
+        let film = crate::film::Film::bytes_for(w, h, layers) + sums;
+        let what = match layers {
+            0 => f.film(),
+            n => format!("{} with {n} layers", f.film()),
+        };
+        e.add("film", what, film as f64);
+        e
+    }
+
+    /// The extra images (layers) a job with these settings writes.
+    pub fn layers(&self) -> usize {
+        match self {
+            Settings::Lt(s) => s.layer_count(bidir::Technique::Lt),
+            Settings::Bpt(s) => s.layer_count(bidir::Technique::Bpt),
+            Settings::Bpm(s) => s.layer_count(bidir::Technique::Bpm),
+            Settings::Vcm(s) => s.layer_count(bidir::Technique::Vcm),
+            Settings::Upbp(s) => s.layer_count(s.technique_of("upbp")),
+            _ => 0,
         }
     }
 

@@ -2,6 +2,7 @@
 //! tiles, one RNG stream per (seed, iteration, pixel), so the image never depends on
 //! the thread count.
 
+use super::memory::{Estimate, Facts};
 use super::{Counters, RenderStats};
 use crate::film::{tiles, Film, Tile, TileBuffer};
 use crate::geometry::Ray;
@@ -11,6 +12,13 @@ use crate::scene::Scene;
 use rayon::prelude::*;
 
 pub const TILE: u32 = 16;
+
+/// Adds what [`render_pixels`] and [`render_paths`] hold to a memory estimate: every
+/// tile's buffer, until the tiles are added to the film in their fixed order.
+pub fn tile_memory(e: &mut Estimate, facts: &Facts) {
+    let bytes = facts.pixels() * TileBuffer::PIXEL_BYTES as f64;
+    e.add("camera pass", facts.film(), bytes);
+}
 /// Camera paths in flight per thread in [`render_paths`]. Three and four measured
 /// the same as two (Cornell box `pt`).
 const LANES: usize = 2;

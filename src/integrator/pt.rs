@@ -5,7 +5,8 @@
 use super::common::camera::sample_bsdf;
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
-use super::pixels::{render_paths, PathKernel};
+use super::memory::{Estimate, Facts};
+use super::pixels::{render_paths, tile_memory, PathKernel};
 use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -58,6 +59,14 @@ impl Default for PtSettings {
 }
 
 impl PtSettings {
+    /// A job's memory (module `memory`): the camera pass's tile buffers; paths keep
+    /// nothing between pixels.
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        let mut e = Estimate::default();
+        tile_memory(&mut e, facts);
+        e
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         if self.max_depth == 0 {
             return Err("max_depth must be at least 1".into());

@@ -18,7 +18,8 @@ use super::common::medium_walk::{
 };
 use super::common::nee::{sample_light, Origin};
 use super::common::{emitted, escaped, Heuristic};
-use super::pixels::render_pixels;
+use super::memory::{Estimate, Facts};
+use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
@@ -58,6 +59,13 @@ impl Default for VolpathSettings {
 }
 
 impl VolpathSettings {
+    /// A job's memory (module `memory`): as `pt`'s.
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        let mut e = Estimate::default();
+        tile_memory(&mut e, facts);
+        e
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         if self.max_depth == 0 {
             return Err("max_depth must be at least 1".into());

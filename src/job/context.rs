@@ -35,6 +35,8 @@ pub struct Context {
     pub metrics: Metrics,
     /// Where iterations run when not in this process: a pool of workers over NATS.
     pub remote: Option<Arc<NatsExecutor>>,
+    /// Largest estimated peak memory of one job, bytes (`job::memory`).
+    pub max_job: u64,
 }
 
 impl Context {

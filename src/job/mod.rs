@@ -9,6 +9,7 @@ pub mod failpoint;
 mod keep;
 pub mod limits;
 pub mod lock;
+pub mod memory;
 pub mod remote;
 pub mod run;
 pub mod scenes;

@@ -187,6 +187,8 @@ fn start(
     let scene = ctx.scenes.compiled(&status.spec.scene)?;
     let dir = ctx.job_dir(&status.id);
     let reference = load_reference(ctx, &status.spec, &scene)?;
+    // A job stored before the budget was lowered fails here, saying why.
+    super::memory::check(&settings, &scene, &status.spec, ctx.max_job)?;
     let integrator = settings.build();
     let checkpoint = Checkpoint::read(&dir)
         .filter(|c| c.film.width() == scene.width() && c.film.height() == scene.height());

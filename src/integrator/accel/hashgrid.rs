@@ -9,6 +9,7 @@
 //! capacity between builds.
 
 use super::huge;
+use crate::integrator::memory::array;
 use crate::math::Vec3;
 use rayon::prelude::*;
 
@@ -43,7 +44,7 @@ impl HashGrid {
             .par_iter()
             .copied()
             .reduce(|| Vec3::splat(f32::INFINITY), Vec3::min);
-        let table = (n.max(4) / 4).next_power_of_two() as u64;
+        let table = Self::table_size(n) as u64;
         let (origin, inv) = (self.origin, self.inv_cell);
         self.slots.clear();
         huge::reserve(&mut self.slots, n);
@@ -214,6 +215,19 @@ impl HashGrid {
             }
         }
         (runs, n)
+    }
+
+    /// Bytes a grid over `n` points holds once built (what [`HashGrid::bytes`] then
+    /// reports): the table, and per point its slot, entry, rank and sorted copy.
+    pub fn bytes_for(n: f64) -> f64 {
+        let table = Self::table_size(n as usize) as f64;
+        let per_point = 3 * std::mem::size_of::<u32>() + std::mem::size_of::<Vec3>();
+        array::<u32>(2.0 * table + 1.0) + (huge::reserved(n as usize) * per_point) as f64
+    }
+
+    /// Slots of the table for `n` points.
+    fn table_size(n: usize) -> usize {
+        (n.max(4) / 4).next_power_of_two()
     }
 
     /// Bytes held by the grid's buffers.

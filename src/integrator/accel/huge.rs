@@ -18,8 +18,14 @@ pub(crate) fn reserve<T>(v: &mut Vec<T>, len: usize) {
     }
     // A fresh allocation rather than `reserve`, whose realloc could move already
     // touched (small-page) memory into the new buffer.
-    *v = Vec::with_capacity(len + len / 8);
+    *v = Vec::with_capacity(reserved(len));
     advise(v);
+}
+
+/// The capacity [`reserve`] gives for `len` elements: room to grow by an eighth
+/// before the next iteration needs a new buffer.
+pub(crate) fn reserved(len: usize) -> usize {
+    len + len / 8
 }
 
 #[cfg(target_os = "linux")]

@@ -12,6 +12,7 @@
 //! independent; a Morton sort with unique keys is, and building it costs one parallel
 //! sort.
 
+use crate::integrator::memory::{array, refilled};
 use crate::math::Vec3;
 use rayon::prelude::*;
 
@@ -195,6 +196,16 @@ impl<T: Bounded> Lbvh<T> {
                 .iter()
                 .for_each(&mut f);
         }
+    }
+
+    /// Bytes a BVH rebuilt every iteration over about `n` items holds: their keys,
+    /// the items' second buffer (`build` reorders into it) and the nodes, about 0.36
+    /// per item for uniform, clustered and planar points (measured, 10^3 to 3 x 10^5
+    /// items; 0.4 counted), each buffer as it is refilled.
+    pub fn bytes_for(n: f64) -> f64 {
+        array::<u64>(refilled(n, 0.0))
+            + array::<T>(refilled(n, 0.0))
+            + array::<BvhNode>(refilled(0.4 * n, 0.0))
     }
 
     pub fn bytes(&self) -> usize {

@@ -27,6 +27,7 @@ use super::segments::{LightSegment, NO_AREA};
 use super::vertex::{mis_sigma, MediumPoint};
 use super::Pass;
 use crate::integrator::accel::{Lbvh, Point, PointBvh};
+use crate::integrator::memory::{array, refilled};
 use crate::integrator::ppb::beams::{collect, Beam, BeamForm};
 use crate::integrator::ppb::estimate::{meet, Meeting};
 use crate::integrator::RenderStats;
@@ -78,6 +79,17 @@ impl BeamStore {
             collect(scene, segs, n, form, piece, seed, iteration, out);
         }
         self.beam_bvh.build(&mut self.beams);
+    }
+
+    /// Bytes the store holds once built over `points` medium vertices, `segments`
+    /// light segments and the `pieces` of their beams (what [`BeamStore::bytes`] then
+    /// reports): each array as it is refilled, and its BVH.
+    pub fn bytes_for(points: f64, segments: f64, pieces: f64) -> f64 {
+        array::<LightVertex>(refilled(points, 0.0))
+            + Lbvh::<LightVertex>::bytes_for(points)
+            + array::<LightSegment>(refilled(segments, 0.0))
+            + array::<Beam>(refilled(pieces, 0.0))
+            + Lbvh::<Beam>::bytes_for(pieces)
     }
 
     pub fn bytes(&self) -> usize {

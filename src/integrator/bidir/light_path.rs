@@ -9,9 +9,11 @@ use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, W
 use super::walk::{Eval, Surface, Walk};
 use super::{MergeSet, Pass, Splat, Workspace};
 use crate::geometry::{spawn_ray_to, Ray};
+use crate::integrator::accel::{huge, HashGrid};
 use crate::integrator::common::emit::{sample_emission, LightStart};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
-use crate::integrator::{accel::huge, RenderStats};
+use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimate};
+use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
 use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
@@ -144,6 +146,25 @@ struct Budget {
     segments: usize,
 }
 
+impl Budget {
+    /// Each of `chunks` chunks' share of `max_vertex_mib`.
+    fn new(max_vertex_mib: f32, chunks: usize) -> Budget {
+        let per_chunk = |size: usize| {
+            (max_vertex_mib as f64 * 1048576.0 / size as f64 / chunks as f64) as usize
+        };
+        Budget {
+            vertices: per_chunk(std::mem::size_of::<LightVertex>()),
+            segments: per_chunk(std::mem::size_of::<LightSegment>()),
+        }
+    }
+}
+
+/// The first iteration's room per chunk, rather than growth by doubling, each step a
+/// copy into freshly faulted pages: light paths store two or three vertices in closed
+/// scenes, and splat about as many. Later iterations reuse it all.
+const RESERVED_VERTICES: usize = PATHS_PER_TASK * 3;
+const RESERVED_SPLATS: usize = PATHS_PER_TASK * 2;
+
 /// One chunk's output, kept between iterations to reuse its buffers.
 #[derive(Default)]
 pub(crate) struct Chunk {
@@ -169,23 +190,21 @@ pub(super) fn trace_light_paths(
     let chunks = n.div_ceil(PATHS_PER_TASK);
     ws.chunks.resize_with(chunks, Chunk::default);
     ws.chunks.truncate(chunks);
-    let per_chunk = |size: usize| {
-        (pass.s.max_vertex_mib as f64 * 1048576.0 / size as f64 / chunks as f64) as usize
-    };
-    let budget = Budget {
-        vertices: per_chunk(std::mem::size_of::<LightVertex>()),
-        segments: per_chunk(std::mem::size_of::<LightSegment>()),
-    };
+    let budget = Budget::new(pass.s.max_vertex_mib, chunks);
+    let t = pass.technique;
     ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
         if chunk.ends.capacity() == 0 {
-            // The first iteration: room for a typical chunk (light paths store two or
-            // three vertices in closed scenes), rather than growth by doubling, each
-            // step a copy into freshly faulted pages. Later iterations reuse it all.
-            chunk
-                .vertices
-                .reserve((PATHS_PER_TASK * 3).min(budget.vertices));
+            // Only what the technique fills: a light pass that stores no vertex (`lt`)
+            // or splats none (the merging and many-light passes) reserves none.
+            if t.stores() {
+                chunk
+                    .vertices
+                    .reserve(RESERVED_VERTICES.min(budget.vertices));
+            }
             chunk.ends.reserve(PATHS_PER_TASK);
-            chunk.splats.reserve(PATHS_PER_TASK * 2);
+            if t.splats() {
+                chunk.splats.reserve(RESERVED_SPLATS);
+            }
         }
         chunk.vertices.clear();
         chunk.ends.clear();
@@ -280,6 +299,83 @@ impl Workspace {
     }
 }
 
+/// One iteration's light pass, as the memory estimate sees it.
+pub(crate) struct StorePlan<'a> {
+    pub technique: super::Technique,
+    pub paths: usize,
+    /// What a path stores on average (the pilot's).
+    pub walk: memory::Walk,
+    pub keep_segments: bool,
+    pub max_vertex_mib: f32,
+    /// How the client set the number of paths, and the budget's parameter name.
+    pub driver: &'a str,
+    pub budget_field: &'static str,
+}
+
+/// What the light store holds after the budget, per iteration: the vertices of each
+/// kind and the segments.
+pub(crate) struct Stored {
+    pub surface: f64,
+    pub medium: f64,
+    pub segments: f64,
+}
+
+/// Adds what [`trace_light_paths`] holds to `e`: per chunk of paths its vertices (the
+/// first iteration's reservation, then doubling, at most the chunk's share of the
+/// budget), path ends, segments when kept, and splats (at most one per vertex and one
+/// for the emitter, per path). Returns what was stored.
+pub(crate) fn store_memory(e: &mut Estimate, plan: &StorePlan, has_media: bool) -> Stored {
+    let chunks = plan.paths.div_ceil(PATHS_PER_TASK);
+    let budget = Budget::new(plan.max_vertex_mib, chunks);
+    let per_chunk = plan.paths as f64 / chunks as f64;
+    let cap = |what: f64, budget: usize| -> (f64, bool) {
+        let over = what > budget as f64;
+        (what.min(budget as f64), over)
+    };
+    let driver = |over| memory::capped(plan.driver, over, plan.budget_field, plan.max_vertex_mib);
+    let w = plan.walk;
+    let mut kept = 0.0;
+    if plan.technique.stores() {
+        let (v, over) = cap(per_chunk * w.vertices(), budget.vertices);
+        let room = RESERVED_VERTICES.min(budget.vertices) as f64;
+        let capacity = budgeted(v, room, budget.vertices as f64);
+        let bytes = chunks as f64 * array::<LightVertex>(capacity);
+        e.add("light vertices", driver(over), bytes);
+        kept = if w.vertices() > 0.0 {
+            v / (per_chunk * w.vertices())
+        } else {
+            0.0
+        };
+    }
+    let keep_segments = plan.keep_segments && has_media;
+    let (sv, s_over) = cap(per_chunk * w.segments, budget.segments);
+    if keep_segments {
+        let capacity = budgeted(sv, 0.0, budget.segments as f64);
+        let bytes = chunks as f64 * array::<LightSegment>(capacity);
+        e.add("light segments", driver(s_over), bytes);
+    }
+    let mut ends = array::<Chunk>(chunks as f64) + array::<u32>((chunks * PATHS_PER_TASK) as f64);
+    if plan.keep_segments {
+        ends += chunks as f64 * array::<u32>(pushed(per_chunk, 0.0));
+    }
+    e.add("light path ends", plan.driver, ends);
+    if plan.technique.splats() {
+        let splats = per_chunk * (w.vertices() + 1.0);
+        let bytes = chunks as f64 * array::<Splat>(refilled(splats, RESERVED_SPLATS as f64));
+        e.add("splats", plan.driver, bytes);
+    }
+    let paths = plan.paths as f64;
+    Stored {
+        surface: paths * w.surface * kept,
+        medium: paths * w.medium * kept,
+        segments: if keep_segments {
+            chunks as f64 * sv
+        } else {
+            0.0
+        },
+    }
+}
+
 impl MergeSet {
     /// The merging copies of `vertices` (this set's, in store order), in the grid's
     /// storage order. The store is read in order and the copies written where the grid
@@ -294,6 +390,13 @@ impl MergeSet {
         for (&at, v) in rank.iter().zip(vertices) {
             self.merge[at as usize] = MergeVertex::from(v);
         }
+    }
+
+    /// Bytes a set over `n` vertices holds once filled (what
+    /// [`MergeSet::index_bytes`] then reports).
+    pub(super) fn bytes_for(n: f64) -> f64 {
+        let copies = std::mem::size_of::<Vec3>() + std::mem::size_of::<MergeVertex>();
+        (huge::reserved(n as usize) * copies) as f64 + HashGrid::bytes_for(n)
     }
 
     /// Bytes held for positions, grid and merging copies.
@@ -433,7 +536,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         walk.medium = ls.medium;
     }
     let store = pass.technique.stores();
-    let to_camera = pass.technique.connects() || pass.technique == super::Technique::Lt;
+    let to_camera = pass.technique.splats();
     // The last vertex's connection to the lens, whose shadow ray (without media) is
     // traced together with the ray that continues the path.
     let mut lens: Option<LensShadow> = None;

@@ -37,6 +37,7 @@ use crate::scene::Scene;
 use beams::BeamStore;
 use camera_path::CameraPass;
 pub(crate) use light_path::LightVertex;
+pub(crate) use light_path::{store_memory, StorePlan};
 use light_path::{trace_light_paths, Chunk, MergeVertex};
 use mis::{Merge, Merges, Mis};
 pub(crate) use segments::{extent, LightSegment};
@@ -179,9 +180,9 @@ impl Bidir {
 
     fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
         let pixels = scene.width() as usize * scene.height() as usize;
-        let light_paths = self.path_count.unwrap_or_else(|| {
-            ((pixels as f64 * self.s.light_paths as f64).round() as usize).max(1)
-        });
+        let light_paths = self
+            .path_count
+            .unwrap_or_else(|| light_path_count(pixels, self.s.light_paths));
         let r0 = self
             .s
             .radius
@@ -205,7 +206,7 @@ impl Bidir {
             volume(s.pb2d_radius, s.pb2d_radius_factor, s.pb2d_alpha, 2),
             volume(s.bb1d_radius, s.bb1d_radius_factor, s.bb1d_alpha, 1),
         ];
-        let beam_paths = ((light_paths as f64 * s.beam_paths as f64).round() as usize).max(1);
+        let beam_paths = beam_path_count(light_paths, s.beam_paths);
         let mut merges = Merges::default();
         for k in [
             Merge::Surface,
@@ -311,6 +312,16 @@ impl Integrator for Bidir {
         }
         stats
     }
+}
+
+/// Light paths per iteration: `multiple` x the pixel count, at least one.
+pub(crate) fn light_path_count(pixels: usize, multiple: f32) -> usize {
+    ((pixels as f64 * multiple as f64).round() as usize).max(1)
+}
+
+/// Light paths whose segments become photon beams (`upbp`'s `beam_paths`).
+fn beam_path_count(light_paths: usize, share: f32) -> usize {
+    ((light_paths as f64 * share as f64).round() as usize).max(1)
 }
 
 /// An iteration's light subpaths as a light pass stored them ([`Bidir::light_pass`]).

@@ -1,11 +1,17 @@
 //! What the bidirectional family takes: its technique sets, its parameters, and the
 //! extra images it can split its estimate into.
 
+use super::beams::BeamStore;
+use super::light_path::{store_memory, StorePlan};
 use super::mis::Merge;
+use super::MergeSet;
 use crate::integrator::common::params::check_radius;
 use crate::integrator::common::Heuristic;
+use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
+use crate::integrator::pixels::tile_memory;
 use crate::integrator::ppb::beams::BeamForm;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::AtomicU32;
 
 /// Which techniques an iteration uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,6 +66,11 @@ impl Technique {
     /// Light vertices are kept after the light pass.
     pub(super) fn stores(self) -> bool {
         self != Technique::Lt
+    }
+
+    /// Light vertices connect to the camera (splats).
+    pub(super) fn splats(self) -> bool {
+        self.connects() || self == Technique::Lt
     }
 }
 
@@ -338,6 +349,68 @@ impl BidirSettings {
             );
         }
         Ok(())
+    }
+}
+
+impl BidirSettings {
+    /// A job's memory with these settings run as `technique` (module `memory`): the
+    /// light store, the merge indices, `upbp`'s photon points and beams, the camera
+    /// pass's tile buffers and per-pixel layer values.
+    pub fn memory(&self, technique: Technique, facts: &Facts) -> Estimate {
+        let mut e = Estimate::default();
+        let has_media = facts.scene.has_media;
+        let paths = super::light_path_count(facts.pixels() as usize, self.light_paths);
+        let driver = paths_driver(Some(self.light_paths), paths, facts);
+        let walk = facts.walk(self.max_depth, self.russian_roulette);
+        let plan = StorePlan {
+            technique,
+            paths,
+            walk,
+            keep_segments: technique.uses(Merge::BeamBeam1d),
+            max_vertex_mib: self.max_vertex_mib,
+            driver: &driver,
+            budget_field: "max_vertex_mib",
+        };
+        let stored = store_memory(&mut e, &plan, has_media);
+        if technique.uses(Merge::Surface) {
+            e.add("merge index", &driver, MergeSet::bytes_for(stored.surface));
+        }
+        if technique.uses(Merge::Point3d) && has_media {
+            e.add(
+                "medium merge index",
+                &driver,
+                MergeSet::bytes_for(stored.medium),
+            );
+        }
+        if has_media {
+            let points = match technique.uses(Merge::PointBeam2d) {
+                true => stored.medium,
+                false => 0.0,
+            };
+            let (mut segments, mut pieces) = (0.0, 0.0);
+            if technique.uses(Merge::BeamBeam1d) {
+                let beam_paths = super::beam_path_count(paths, self.beam_paths).min(paths);
+                segments = stored.segments * beam_paths as f64 / paths as f64;
+                if walk.segments > 0.0 {
+                    pieces = segments * walk.short_pieces / walk.segments;
+                }
+            }
+            let bytes = BeamStore::bytes_for(points, segments, pieces);
+            e.add("photon points and beams", &driver, bytes);
+        }
+        let layers = self.layer_count(technique) as f64;
+        let values = array::<AtomicU32>(3.0 * layers * facts.pixels());
+        e.add("layer values", facts.film(), values);
+        if technique != Technique::Lt {
+            tile_memory(&mut e, facts);
+        }
+        e
+    }
+
+    /// The extra images a job of `technique` writes (`technique_layers`,
+    /// `strategy_images`).
+    pub fn layer_count(&self, technique: Technique) -> usize {
+        Layers::new(self, technique).names.len()
     }
 }
 

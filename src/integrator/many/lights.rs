@@ -5,6 +5,7 @@
 use crate::integrator::accel::light_tree::{Emitter, LightTree, Query};
 use crate::integrator::bidir::{extent, LightSegment, LightStore, LightVertex};
 use crate::integrator::common::Stream;
+use crate::integrator::memory::{array, refilled};
 use crate::integrator::vrl::Segment;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
@@ -117,6 +118,16 @@ pub(super) struct Kinds {
     pub ray_lights: bool,
 }
 
+impl Kinds {
+    /// `vpl`'s (every vertex a VPL), or else `vrl`'s and `vbl`'s (ray lights in media).
+    pub fn of_vpl(vpl: bool) -> Kinds {
+        Kinds {
+            medium_vpls: vpl,
+            ray_lights: !vpl,
+        }
+    }
+}
+
 impl Lights {
     /// Rebuilds from the light pass of `iteration`.
     pub fn build(
@@ -154,6 +165,17 @@ impl Lights {
             b: r.seg.at(r.seg.tmax),
             power: ray_power(scene, r),
         }));
+    }
+
+    /// Bytes held once built over `vpls` virtual point lights and `rays` ray lights
+    /// (what [`Lights::bytes`] then reports): each array as it is refilled, and each
+    /// picker's copy of the lights and tree.
+    pub fn bytes_for(vpls: f64, rays: f64) -> f64 {
+        let picker = |n: f64| array::<Emitter>(refilled(n, 0.0)) + LightTree::bytes_for(n);
+        array::<Vpl>(refilled(vpls, 0.0))
+            + picker(vpls)
+            + array::<RayLight>(refilled(rays, 0.0))
+            + picker(rays)
     }
 
     pub fn bytes(&self) -> usize {

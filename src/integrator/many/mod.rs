@@ -161,11 +161,7 @@ impl ManyLights {
     }
 
     fn kinds(&self) -> Kinds {
-        let vpl = matches!(self.method, Method::Vpl { .. });
-        Kinds {
-            medium_vpls: vpl,
-            ray_lights: !vpl,
-        }
+        Kinds::of_vpl(matches!(self.method, Method::Vpl { .. }))
     }
 
     /// `vpl`'s cap on G and whether it is compensated.

@@ -1,7 +1,11 @@
 //! Parameters of the many-light integrators `vpl`, `vrl` and `vbl`. Each struct's doc
 //! comment is its parameter table (the README repeats it).
 
+use super::lights::{Kinds, Lights};
+use crate::integrator::bidir::{store_memory, BidirSettings, StorePlan, Technique};
 use crate::integrator::common::params::{check_alpha, check_radius};
+use crate::integrator::memory::{paths_driver, Estimate, Facts};
+use crate::integrator::pixels::tile_memory;
 use crate::integrator::vrl::Sampler;
 use serde::{Deserialize, Deserializer, Serialize};
 
@@ -19,7 +23,7 @@ impl LightPaths {
     /// Paths for an image of `pixels` pixels (at least one).
     pub fn count(self, pixels: usize) -> usize {
         match self {
-            LightPaths::Multiple(m) => ((pixels as f64 * m as f64).round() as usize).max(1),
+            LightPaths::Multiple(m) => crate::integrator::bidir::light_path_count(pixels, m),
             LightPaths::Count { count } => count.max(1) as usize,
         }
     }
@@ -172,6 +176,75 @@ fn sampler_by_name_or_object<'de, D: Deserializer<'de>>(d: D) -> Result<Sampler,
         other => other,
     };
     serde_json::from_value(v).map_err(serde::de::Error::custom)
+}
+
+/// A many-light job's memory (module `memory`): the light pass's store, the virtual
+/// lights made of it and their trees, and the camera pass's tile buffers. `vpl` says
+/// which lights the method makes ([`Kinds::of_vpl`]); the light pass is given by
+/// `max_depth`, `light_paths` and `max_vertex_mib`.
+fn memory(vpl: bool, light_pass: (u32, LightPaths, f32), facts: &Facts) -> Estimate {
+    let (max_depth, light_paths, max_vertex_mib) = light_pass;
+    let kinds = Kinds::of_vpl(vpl);
+    let mut e = Estimate::default();
+    let paths = light_paths.count(facts.pixels() as usize);
+    let multiple = match light_paths {
+        LightPaths::Multiple(m) => Some(m),
+        LightPaths::Count { .. } => None,
+    };
+    let driver = paths_driver(multiple, paths, facts);
+    let plan = StorePlan {
+        technique: Technique::Store,
+        paths,
+        walk: facts.walk(max_depth, BidirSettings::default().russian_roulette),
+        keep_segments: kinds.ray_lights,
+        max_vertex_mib,
+        driver: &driver,
+        budget_field: "max_vertex_mib",
+    };
+    let stored = store_memory(&mut e, &plan, facts.scene.has_media);
+    let vpls = match kinds.medium_vpls {
+        true => stored.surface + stored.medium,
+        false => stored.surface,
+    };
+    let rays = if kinds.ray_lights {
+        stored.segments
+    } else {
+        0.0
+    };
+    e.add("virtual lights", &driver, Lights::bytes_for(vpls, rays));
+    tile_memory(&mut e, facts);
+    e
+}
+
+impl VplSettings {
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        memory(
+            true,
+            (self.max_depth, self.light_paths, self.max_vertex_mib),
+            facts,
+        )
+    }
+}
+
+impl VrlSettings {
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        memory(
+            false,
+            (self.max_depth, self.light_paths, self.max_vertex_mib),
+            facts,
+        )
+    }
+}
+
+impl VblSettings {
+    /// As `vrl`'s: the beams are the ray lights, displaced per gather.
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        memory(
+            false,
+            (self.max_depth, self.light_paths, self.max_vertex_mib),
+            facts,
+        )
+    }
 }
 
 /// The checks every many-light method shares.

@@ -54,11 +54,12 @@ mod tests;
 pub use beams::BeamForm;
 
 use super::accel::Lbvh;
-use super::bidir::{Bidir, BidirSettings, Technique};
+use super::bidir::{store_memory, Bidir, BidirSettings, StorePlan, Technique};
 use super::common::density_camera::{self, Depths};
 use super::common::params::{check_alpha, check_radius};
 use super::many::LightPaths;
-use super::pixels::render_pixels;
+use super::memory::{array, paths_driver, refilled, Estimate, Facts};
+use super::pixels::{render_pixels, tile_memory};
 use super::vpm::radius_schedule;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -109,6 +110,41 @@ impl Default for PpbSettings {
 }
 
 impl PpbSettings {
+    /// A job's memory (module `memory`): in scenes with media and lights, the light
+    /// pass's store (segments kept) and the beams cut from it with their BVH; the
+    /// camera pass's tile buffers.
+    pub fn memory(&self, facts: &Facts) -> Estimate {
+        let mut e = Estimate::default();
+        let scene = facts.scene;
+        if scene.has_media && !scene.lights.is_empty() {
+            let paths = self.light_paths.count(facts.pixels() as usize);
+            let multiple = match self.light_paths {
+                LightPaths::Multiple(m) => Some(m),
+                LightPaths::Count { .. } => None,
+            };
+            let driver = paths_driver(multiple, paths, facts);
+            let walk = facts.walk(self.max_depth, BidirSettings::default().russian_roulette);
+            let plan = StorePlan {
+                technique: Technique::Store,
+                paths,
+                walk,
+                keep_segments: true,
+                max_vertex_mib: self.max_beam_mib,
+                driver: &driver,
+                budget_field: "max_beam_mib",
+            };
+            let stored = store_memory(&mut e, &plan, true);
+            let pieces = match walk.segments > 0.0 {
+                true => stored.segments * walk.pieces(self.beams) / walk.segments,
+                false => 0.0,
+            };
+            let bytes = array::<Beam>(refilled(pieces, 0.0)) + Lbvh::<Beam>::bytes_for(pieces);
+            e.add("photon beams", &driver, bytes);
+        }
+        tile_memory(&mut e, facts);
+        e
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         super::many::check_common(self.max_depth, self.light_paths, 0, self.max_beam_mib)
             .map_err(|e| e.replace("max_vertex_mib", "max_beam_mib"))?;
@@ -130,7 +166,7 @@ impl PpbSettings {
 /// merges per iteration, r = 0.006): 2.27 s per iteration whole, 1.07 s in pieces of
 /// R / 32, 0.82-0.87 s at R / 16 and R / 8, 1.50 s at R / 64 (vertex storage 5.7, 41,
 /// 23 and 79 MiB).
-const PIECE: f32 = 1.0 / 16.0;
+pub(crate) const PIECE: f32 = 1.0 / 16.0;
 
 #[derive(Default)]
 struct Workspace {

@@ -55,15 +55,20 @@ use crate::integrator::common::nee::{direct_unweighted, Origin};
 use crate::integrator::common::params::check_radius;
 use crate::integrator::common::params::{check_alpha, check_photon_params};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
-use crate::integrator::vpm::{radius_schedule, BeamQuery, Photon as MediumPhoton};
+use crate::integrator::memory::{
+    array, capped, paths_driver, pushed, refilled, Estimate as Memory, Facts,
+};
+use crate::integrator::vpm::{
+    photon_budget, photon_paths, radius_schedule, BeamQuery, Photon as MediumPhoton,
+};
 use crate::material::Mode;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};
 use media::{gather_segments, CameraSegment, Record};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use state::State;
 pub use state::StateError;
+use state::{PixelStat, State};
 use std::sync::Mutex;
 
 /// Photon mapping parameters (`ppm` and `sppm` take the same ones).
@@ -131,6 +136,61 @@ impl SppmSettings {
             ));
         }
         Ok(())
+    }
+
+    /// A job's memory (module `memory`): per pixel, the statistics and their
+    /// checkpoint copy, and the camera pass's results, held twice while they are
+    /// gathered into one array, then with the gathered flux and the film each pass
+    /// rebuilds; for one wave of photon paths, its chunks' photons and the map's with
+    /// its grid (in media, the medium photons and their BVH too).
+    pub fn memory(&self, facts: &Facts) -> Memory {
+        let mut e = Memory::default();
+        let scene = facts.scene;
+        let px = facts.pixels();
+        let camera = array::<CameraResult>(px);
+        let gathered = array::<Gathered>(px) + array::<[f64; 3]>(px);
+        let mut per_pixel =
+            array::<PixelStat>(px) + px * state::PIXEL_BYTES as f64 + camera + camera.max(gathered);
+        if scene.has_media {
+            // A camera path that meets a medium records its segments: the first push
+            // makes room for four.
+            per_pixel += px * array::<CameraSegment>(4.0);
+        }
+        e.add("per-pixel statistics", facts.film(), per_pixel);
+        if scene.lights.is_empty() {
+            return e;
+        }
+        let paths = photon_paths(self.light_paths, px);
+        let wave = paths.min(WAVE);
+        let driver = paths_driver(Some(self.light_paths), paths, facts);
+        let walk = facts.walk(self.max_depth, true);
+        let chunks = wave.div_ceil(PATHS_PER_TASK);
+        let per_chunk = wave as f64 / chunks as f64;
+        let surface = per_chunk * (walk.surface - walk.direct);
+        let point = std::mem::size_of::<Vec3>() + std::mem::size_of::<Photon>();
+        let n = surface * chunks as f64;
+        // Each wave's chunks are new; the map's arrays are refilled.
+        let mut photons = (chunks as f64 * pushed(surface, 0.0) + refilled(n, 0.0)) * point as f64;
+        let mut index = HashGrid::bytes_for(n);
+        let mut driver = driver;
+        if scene.has_media {
+            let budget = photon_budget(self.max_photon_mib, chunks) as f64;
+            let wanted = per_chunk * walk.medium;
+            let medium = wanted.min(budget);
+            let m = medium * chunks as f64;
+            photons += chunks as f64 * array::<MediumPhoton>(pushed(medium, 0.0))
+                + array::<MediumPhoton>(refilled(m, 0.0));
+            index += PointBvh::<MediumPhoton>::bytes_for(m);
+            driver = capped(
+                &driver,
+                wanted > budget,
+                "max_photon_mib",
+                self.max_photon_mib,
+            );
+        }
+        e.add("photons", &driver, photons);
+        e.add("photon index", &driver, index);
+        e
     }
 
     /// The radius of the media's beam radiance estimate in `iteration`.
@@ -255,7 +315,7 @@ impl PhotonMapper {
     /// Photon paths per pass for a scene.
     fn paths_per_pass(&self, scene: &Scene) -> u64 {
         let px = scene.width() as f64 * scene.height() as f64;
-        (self.s.light_paths as f64 * px).ceil().max(1.0) as u64
+        photon_paths(self.s.light_paths, px) as u64
     }
 
     /// Camera half of a pass for pixel `index`: the radiance found on the way to the
@@ -472,9 +532,7 @@ impl PhotonMapper {
             .step_by(PATHS_PER_TASK)
             .map(|a| (a, (a + PATHS_PER_TASK as u64).min(end)))
             .collect();
-        let budget = (self.s.max_photon_mib as f64 * 1048576.0
-            / std::mem::size_of::<MediumPhoton>() as f64
-            / chunks.len().max(1) as f64) as usize;
+        let budget = photon_budget(self.s.max_photon_mib, chunks.len());
         let parts: Vec<PhotonChunk> = chunks
             .into_par_iter()
             .map(|(a, b)| {

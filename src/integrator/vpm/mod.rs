@@ -86,11 +86,14 @@ use super::accel::{HashGrid, PointBvh};
 use super::common::density_camera::{self, Depths, MediumGather};
 use super::common::medium_walk::Segment;
 use super::common::params::{check_alpha, check_photon_params};
-use super::pixels::render_pixels;
+use super::common::PATHS_PER_TASK;
+use super::memory::{array, budgeted, capped, paths_driver, refilled, Estimate as Memory, Facts};
+use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::math::{Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;
+pub(crate) use photons::photon_budget;
 use photons::Chunk;
 pub(crate) use photons::{photon_bounce, Photon};
 use serde::{Deserialize, Serialize};
@@ -183,6 +186,41 @@ impl VpmSettings {
         Ok(())
     }
 
+    /// A job's memory (module `memory`): in scenes with media and lights, the photons
+    /// of an iteration (per chunk, then in one array) and their index (the BVH of the
+    /// beam estimate, or the positions and hash grid of the point estimate); the camera
+    /// pass's tile buffers.
+    pub fn memory(&self, facts: &Facts) -> Memory {
+        let mut e = Memory::default();
+        let scene = facts.scene;
+        if scene.has_media && !scene.lights.is_empty() {
+            let paths = photon_paths(self.light_paths, facts.pixels());
+            let driver = paths_driver(Some(self.light_paths), paths, facts);
+            let walk = facts.walk(self.max_depth, true);
+            let chunks = paths.div_ceil(PATHS_PER_TASK);
+            let budget = photon_budget(self.max_photon_mib as f32, chunks) as f64;
+            let wanted = paths as f64 / chunks as f64 * walk.medium;
+            let per_chunk = wanted.min(budget);
+            let n = per_chunk * chunks as f64;
+            let driver = capped(
+                &driver,
+                wanted > budget,
+                "max_photon_mib",
+                self.max_photon_mib,
+            );
+            let stored = chunks as f64 * array::<Photon>(budgeted(per_chunk, 0.0, budget))
+                + array::<Photon>(refilled(n, 0.0));
+            e.add("photons", &driver, stored);
+            let index = match self.estimate {
+                Estimate::BeamRadiance => PointBvh::<Photon>::bytes_for(n),
+                Estimate::Point => array::<Vec3>(refilled(n, 0.0)) + HashGrid::bytes_for(n),
+            };
+            e.add("photon index", &driver, index);
+        }
+        tile_memory(&mut e, facts);
+        e
+    }
+
     pub fn alpha(&self) -> f32 {
         self.alpha.unwrap_or(self.estimate.default_alpha())
     }
@@ -194,6 +232,11 @@ impl VpmSettings {
             .unwrap_or(self.radius_factor * scene.sphere.radius);
         radius_schedule(r1, self.alpha(), self.estimate.kernel_dims(), iteration)
     }
+}
+
+/// Photon paths per iteration: `light_paths` x `pixels`, rounded up, at least one.
+pub(crate) fn photon_paths(light_paths: f32, pixels: f64) -> usize {
+    (light_paths as f64 * pixels).ceil().max(1.0) as usize
 }
 
 /// r_{j+1} for iteration j (from 0) of a kernel of dimension k: r_1 (prod_{i=1}^{j}
@@ -293,8 +336,10 @@ impl Vpm {
         if scene.lights.is_empty() || !scene.has_media {
             return 0;
         }
-        let px = scene.width() as f64 * scene.height() as f64;
-        (self.s.light_paths as f64 * px).ceil().max(1.0) as usize
+        photon_paths(
+            self.s.light_paths,
+            scene.width() as f64 * scene.height() as f64,
+        )
     }
 }
 

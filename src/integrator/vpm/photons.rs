@@ -44,6 +44,13 @@ pub(super) struct Chunk {
     pub(super) over_budget: bool,
 }
 
+/// Photons one of `chunks` chunks may store: its share of `max_photon_mib`.
+pub(crate) fn photon_budget(max_photon_mib: f32, chunks: usize) -> usize {
+    (max_photon_mib as f64 * 1048576.0
+        / std::mem::size_of::<Photon>() as f64
+        / chunks.max(1) as f64) as usize
+}
+
 impl Vpm {
     /// The photon pass: fixed chunks in parallel, concatenated in chunk order.
     pub(super) fn trace_photons(
@@ -57,9 +64,7 @@ impl Vpm {
         let chunks = paths.div_ceil(PATHS_PER_TASK);
         ws.chunks.resize_with(chunks, Chunk::default);
         ws.chunks.truncate(chunks);
-        let budget = (self.s.max_photon_mib as f64 * 1048576.0
-            / std::mem::size_of::<Photon>() as f64
-            / chunks.max(1) as f64) as usize;
+        let budget = photon_budget(self.s.max_photon_mib as f32, chunks);
         ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
             chunk.photons.clear();
             chunk.stats = RenderStats::default();

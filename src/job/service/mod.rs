@@ -40,6 +40,8 @@ pub struct ServiceConfig {
     /// Jobs whose render state is held in memory at once (the others wait queued,
     /// their checkpoints on disk).
     pub max_active_jobs: usize,
+    /// Largest estimated peak memory of one job, bytes (`job::memory`).
+    pub max_job: u64,
     /// How long finished jobs are kept.
     pub retention: Retention,
     /// Longest pause while a request body arrives, and longest wait for a request's
@@ -60,6 +62,7 @@ impl ServiceConfig {
             max_primitives: CompileBudget::SERVER.max_primitives,
             max_resolution: 8192,
             max_active_jobs: 4,
+            max_job: super::memory::default_budget(4),
             retention: Retention::default(),
             body_timeout: std::time::Duration::from_secs(30),
             header_timeout: std::time::Duration::from_secs(30),
@@ -72,6 +75,7 @@ impl ServiceConfig {
             workers: 2,
             max_upload: 8 << 20,
             max_resolution: 1024,
+            max_job: 1 << 30,
             ..ServiceConfig::new(data_dir)
         }
     }
@@ -151,6 +155,7 @@ impl Service {
                 data_dir: dir.clone(),
                 metrics: Metrics::default(),
                 remote,
+                max_job: config.max_job,
             },
             table: Mutex::new(recover(dir)),
             wake: Condvar::new(),
@@ -356,6 +361,7 @@ impl Service {
         }
         run::load_reference(&self.shared.ctx, &spec, &scene)?;
         let settings = Settings::for_scene(spec.algorithm.as_deref(), &scene, &spec.params)?;
+        super::memory::check(&settings, &scene, &spec, self.config.max_job)?;
         let status = JobStatus {
             id: self.new_id(),
             settings: serde_json::to_value(&settings).expect("settings serialise"),

@@ -65,6 +65,7 @@
 //! one uniform number is an f32: probabilities far below its resolution (2^-24) are
 //! honoured by `pmf`, but `sample` resolves them only as finely as the caller's u.
 
+use crate::integrator::memory::{array, refilled};
 use crate::math::Vec3;
 use rayon::prelude::*;
 
@@ -487,6 +488,18 @@ impl LightTree {
                 inv_pow,
             }
         }
+    }
+
+    /// Bytes a tree rebuilt every iteration over about `n` lights holds: per light its
+    /// key and leaf, and the groups, 0.24 to 0.36 per light for uniform, clustered and
+    /// planar points (measured, 10^3 to 3 x 10^5 lights; 0.4 counted), each with its
+    /// parent; each buffer as it is refilled.
+    pub fn bytes_for(n: f64) -> f64 {
+        let (lights, groups) = (refilled(n, 0.0), refilled(0.4 * n, 0.0));
+        array::<(u64, u32)>(lights)
+            + array::<u32>(lights)
+            + array::<Group>(groups)
+            + array::<u32>(groups)
     }
 
     pub fn bytes(&self) -> usize {
