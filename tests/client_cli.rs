@@ -496,6 +496,17 @@ fn submit_of_xml_halts_at_its_sample_count_and_a_missing_halt_names_the_flags() 
     let r = ok(caustic(&s, &["submit", xml.to_str().unwrap(), "--json"]).args(["--time", "1"]));
     let job: Value = serde_json::from_str(&r.stdout).unwrap();
     assert_eq!(job["spec"]["halt"], json!({"time_s": 1.0}));
+    // A sweep too.
+    let r =
+        ok(caustic(&s, &["sweep", xml.to_str().unwrap(), "--json"]).args(["--grid", "seed=1,2"]));
+    let table: Value = serde_json::from_str(&r.stdout).unwrap();
+    let iterations: Vec<&Value> = table["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| &r["iterations"])
+        .collect();
+    assert_eq!(iterations, [3, 3], "{table}");
 
     let r = run(caustic(&s, &["submit", "cornell-box"]));
     assert_eq!(r.code, 2);

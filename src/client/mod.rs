@@ -138,15 +138,22 @@ pub struct SweepOptions {
 }
 
 fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
+    // An XML scene's sample count, for a sweep that sets no halt.
+    let mut scene_spp = None;
     let mut spec = match &o.file {
         Some(path) => {
             let text = std::fs::read_to_string(path).map_err(|e| file_error(path, e))?;
-            let mut spec: SweepSpec =
-                serde_json::from_str(&text).map_err(|e| file_error(path, e))?;
+            let mut spec: SweepSpec = serde_json::from_str(&text).map_err(|e| {
+                file_error(
+                    path,
+                    crate::json_numbers::name_out_of_range(&e.to_string(), &text),
+                )
+            })?;
             if o.scene.is_none() {
                 // A scene file named by the sweep file is relative to the sweep file.
                 let dir = path.parent().unwrap_or(Path::new("."));
-                spec.base.scene = resolve_scene(client, &spec.base.scene, Some(dir))?;
+                let scene = resolve_scene_spp(client, &spec.base.scene, Some(dir))?;
+                (spec.base.scene, scene_spp) = (scene.id, scene.spp);
             }
             spec
         }
@@ -157,7 +164,8 @@ fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
         },
     };
     if let Some(scene) = &o.scene {
-        spec.base.scene = resolve_scene(client, scene, None)?;
+        let scene = resolve_scene_spp(client, scene, None)?;
+        (spec.base.scene, scene_spp) = (scene.id, scene.spp);
     }
     o.job.apply(&mut spec.base)?;
     if let Some(r) = &o.job.reference {
@@ -165,6 +173,12 @@ fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
     }
     for (k, v) in parse_grid(&o.grid)? {
         spec.grid.insert(k, v);
+    }
+    if !spec.grid.keys().any(|k| k.starts_with("halt.")) {
+        if spec.base.halt == crate::job::HaltSpec::default() {
+            spec.base.halt.spp = scene_spp.map(u64::from);
+        }
+        require_halt(&spec.base)?;
     }
     if o.name.is_some() {
         spec.name = o.name.clone();
