@@ -52,7 +52,10 @@ pub struct ErrorBody {
 
 #[derive(Serialize, ToSchema)]
 pub struct ErrorDetail {
-    /// bad_request, invalid_scene, not_found, conflict, too_large, unauthorized, internal
+    /// bad_request (400), unauthorized (401), not_found (404), method_not_allowed
+    /// (405), timeout (408), conflict (409), too_large (413), unsupported_media_type
+    /// (415), invalid_body or invalid_scene (422), internal (500), storage (500),
+    /// storage_full (507)
     pub code: String,
     pub message: String,
 }

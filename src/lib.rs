@@ -9,6 +9,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod job;
+pub mod json_numbers;
 pub mod light;
 pub mod material;
 pub mod math;

@@ -4,11 +4,13 @@
 mod cli;
 
 use anyhow::Result;
+use caustic::client::JobAction;
 use clap::Parser;
-use cli::args::{Cli, Command};
+use cli::args::{Cli, Command, ReferenceAction};
 use cli::{bench, client, import, render, serve};
+use std::process::ExitCode;
 
-fn main() -> Result<()> {
+fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
@@ -19,11 +21,25 @@ fn main() -> Result<()> {
     if !matches!(command, Command::Serve(_) | Command::Worker(_)) {
         quiet_broken_pipe();
     }
+    match run(command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", cli::report::error_line(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> Result<()> {
     match command {
         Command::Render(a) => with_threads(a.threads, || render::render(&a)),
         Command::Diff { a, b, png } => render::diff(&a, &b, png.as_deref()),
         Command::Import(a) => import::import(&a),
-        Command::Reference(a) => with_threads(a.threads, || render::reference(&a)),
+        Command::Reference(r) => match (r.action, r.render) {
+            (Some(ReferenceAction::Upload(a)), _) => client::reference_upload(a),
+            (None, Some(a)) => with_threads(a.threads, || render::reference(&a)),
+            (None, None) => unreachable!("clap requires the render arguments"),
+        },
         Command::Bench(a) => with_threads(a.threads, || match a.time {
             Some(t) => bench::bench_equal_time(&a, t),
             None => bench::bench(&a),
@@ -33,6 +49,11 @@ fn main() -> Result<()> {
         Command::Submit(a) => client::submit(a),
         Command::Watch(a) => client::watch(a),
         Command::Jobs(a) => client::jobs(a),
+        Command::Cancel(a) => client::job_action(a, JobAction::Cancel),
+        Command::Pause(a) => client::job_action(a, JobAction::Pause),
+        Command::Resume(a) => client::job_action(a, JobAction::Resume),
+        Command::Retry(a) => client::job_action(a, JobAction::Retry),
+        Command::Delete(a) => client::job_action(a, JobAction::Delete),
         Command::Sweep(a) => client::sweep(a),
     }
 }

@@ -199,3 +199,32 @@ fn diff_reads_radiance_hdr() {
         "rmse {rmse}, want {want}"
     );
 }
+
+/// A failed command prints one line, `error: ...`, that says each cause once and what
+/// a misnamed file really is.
+#[test]
+fn errors_say_each_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let failing = |c: &mut Command| {
+        let out = c.env("RUST_BACKTRACE", "1").output().expect("runs");
+        assert_eq!(out.status.code(), Some(1), "{c:?}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let missing = dir.path().join("missing.exr");
+    let text = failing(caustic().arg("diff").arg(&missing).arg(&missing));
+    assert_eq!(text.matches("No such file").count(), 1, "{text}");
+    assert!(
+        text.starts_with("error: ") && !text.contains("Caused by"),
+        "{text}"
+    );
+    let text = failing(caustic().arg("render").arg(dir.path().join("nowhere.json")));
+    assert_eq!(text.matches("nowhere.json").count(), 1, "{text}");
+
+    let png = dir.path().join("image.exr");
+    caustic::film::write_png(&png, &caustic::film::Image::new(4, 4), 0.0).unwrap();
+    let text = failing(caustic().arg("diff").arg(&png).arg(&png));
+    assert!(
+        text.contains("image.exr: a PNG image, not an OpenEXR file"),
+        "{text}"
+    );
+}

@@ -235,6 +235,15 @@ async fn watch_streams_a_job_in_order_until_done() {
     );
     use pb::JobState::{Completed, Queued, Running};
     assert_eq!(states, [Queued, Running, Completed], "{}", kinds(&events));
+    let running = events
+        .iter()
+        .position(|e| matches!(e, E::State(s) if s.state() == Running));
+    let progress = events.iter().position(|e| matches!(e, E::Progress(_)));
+    assert!(
+        running < progress,
+        "running before the first progress: {}",
+        kinds(&events)
+    );
     let mut last_iteration = 0;
     let mut snapshots = Vec::new();
     for e in &events {

@@ -703,3 +703,148 @@ fn target_rmse_halts_a_job_against_a_reference() {
     );
     assert_eq!(c, 400, "{b}");
 }
+
+// ---------------------------------------------------------------------------------
+// Messages as a user meets them (issue 36)
+
+/// Every non-integer number under `v`.
+fn fractions(v: &Value, out: &mut Vec<f64>) {
+    match v {
+        Value::Number(n) if !(n.is_u64() || n.is_i64()) => out.push(n.as_f64().unwrap()),
+        Value::Array(a) => a.iter().for_each(|v| fractions(v, out)),
+        Value::Object(m) => m.values().for_each(|v| fractions(v, out)),
+        _ => {}
+    }
+}
+
+/// Each setting is an f32: its JSON is the f32's shortest decimal (0.7, not
+/// 0.699999988079071), in the algorithm list and in a job's settings alike.
+#[test]
+fn settings_are_written_as_their_shortest_decimals() {
+    let s = TestServer::start(None);
+    let (_, list) = s.get_json("/v1/algorithms");
+    let scene = upload_tiny(&s, 8);
+    let id = submit(
+        &s,
+        json!({"scene": scene, "algorithm": "sppm", "halt": {"spp": 1}, "params": {"alpha": 0.7}}),
+    );
+    let (_, job) = s.get_json(&format!("/v1/jobs/{id}"));
+    assert_eq!(job["settings"]["alpha"], json!(0.7), "{job}");
+    let mut numbers = Vec::new();
+    fractions(&list, &mut numbers);
+    fractions(&job["settings"], &mut numbers);
+    assert!(numbers.len() > 20, "{numbers:?}");
+    for x in numbers {
+        let shortest: f64 = (x as f32).to_string().parse().unwrap();
+        assert_eq!(x, shortest, "{x} is not the shortest decimal of its f32");
+    }
+}
+
+/// A 422 (JSON of the wrong shape) has its own code, not a 400's.
+#[test]
+fn unprocessable_bodies_have_their_own_code() {
+    let s = TestServer::start(None);
+    for body in [
+        json!({"scene": "cornell-box", "halt": {"spp": 1}, "bogus": 1}),
+        json!({"scene": "cornell-box", "halt": {"spp": -1}}),
+        json!({"scene": 5, "halt": {"spp": 1}}),
+    ] {
+        let (code, err) = s.post_json("/v1/jobs", &body);
+        assert_eq!(code, 422, "{body}: {err}");
+        assert_eq!(err["error"]["code"], "invalid_body", "{body}: {err}");
+    }
+    let (code, err) = s.post_json("/v1/sweeps", &json!({"base": 1, "grid": {}}));
+    assert_eq!(
+        (code, &err["error"]["code"]),
+        (422, &json!("invalid_body")),
+        "{err}"
+    );
+    // A malformed body stays a 400.
+    let (code, err) = raw_request(
+        &s.url,
+        "POST /v1/jobs HTTP/1.1\r\ncontent-type: application/json\r\ncontent-length: 2",
+        b"{x",
+    );
+    assert_eq!(
+        (code, &err["error"]["code"]),
+        (400, &json!("bad_request")),
+        "{err}"
+    );
+}
+
+/// Numbers too large for their fields are named as written, never as `inf`.
+#[test]
+fn numbers_out_of_range_are_named_as_written() {
+    let s = TestServer::start(None);
+    let post = |path: &str, body: &str| {
+        let (code, err) = respond(
+            ureq::post(&format!("{}{path}", s.url))
+                .set("content-type", "application/json")
+                .send_string(body),
+        );
+        let err: Value = serde_json::from_slice(&err).unwrap();
+        (code, err["error"]["message"].as_str().unwrap().to_string())
+    };
+    let cases = [
+        (
+            r#"{"scene": "cornell-box", "halt": {"time_s": 1e999}}"#,
+            "halt.time_s: number 1e999 is out of range",
+        ),
+        (
+            r#"{"scene": "cornell-box", "halt": {"spp": 1}, "params": {"max_depth": 1e400}}"#,
+            "params.max_depth: number 1e400 is out of range",
+        ),
+        (
+            r#"{"scene": "cornell-box", "algorithm": "sppm", "halt": {"spp": 1}, "params": {"alpha": 1e39}}"#,
+            "params.alpha: number 1e39 is out of range",
+        ),
+    ];
+    for (body, says) in cases {
+        let (code, message) = post("/v1/jobs", body);
+        assert!(code == 400 || code == 422, "{body}: {code} {message}");
+        assert!(message.contains(says), "{body}: {message}");
+    }
+    // In a scene: beyond f64, and beyond the f32 of its field.
+    for (fov, says) in [
+        ("1e400", "number 1e400 is out of range"),
+        ("2.5e39", "number 2.5e39 is out of range"),
+    ] {
+        let scene = tiny_scene(8)
+            .to_string()
+            .replace("\"fov\":45", &format!("\"fov\":{fov}"));
+        assert!(scene.contains(fov), "{scene}");
+        let (code, err) = s.post_bytes("/v1/scenes", scene.as_bytes());
+        let message = err["error"]["message"].as_str().unwrap();
+        assert_eq!(code, 422, "{message}");
+        assert!(
+            message.contains(&format!("camera.fov: {says}")),
+            "{message}"
+        );
+        assert!(!message.contains("inf"), "{message}");
+    }
+}
+
+/// A job that stopped before its end keeps no estimate of the time left.
+#[test]
+fn stopped_jobs_have_no_eta() {
+    let s = TestServer::start(None);
+    let scene = upload_tiny(&s, 16);
+    let id = submit(&s, json!({"scene": scene, "halt": {"time_s": 600}}));
+    let start = std::time::Instant::now();
+    while s.get_json(&format!("/v1/jobs/{id}")).1["eta_s"].is_null() {
+        assert!(start.elapsed().as_secs() < 60, "no eta while running");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let (_, paused) = s.post_json(&format!("/v1/jobs/{id}/pause"), &json!({}));
+    assert_eq!(paused["state"], "paused");
+    assert!(paused.get("eta_s").is_none(), "{paused}");
+    s.post_json(&format!("/v1/jobs/{id}/resume"), &json!({}));
+    s.wait_state(&id, "running");
+    let (_, cancelled) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(cancelled["state"], "cancelled");
+    assert!(cancelled.get("eta_s").is_none(), "{cancelled}");
+    let (_, list) = s.get_json("/v1/jobs?state=cancelled");
+    assert!(list[0].get("eta_s").is_none(), "{list}");
+    let done = submit(&s, json!({"scene": scene, "halt": {"spp": 1}}));
+    assert!(s.wait_job(&done).get("eta_s").is_none());
+}

@@ -33,8 +33,9 @@ pub enum Command {
     /// `.xml` scenes directly.)
     Import(ImportArgs),
     /// Render a long reference image for error measurements (as `render`, with a time
-    /// budget, and a seed unlike the default one of `render` and `bench`).
-    Reference(ReferenceArgs),
+    /// budget, and a seed unlike the default one of `render` and `bench`); or, as
+    /// `reference upload FILE.exr`, upload one to a server.
+    Reference(ReferenceCommand),
     /// Measure speed (ms and CPU s per iteration, samples/s, rays/s; median of
     /// repeats), or with --time compare algorithms at equal time: RMSE against a
     /// reference over time, a CSV, a log-log plot and each algorithm's image.
@@ -55,6 +56,17 @@ pub enum Command {
     Watch(WatchArgs),
     /// List a server's jobs.
     Jobs(JobsArgs),
+    /// Cancel a queued, running or paused job (it keeps its checkpoint: `retry`
+    /// resumes it).
+    Cancel(JobIdArgs),
+    /// Pause a queued or running job (a running one at the end of its batch).
+    Pause(JobIdArgs),
+    /// Queue a paused job again.
+    Resume(JobIdArgs),
+    /// Queue a failed or cancelled job again: it resumes from its checkpoint.
+    Retry(JobIdArgs),
+    /// Delete a job that is not running, with its images and logs.
+    Delete(JobIdArgs),
     /// Run a parameter sweep on a server and print its table.
     ///
     /// Exit status: 0 when every job completed, 1 when some did not, 2 on errors.
@@ -82,17 +94,21 @@ pub struct JobArgs {
     #[arg(long, conflicts_with = "iterations")]
     pub spp: Option<u64>,
     /// Halt after this many seconds of rendering.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = finite)]
     pub time: Option<f64>,
     /// Halt after this many iterations (light-pass algorithms).
     #[arg(long)]
     pub iterations: Option<u64>,
     /// Halt when the RMSE against the reference falls to this value.
-    #[arg(long, requires = "reference_job")]
+    #[arg(long, requires = "any_reference", value_parser = finite)]
     pub target_rmse: Option<f64>,
     /// A completed job whose image is the reference for RMSE logs.
-    #[arg(long, value_name = "JOB")]
+    #[arg(long, value_name = "JOB", group = "any_reference")]
     pub reference_job: Option<String>,
+    /// The reference for RMSE logs: a local EXR file (uploaded first), the id that
+    /// `caustic reference upload` printed, a job id, or `job:ID` / `upload:ID`.
+    #[arg(long, value_name = "REF", group = "any_reference")]
+    pub reference: Option<String>,
     #[arg(long)]
     pub seed: Option<u64>,
     /// Algorithm parameter, repeatable: --param max_depth=8
@@ -105,7 +121,7 @@ pub struct JobArgs {
     #[arg(long, value_name = "N", conflicts_with = "snapshot_every_seconds")]
     pub snapshot_every_iterations: Option<u64>,
     /// Write a snapshot every S seconds (server default: 5).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", value_parser = finite)]
     pub snapshot_every_seconds: Option<f64>,
 }
 
@@ -141,6 +157,18 @@ pub struct WatchArgs {
     /// Show each snapshot in the tev viewer listening at HOST:PORT.
     #[arg(long, value_name = "HOST:PORT")]
     pub tev: Option<String>,
+    #[command(flatten)]
+    pub server: ServerArgs,
+}
+
+/// The commands that change one job on a server.
+#[derive(Args)]
+pub struct JobIdArgs {
+    /// Job id.
+    pub job: String,
+    /// Print the job as JSON.
+    #[arg(long)]
+    pub json: bool,
     #[command(flatten)]
     pub server: ServerArgs,
 }
@@ -301,7 +329,7 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with = "time")]
     pub spp: Option<u64>,
     /// Wall-clock budget in seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     pub time: Option<f64>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -328,6 +356,31 @@ pub struct RenderArgs {
     pub tev: Option<String>,
 }
 
+/// `caustic reference`: a local render, or `reference upload`.
+#[derive(Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct ReferenceCommand {
+    #[command(subcommand)]
+    pub action: Option<ReferenceAction>,
+    #[command(flatten)]
+    pub render: Option<ReferenceArgs>,
+}
+
+#[derive(Subcommand)]
+pub enum ReferenceAction {
+    /// Upload a reference EXR to a server and print its id, for `submit --reference
+    /// ID` (or a job body's `"reference": {"upload": ID}`).
+    Upload(ReferenceUploadArgs),
+}
+
+#[derive(Args)]
+pub struct ReferenceUploadArgs {
+    /// The image (OpenEXR).
+    pub file: PathBuf,
+    #[command(flatten)]
+    pub server: ServerArgs,
+}
+
 #[derive(Args)]
 pub struct ReferenceArgs {
     pub scene: PathBuf,
@@ -335,7 +388,12 @@ pub struct ReferenceArgs {
     #[arg(long, short)]
     pub algorithm: Option<String>,
     /// Wall-clock budget in seconds.
-    #[arg(long, value_name = "SECONDS", required_unless_present = "spp")]
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        required_unless_present = "spp",
+        value_parser = finite
+    )]
     pub time: Option<f64>,
     /// A number of iterations instead of a time budget.
     #[arg(long, conflicts_with = "time")]
@@ -373,7 +431,7 @@ pub struct BenchArgs {
     pub repeat: usize,
     /// Equal-time mode: seconds of iterations per algorithm (needs --reference or
     /// --reference-from).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = finite)]
     pub time: Option<f64>,
     /// Equal-time mode: the reference image (EXR, or Radiance .hdr).
     #[arg(
@@ -401,4 +459,14 @@ pub struct BenchArgs {
     pub threads: Option<usize>,
     #[arg(long = "param", value_name = "KEY=VALUE")]
     pub params: Vec<String>,
+}
+
+/// A number flag's value: finite, or refused as written (`1e999` would be infinity,
+/// which no duration or error bound can be).
+fn finite(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(_) => Err(format!("{text} is out of range")),
+        Err(e) => Err(e.to_string()),
+    }
 }

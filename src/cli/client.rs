@@ -1,7 +1,10 @@
 //! The client commands: thin wrappers over [`caustic::client`].
 
-use super::args::{JobArgs, JobsArgs, ServerArgs, SubmitArgs, SweepArgs, WatchArgs};
+use super::args::{
+    JobArgs, JobIdArgs, JobsArgs, ReferenceUploadArgs, ServerArgs, SubmitArgs, SweepArgs, WatchArgs,
+};
 use anyhow::Result;
+use caustic::client::JobAction;
 
 fn connect(s: &ServerArgs) -> caustic::client::Client {
     caustic::client::Client::new(&s.server, s.token.clone())
@@ -15,6 +18,7 @@ fn job_options(j: JobArgs, name: Option<String>, tags: Vec<String>) -> caustic::
         iterations: j.iterations,
         target_rmse: j.target_rmse,
         reference_job: j.reference_job,
+        reference: j.reference,
         seed: j.seed,
         params: j.params,
         priority: j.priority,
@@ -101,6 +105,26 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
     client_exit(caustic::client::sweep(
         &connect(&a.server),
         &o,
+        &mut std::io::stdout(),
+    ))
+}
+
+/// `caustic cancel | pause | resume | retry | delete JOB`.
+pub fn job_action(a: JobIdArgs, action: JobAction) -> Result<()> {
+    client_exit(caustic::client::job_action(
+        &connect(&a.server),
+        &a.job,
+        action,
+        a.json,
+        &mut std::io::stdout(),
+    ))
+}
+
+/// `caustic reference upload FILE.exr`.
+pub fn reference_upload(a: ReferenceUploadArgs) -> Result<()> {
+    client_exit(caustic::client::upload_reference(
+        &connect(&a.server),
+        &a.file,
         &mut std::io::stdout(),
     ))
 }

@@ -6,4 +6,5 @@ pub mod bench;
 pub mod client;
 pub mod import;
 pub mod render;
+pub mod report;
 pub mod serve;

@@ -28,7 +28,7 @@ pub fn load_scene_and_spp(path: &Path) -> Result<(Scene, Option<u32>)> {
             .map_err(|e| anyhow::anyhow!("{} (imported): {e}", path.display()))?;
         (scene, import.spp)
     } else {
-        let scene = Scene::load(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let scene = Scene::load(path).map_err(|e| scene_error(path, e))?;
         (scene, None)
     };
     Settings::for_scene_defaults(&scene).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -51,6 +51,14 @@ pub fn load_scene_and_spp(path: &Path) -> Result<(Scene, Option<u32>)> {
         );
     }
     Ok((scene, spp))
+}
+
+/// A scene file's error, naming the file once (errors reading the file name it by
+/// its file name already).
+fn scene_error(path: &Path, e: caustic::scene::SceneError) -> anyhow::Error {
+    let named = path.file_name().is_some_and(|n| *n == *e.path);
+    let shown = if named { &e.message } else { &e.to_string() };
+    anyhow::anyhow!("{}: {shown}", path.display())
 }
 
 pub fn render(a: &RenderArgs) -> Result<()> {

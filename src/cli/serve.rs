@@ -39,9 +39,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         svc.announce(&format!("REST {url}, gRPC {grpc_addr}"));
         eprintln!("caustic serving REST on {url} and gRPC on {grpc_addr}");
         eprintln!("data directory: {}", a.data_dir.display());
-        eprintln!(
-            "try: curl -X POST {url}/v1/jobs -H 'content-type: application/json' -d '{{\"scene\": \"cornell-box\", \"halt\": {{\"spp\": 64}}}}'"
-        );
+        eprintln!("{}", try_hint(&url, a.token.is_some()));
         let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
         let stopped = move || {
             let mut rx = stop_rx.clone();
@@ -63,7 +61,8 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         };
         let app = caustic::server::http::app(svc.clone(), a.token.clone());
         let rest = caustic::server::listen::serve(http, app, limits, stopped());
-        let grpc_server = caustic::server::grpc::serve(grpc, svc.clone(), a.token.clone(), stopped());
+        let grpc_server =
+            caustic::server::grpc::serve(grpc, svc.clone(), a.token.clone(), stopped());
         let (_, grpc_result) = tokio::join!(rest, async {
             // tonic waits for open calls without a bound; the streams end on the
             // service's shutdown, the rest get the same grace as REST connections.
@@ -79,6 +78,22 @@ pub fn serve(a: ServeArgs) -> Result<()> {
     svc.shutdown();
     rt.shutdown_timeout(Duration::from_millis(500));
     result
+}
+
+/// The curl line printed at start. Behind a token it sends one, as the server asks,
+/// from the environment: the token itself stays out of logs.
+fn try_hint(url: &str, token: bool) -> String {
+    let (auth, note) = if token {
+        (
+            " -H \"Authorization: Bearer $CAUSTIC_TOKEN\"",
+            "  # CAUSTIC_TOKEN: the token given to --token",
+        )
+    } else {
+        ("", "")
+    };
+    format!(
+        "try: curl -X POST {url}/v1/jobs{auth} -H 'content-type: application/json' -d '{{\"scene\": \"cornell-box\", \"halt\": {{\"spp\": 64}}}}'{note}"
+    )
 }
 
 /// The retention policy from --retention-days and --retention-gib.

@@ -16,29 +16,63 @@ fn looks_like_path(scene: &str) -> bool {
             .any(|x| scene.to_ascii_lowercase().ends_with(x))
 }
 
+/// A scene as a job names it.
+pub struct ResolvedScene {
+    /// The id of a built-in or uploaded scene.
+    pub id: String,
+    /// The sample count a Mitsuba XML scene's sampler asks for (`sample_count`).
+    pub spp: Option<u32>,
+}
+
 /// A scene id for `scene`: a local file (relative to `base_dir` if given) is uploaded
 /// first; anything else is taken as the id of a built-in or uploaded scene.
 pub fn resolve_scene(client: &Client, scene: &str, base_dir: Option<&Path>) -> Result<String> {
+    Ok(resolve_scene_spp(client, scene, base_dir)?.id)
+}
+
+/// [`resolve_scene`], with the sample count of an uploaded XML scene.
+pub fn resolve_scene_spp(
+    client: &Client,
+    scene: &str,
+    base_dir: Option<&Path>,
+) -> Result<ResolvedScene> {
     let path = match base_dir {
         Some(d) => d.join(scene),
         None => PathBuf::from(scene),
     };
     if path.is_file() {
-        let (bytes, content_type, files) = scene_upload(&path)?;
-        let id = client.upload_scene(&bytes, content_type)?;
+        let upload = prepare_upload(&path)?;
+        let id = client.upload_scene(&upload.bytes, upload.content_type)?;
+        let files = upload.files;
         eprintln!(
             "uploaded {} as scene {id} ({} file{}, {:.1} KiB)",
             path.display(),
             files,
             if files == 1 { "" } else { "s" },
-            bytes.len() as f64 / 1024.0
+            upload.bytes.len() as f64 / 1024.0
         );
-        Ok(id)
+        Ok(ResolvedScene {
+            id,
+            spp: upload.spp,
+        })
     } else if looks_like_path(scene) {
         Err(file_error(&path, "no such scene file"))
     } else {
-        Ok(scene.to_string())
+        Ok(ResolvedScene {
+            id: scene.to_string(),
+            spp: None,
+        })
     }
+}
+
+/// What is uploaded for a local scene file.
+struct SceneUpload {
+    bytes: Vec<u8>,
+    content_type: &'static str,
+    /// How many files the bytes hold.
+    files: usize,
+    /// An XML scene's `sample_count`.
+    spp: Option<u32>,
 }
 
 /// The bytes to upload for a local scene file, their content type and how many files
@@ -46,14 +80,27 @@ pub fn resolve_scene(client: &Client, scene: &str, base_dir: Option<&Path>) -> R
 /// are sent as they are. A Mitsuba XML scene is imported here (its warnings printed)
 /// and sent as the JSON scene it becomes.
 pub fn scene_upload(path: &Path) -> Result<(Vec<u8>, &'static str, usize)> {
+    let u = prepare_upload(path)?;
+    Ok((u.bytes, u.content_type, u.files))
+}
+
+fn prepare_upload(path: &Path) -> Result<SceneUpload> {
     let mut bytes = std::fs::read(path).map_err(|e| file_error(path, e))?;
+    let mut spp = None;
     if mitsuba::is_xml_path(path) || mitsuba::is_xml(&bytes) {
         let import = mitsuba::import_file(path).map_err(|e| file_error(path, e))?;
         for w in &import.warnings {
             eprintln!("warning: {w}");
         }
+        spp = import.spp;
         bytes = serde_json::to_vec_pretty(&import.scene).map_err(|e| file_error(path, e))?;
     }
+    let upload = |bytes, content_type, files| SceneUpload {
+        bytes,
+        content_type,
+        files,
+        spp,
+    };
     let first = bytes.iter().find(|b| !b.is_ascii_whitespace()).copied();
     if first != Some(b'{') {
         let ct = if bytes.starts_with(b"PK\x03\x04") {
@@ -61,19 +108,19 @@ pub fn scene_upload(path: &Path) -> Result<(Vec<u8>, &'static str, usize)> {
         } else {
             "application/x-tar"
         };
-        return Ok((bytes, ct, 1));
+        return Ok(upload(bytes, ct, 1));
     }
     let doc: Value = serde_json::from_slice(&bytes).map_err(|e| file_error(path, e))?;
     let mut names = Vec::new();
     referenced_files(&doc, &mut names);
     if names.is_empty() {
-        return Ok((bytes, "application/json", 1));
+        return Ok(upload(bytes, "application/json", 1));
     }
     let dir = path.parent().unwrap_or(Path::new("."));
     let files = bundle_files(dir, &names)?;
     let n = files.len() + 1;
     let tar = build_tar(&bytes, dir, &files)?;
-    Ok((tar, "application/x-tar", n))
+    Ok(upload(tar, "application/x-tar", n))
 }
 
 /// Keys whose string values name files next to the scene: meshes and environment

@@ -106,8 +106,18 @@ impl Client {
 
     /// Uploads a scene document or bundle; returns the scene id.
     pub fn upload_scene(&self, bytes: &[u8], content_type: &str) -> Result<String> {
+        self.upload("/v1/scenes", bytes, content_type)
+    }
+
+    /// Uploads a reference EXR (`POST /v1/references`); returns its id.
+    pub fn upload_reference(&self, bytes: &[u8]) -> Result<String> {
+        self.upload("/v1/references", bytes, "application/octet-stream")
+    }
+
+    /// POSTs an upload; returns the `id` the server gives it.
+    fn upload(&self, path: &str, bytes: &[u8], content_type: &str) -> Result<String> {
         let resp = self.send(
-            self.request("POST", "/v1/scenes")
+            self.request("POST", path)
                 .set("content-type", content_type)
                 .send_bytes(bytes),
         )?;
@@ -116,9 +126,23 @@ impl Client {
             .as_str()
             .map(String::from)
             .ok_or_else(|| ClientError::Protocol {
-                url: format!("{}/v1/scenes", self.base),
-                message: "no scene id in the answer".into(),
+                url: format!("{}{path}", self.base),
+                message: "no id in the answer".into(),
             })
+    }
+
+    /// `POST /v1/jobs/{id}/{action}` (cancel, pause, resume, retry): the job after it.
+    pub fn job_action(&self, id: &str, action: &str) -> Result<JobView> {
+        let path = format!("/v1/jobs/{}/{action}", segment(id));
+        let resp = self.send(self.request("POST", &path).call())?;
+        self.json(resp)
+    }
+
+    /// `DELETE /v1/jobs/{id}`.
+    pub fn delete_job(&self, id: &str) -> Result<()> {
+        let path = format!("/v1/jobs/{}", segment(id));
+        self.send(self.request("DELETE", &path).call())?;
+        Ok(())
     }
 
     pub fn submit(&self, spec: &JobSpec) -> Result<JobView> {

@@ -6,15 +6,17 @@
 //! to stderr, and returns `Ok(true)` when everything it waited for completed.
 
 mod bundle;
+mod control;
 mod http;
 mod options;
 mod progress;
 mod sse;
 mod table;
 
-pub use bundle::{referenced_files, resolve_scene, scene_upload};
+pub use bundle::{referenced_files, resolve_scene, resolve_scene_spp, scene_upload, ResolvedScene};
+pub use control::{job_action, reference_spec, upload_reference, JobAction};
 pub use http::Client;
-pub use options::{parse_grid, parse_params, JobOptions};
+pub use options::{parse_grid, parse_params, require_halt, JobOptions};
 pub use progress::{summary, watch};
 pub use sse::{SseMessage, SseReader, WatchEvent};
 pub use table::{jobs, sweep_text, JobsOptions};
@@ -84,8 +86,16 @@ pub struct SubmitOptions {
 /// `caustic submit`: prints the job id (or the job as JSON), then follows it with
 /// `watch`. Returns whether the job completed (always true without `watch`).
 pub fn submit(client: &Client, o: &SubmitOptions, out: &mut impl Write) -> Result<bool> {
-    let scene = resolve_scene(client, &o.scene, None)?;
-    let spec = o.job.spec(&scene)?;
+    let scene = resolve_scene_spp(client, &o.scene, None)?;
+    let mut spec = o.job.spec(&scene.id)?;
+    if let Some(r) = &o.job.reference {
+        spec.reference = Some(reference_spec(client, r)?);
+    }
+    if spec.halt == crate::job::HaltSpec::default() {
+        // As `caustic render` does: an XML scene's sampler says how many samples.
+        spec.halt.spp = scene.spp.map(u64::from);
+    }
+    require_halt(&spec)?;
     let job = client.submit(&spec)?;
     if o.json {
         if o.watch {
@@ -128,15 +138,22 @@ pub struct SweepOptions {
 }
 
 fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
+    // An XML scene's sample count, for a sweep that sets no halt.
+    let mut scene_spp = None;
     let mut spec = match &o.file {
         Some(path) => {
             let text = std::fs::read_to_string(path).map_err(|e| file_error(path, e))?;
-            let mut spec: SweepSpec =
-                serde_json::from_str(&text).map_err(|e| file_error(path, e))?;
+            let mut spec: SweepSpec = serde_json::from_str(&text).map_err(|e| {
+                file_error(
+                    path,
+                    crate::json_numbers::name_out_of_range(&e.to_string(), &text),
+                )
+            })?;
             if o.scene.is_none() {
                 // A scene file named by the sweep file is relative to the sweep file.
                 let dir = path.parent().unwrap_or(Path::new("."));
-                spec.base.scene = resolve_scene(client, &spec.base.scene, Some(dir))?;
+                let scene = resolve_scene_spp(client, &spec.base.scene, Some(dir))?;
+                (spec.base.scene, scene_spp) = (scene.id, scene.spp);
             }
             spec
         }
@@ -147,11 +164,21 @@ fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
         },
     };
     if let Some(scene) = &o.scene {
-        spec.base.scene = resolve_scene(client, scene, None)?;
+        let scene = resolve_scene_spp(client, scene, None)?;
+        (spec.base.scene, scene_spp) = (scene.id, scene.spp);
     }
     o.job.apply(&mut spec.base)?;
+    if let Some(r) = &o.job.reference {
+        spec.base.reference = Some(reference_spec(client, r)?);
+    }
     for (k, v) in parse_grid(&o.grid)? {
         spec.grid.insert(k, v);
+    }
+    if !spec.grid.keys().any(|k| k.starts_with("halt.")) {
+        if spec.base.halt == crate::job::HaltSpec::default() {
+            spec.base.halt.spp = scene_spp.map(u64::from);
+        }
+        require_halt(&spec.base)?;
     }
     if o.name.is_some() {
         spec.name = o.name.clone();

@@ -15,6 +15,9 @@ pub struct JobOptions {
     pub iterations: Option<u64>,
     pub target_rmse: Option<f64>,
     pub reference_job: Option<String>,
+    /// `--reference`: a local EXR, `job:ID`, `upload:ID` or an id (see
+    /// [`super::reference_spec`]); resolved by the command, which may upload.
+    pub reference: Option<String>,
     pub seed: Option<u64>,
     /// `KEY=VALUE`; values parse as JSON when they can, else as strings.
     pub params: Vec<String>,
@@ -25,9 +28,19 @@ pub struct JobOptions {
     pub tags: Vec<String>,
 }
 
-/// A command-line value: JSON when it parses (numbers, booleans, arrays), else a string.
-fn parse_value(v: &str) -> Value {
-    serde_json::from_str(v).unwrap_or_else(|_| Value::String(v.to_string()))
+/// A command-line value: JSON when it parses (numbers, booleans, arrays), else a
+/// string; a number too large for any field is refused, named as written.
+fn parse_value(v: &str) -> Result<Value> {
+    match serde_json::from_str(v) {
+        Ok(value) => Ok(value),
+        Err(e) if e.to_string().contains("number out of range") => {
+            let named = crate::json_numbers::name_out_of_range(&e.to_string(), v);
+            // A one-line value needs no position.
+            let named = named.rsplit_once(" at line ").map_or(&*named, |(m, _)| m);
+            Err(ClientError::Input(named.to_string()))
+        }
+        Err(_) => Ok(Value::String(v.to_string())),
+    }
 }
 
 /// `key=value` pairs into a parameter map.
@@ -39,7 +52,8 @@ pub fn parse_params(params: &[String]) -> Result<serde_json::Map<String, Value>>
                 "--param {p}: expected KEY=VALUE"
             )));
         };
-        m.insert(k.trim().to_string(), parse_value(v));
+        let value = parse_value(v).map_err(|e| ClientError::Input(format!("--param {p}: {e}")))?;
+        m.insert(k.trim().to_string(), value);
     }
     Ok(m)
 }
@@ -99,6 +113,20 @@ impl JobOptions {
     }
 }
 
+/// Refuses a job without a halting rule, naming the command-line flags that set one
+/// (the server's message names the API's fields).
+pub fn require_halt(spec: &JobSpec) -> Result<()> {
+    let h = &spec.halt;
+    if h.spp.is_none() && h.iterations.is_none() && h.time_s.is_none() && h.target_rmse.is_none() {
+        return Err(ClientError::Input(
+            "the job needs a halting rule: give --spp N, --iterations N, --time SECONDS, \
+             or --target-rmse X with --reference"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Short grid keys for the halting rule.
 fn grid_key(k: &str) -> String {
     match k {
@@ -130,7 +158,8 @@ pub fn parse_grid(items: &[String]) -> Result<BTreeMap<String, Vec<Value>>> {
                     if s.is_empty() {
                         Err(ClientError::Input(format!("--grid {item}: empty value")))
                     } else {
-                        Ok(parse_value(s))
+                        parse_value(s)
+                            .map_err(|e| ClientError::Input(format!("--grid {item}: {e}")))
                     }
                 })
                 .collect::<Result<Vec<_>>>()?,

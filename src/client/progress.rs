@@ -182,6 +182,8 @@ pub(super) fn watch_job(
 ) -> Result<bool> {
     let id = job.id.clone();
     let mut w = Watcher::new(&job, json);
+    // The last state the stream said (printed with --json).
+    let mut said = None;
     let mut failures = 0;
     let final_status = 'outer: loop {
         let mut stream = match client.events(&id) {
@@ -230,6 +232,7 @@ pub(super) fn watch_job(
                     snapshot(client, &id);
                 }
                 Ok(WatchEvent::State { state }) => {
+                    said = Some(state);
                     w.state = state;
                     w.refresh();
                 }
@@ -244,6 +247,12 @@ pub(super) fn watch_job(
         match client.job(&id) {
             Ok(j) if j.job.state.is_terminal() => {
                 if json {
+                    // The stream's own order: the final state (if not said yet), then done.
+                    let state = j.job.state;
+                    if said != Some(state) {
+                        let e = serde_json::json!({"event": "state", "job": id, "state": state});
+                        writeln!(out, "{e}")?;
+                    }
                     let done = serde_json::json!({"event": "done", "job": id, "status": j.job});
                     writeln!(out, "{done}")?;
                 }

@@ -20,6 +20,7 @@ use glam::Vec3 as Rgb;
 
 use super::atomic::write_atomic;
 use super::error::check_pixels;
+use super::sniff::not_exr;
 use super::{FilmError, Image, MAX_PIXELS};
 
 /// Lossless, scan lines, widely readable; ZIP keeps noisy float snapshots smaller
@@ -299,6 +300,13 @@ fn decode(
     path: &Path,
     prefix: &str,
 ) -> Result<Image, FilmError> {
+    let head = reader.fill_buf().map_err(|source| FilmError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if let Some(why) = not_exr(head) {
+        return Err(FilmError::Exr(format!("{}: {why}", path.display())));
+    }
     let exr = catching(path, || {
         let meta =
             MetaData::read_from_buffered(&mut reader, false).map_err(|e| exr_error(e, path))?;
@@ -515,5 +523,16 @@ mod tests {
         std::fs::write(&path, b"not an exr file at all").unwrap();
         let garbage = read_exr(&path).unwrap_err();
         assert!(garbage.to_string().contains("garbage.exr"), "{garbage}");
+        // A PNG where an EXR is expected says that it is a PNG.
+        let png = dir.path().join("image.exr");
+        crate::film::write_png(&png, &Image::new(2, 2), 0.0).unwrap();
+        let e = read_exr(&png).unwrap_err().to_string();
+        assert!(
+            e.contains("image.exr: a PNG image, not an OpenEXR file"),
+            "{e}"
+        );
+        let bytes = std::fs::read(&png).unwrap();
+        let e = decode_exr(&bytes).unwrap_err().to_string();
+        assert!(e.contains("a PNG image, not an OpenEXR file"), "{e}");
     }
 }

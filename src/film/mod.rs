@@ -13,6 +13,7 @@ mod hdr_io;
 mod image;
 mod metrics;
 mod png_io;
+mod sniff;
 
 pub use accum::{is_valid_sample, tiles, Film, Tile, TileBuffer};
 pub use atomic::write_bytes_atomic;
@@ -26,3 +27,4 @@ pub use hdr_io::{decode_hdr, read_hdr, read_image};
 pub use image::Image;
 pub use metrics::{compare, false_colour_diff, rel_mse, rmse, ErrorMetrics};
 pub use png_io::{encode_png, srgb_eotf, srgb_oetf, to_srgb8, write_png};
+pub use sniff::{not_exr, other_image_format};

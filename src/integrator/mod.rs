@@ -264,6 +264,13 @@ impl Settings {
         if !ALGORITHMS.contains(&alg) {
             return Err(SettingsError::UnknownAlgorithm(alg.to_string()));
         }
+        // Every parameter is an f32 or an integer: one beyond f32 would be infinity.
+        if let Some((path, n)) = crate::json_numbers::value_beyond_f32(overrides) {
+            return Err(SettingsError::Invalid(format!(
+                "params.{path}: number {n} is out of range (at most {})",
+                crate::json_numbers::f32_limit()
+            )));
+        }
         let mut obj = serde_json::Map::new();
         let mut shared = serde_json::Map::new();
         if let Some(serde_json::Value::Object(m)) = scene_default {
@@ -310,7 +317,7 @@ impl Settings {
         algorithm: &str,
     ) -> Result<serde_json::Map<String, serde_json::Value>, SettingsError> {
         let s = Settings::resolve(Some(algorithm), None, &serde_json::Map::new())?;
-        let mut v = match serde_json::to_value(&s) {
+        let mut v = match crate::json_numbers::to_value(&s) {
             Ok(serde_json::Value::Object(m)) => m,
             Ok(_) => serde_json::Map::new(),
             Err(e) => return Err(SettingsError::Invalid(e.to_string())),

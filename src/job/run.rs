@@ -398,7 +398,7 @@ fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), J
     film::write_png(dir.final_image("png"), &img, 0.0)?;
     status.state = JobState::Completed;
     status.finished_at = Some(unix_now());
-    status.eta_s = Some(0.0);
+    status.eta_s = None;
     status.workers = None;
     write_status(ctx, status)?;
     disk::tidy_finished(&dir, &status.spec);

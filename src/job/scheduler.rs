@@ -157,6 +157,15 @@ pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
                 Some(rt) => Held::Runtime(rt),
                 None => Held::Settings(e.settings.clone()),
             };
+            // A queued job is running from here on, and says so before its batch
+            // reports any progress: watchers see `state` before `progress`.
+            if e.status.state == JobState::Queued {
+                e.status.state = JobState::Running;
+                shared.ctx.emit(Event::State {
+                    job: id.clone(),
+                    state: JobState::Running,
+                });
+            }
             (id, held, e.status.clone())
         };
         let result = pool.install(|| run::step(&shared.ctx, held, status));
@@ -324,6 +333,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
             }
         }
         r.status.workers = None;
+        r.status.eta_s = None;
         r.status.state = if control == Control::Pause {
             JobState::Paused
         } else {
@@ -333,24 +343,29 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
         r.runtime = None;
         r.saved = run::write_status(&shared.ctx, &r.status).is_ok();
     }
-    let state = r.status.state;
-    let changed = state != e.status.state;
+    let changed = r.status.state != e.status.state;
     e.status = r.status;
     e.runtime = r.runtime;
     e.unsaved = !r.saved;
-    let status = e.status.clone();
+    if changed || e.status.state.is_terminal() {
+        // Under the lock: a client's next transition is said after this one.
+        announce(&shared.ctx, &e.status);
+    }
     drop(t);
     shared.stepped.notify_all();
-    if changed || state.is_terminal() {
-        shared.ctx.emit(Event::State {
-            job: id.to_string(),
-            state,
-        });
-    }
-    if state.is_terminal() {
-        shared.ctx.emit(Event::Done {
-            job: id.to_string(),
-            status: Box::new(status),
+}
+
+/// Tells watchers a job's new state, and `done` with its status if it has finished.
+/// Called with the job table locked, so that changes are said in the order made.
+pub(super) fn announce(ctx: &Context, status: &JobStatus) {
+    ctx.emit(Event::State {
+        job: status.id.clone(),
+        state: status.state,
+    });
+    if status.state.is_terminal() {
+        ctx.emit(Event::Done {
+            job: status.id.clone(),
+            status: Box::new(status.clone()),
         });
     }
 }

@@ -1,18 +1,20 @@
 //! Watching one job: the event stream that SSE and gRPC `WatchJob` both serve, with
 //! the one policy for a watcher that falls behind the broadcast channel.
 //!
-//! A [`Watch`] yields the job's current state first (or `done`, for a finished job),
+//! A [`Watch`] yields the job's current state first (then `done`, for a finished job),
 //! then its live events, and ends after `done`, or with [`Watched::Stopping`] when the
-//! server begins to stop. A watcher that lags (the channel dropped events it had not
-//! read) re-reads the job: a finished job yields `done`, so that the terminal event is
-//! never lost; a live one yields its state if that changed and a `progress` event from
-//! its current status.
+//! server begins to stop. A `state` event that repeats the last state yielded is
+//! dropped: watchers see changes only. A watcher that lags (the channel dropped events
+//! it had not read) re-reads the job: a finished job yields its state and `done`, so
+//! that the terminal event is never lost; a live one yields its state if that changed
+//! and a `progress` event from its current status.
 
 use super::events::Event;
 use super::scheduler::Shared;
 use super::spec::{JobState, JobStatus};
 use super::{JobError, Service};
 use futures::Stream;
+use std::collections::VecDeque;
 use std::sync::Arc;
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::{broadcast, watch};
@@ -35,8 +37,8 @@ pub struct Watch {
     shared: Arc<Shared>,
     events: broadcast::Receiver<Event>,
     closing: watch::Receiver<bool>,
-    /// What is yielded next, before anything from the channel.
-    pending: Option<Watched>,
+    /// What is yielded next, in order, before anything from the channel.
+    pending: VecDeque<Watched>,
     /// The last state yielded.
     state: JobState,
     ended: bool,
@@ -65,15 +67,13 @@ impl Watch {
         closing: watch::Receiver<bool>,
         status: JobStatus,
     ) -> Self {
-        let state = status.state;
-        let first = first_event(status);
         Watch {
-            id: first.job().to_string(),
+            id: status.id.clone(),
             shared,
             events,
             closing,
-            pending: Some(Watched::Event(first)),
-            state,
+            state: status.state,
+            pending: current(status).into_iter().map(Watched::Event).collect(),
             ended: false,
         }
     }
@@ -89,7 +89,7 @@ impl Watch {
         if self.ended {
             return None;
         }
-        let item = match self.pending.take() {
+        let item = match self.pending.pop_front() {
             Some(item) => item,
             None => self.receive().await,
         };
@@ -123,6 +123,8 @@ impl Watch {
                 e = self.events.recv() => e,
             };
             match next {
+                // Already said: the state read when the watch opened, or a repeat.
+                Ok(Event::State { state, .. }) if state == self.state => continue,
                 Ok(e) if e.job() == self.id => return Watched::Event(e),
                 Ok(_) => continue,
                 Err(RecvError::Lagged(missed)) => {
@@ -150,35 +152,40 @@ impl Watch {
             Ok(None) => return Watched::Lost(JobError::NotFound(format!("job {}", self.id))),
             Err(e) => return Watched::Lost(JobError::Internal(format!("watch task: {e}"))),
         };
-        let state = status.state;
-        let now = if state.is_terminal() {
-            first_event(status)
+        let changed = status.state != self.state;
+        let mut now = if status.state.is_terminal() {
+            current(status)
         } else {
-            progress(status)
+            vec![
+                Event::State {
+                    job: status.id.clone(),
+                    state: status.state,
+                },
+                progress(status),
+            ]
         };
-        if state == self.state || state.is_terminal() {
-            return Watched::Event(now);
+        if !changed {
+            now.remove(0);
         }
-        self.pending = Some(Watched::Event(now));
-        Watched::Event(Event::State {
-            job: self.id.clone(),
-            state,
-        })
+        self.pending.extend(now.into_iter().map(Watched::Event));
+        self.pending.pop_front().expect("an event after a lag")
     }
 }
 
-/// `done` for a finished job, else its state.
-fn first_event(status: JobStatus) -> Event {
+/// The job as it stands: its state, then `done` if it has finished.
+fn current(status: JobStatus) -> Vec<Event> {
+    let state = Event::State {
+        job: status.id.clone(),
+        state: status.state,
+    };
     if status.state.is_terminal() {
-        Event::Done {
+        let done = Event::Done {
             job: status.id.clone(),
             status: Box::new(status),
-        }
+        };
+        vec![state, done]
     } else {
-        Event::State {
-            job: status.id,
-            state: status.state,
-        }
+        vec![state]
     }
 }
 
@@ -261,7 +268,7 @@ mod tests {
     }
 
     #[tokio::test]
-    async fn a_finished_job_yields_done_only() {
+    async fn a_finished_job_yields_its_state_then_done() {
         let (_dir, svc) = service();
         let job = long_job(&svc);
         let (s, id) = (svc.clone(), job.id.clone());
@@ -273,9 +280,48 @@ mod tests {
         assert_eq!(w.state(), JobState::Cancelled);
         assert!(matches!(
             w.next().await,
+            Some(Watched::Event(Event::State {
+                state: JobState::Cancelled,
+                ..
+            }))
+        ));
+        assert!(matches!(
+            w.next().await,
             Some(Watched::Event(Event::Done { .. }))
         ));
         assert!(w.next().await.is_none());
+        svc.shutdown();
+    }
+
+    /// A job that starts while watched says `running` before its first `progress`,
+    /// and no state twice in a row.
+    #[tokio::test]
+    async fn a_starting_job_is_running_before_its_progress() {
+        let (_dir, svc) = service();
+        let job = long_job(&svc);
+        let call = |f: fn(&Service, &str) -> Result<JobStatus, JobError>| {
+            let (s, id) = (svc.clone(), job.id.clone());
+            tokio::task::spawn_blocking(move || f(&s, &id))
+        };
+        call(Service::pause).await.unwrap().unwrap();
+        let mut w = svc.watch(&job.id).unwrap();
+        call(Service::resume).await.unwrap().unwrap();
+        let mut states = Vec::new();
+        let first_progress = tokio::time::timeout(Duration::from_secs(60), async {
+            loop {
+                match w.next().await {
+                    Some(Watched::Event(Event::State { state, .. })) => states.push(state),
+                    Some(Watched::Event(Event::Progress { .. })) => return,
+                    other => panic!("unexpected {other:?} after {states:?}"),
+                }
+            }
+        })
+        .await;
+        assert!(first_progress.is_ok(), "no progress after {states:?}");
+        assert_eq!(
+            states,
+            [JobState::Paused, JobState::Queued, JobState::Running]
+        );
         svc.shutdown();
     }
 

@@ -10,13 +10,26 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Component, Path, PathBuf};
 
 /// Parses scene JSON; serde errors carry the JSON path of the field.
+/// A number is reported as written when it does not fit its field (every number of
+/// a scene is an `f32` or an integer).
 pub fn parse_scene(text: &str) -> Result<SceneFile> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
+    let file = serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { String::new() } else { path };
-        SceneError::new(path, e.inner().to_string())
-    })
+        let message = crate::json_numbers::name_out_of_range(&e.inner().to_string(), text);
+        SceneError::new(path, message)
+    })?;
+    if let Some((path, number)) = crate::json_numbers::beyond_f32(text) {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "number {number} is out of range (at most {})",
+                crate::json_numbers::f32_limit()
+            ),
+        ));
+    }
+    Ok(file)
 }
 
 /// Reads and parses a scene file: JSON, or Mitsuba 3 XML (by its `.xml` name or its

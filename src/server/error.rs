@@ -25,7 +25,29 @@ impl ApiError {
     pub fn bad_request(message: impl Into<String>) -> Self {
         ApiError::new(StatusCode::BAD_REQUEST, "bad_request", message)
     }
+
+    /// The code of an error that only has a status (axum's rejections and answers):
+    /// each status its own, so that a client can tell a 422 from a 400 by the code.
+    pub fn code_of(status: StatusCode) -> &'static str {
+        match status {
+            StatusCode::UNAUTHORIZED => "unauthorized",
+            StatusCode::NOT_FOUND => "not_found",
+            StatusCode::METHOD_NOT_ALLOWED => "method_not_allowed",
+            StatusCode::REQUEST_TIMEOUT => "timeout",
+            StatusCode::CONFLICT => "conflict",
+            StatusCode::PAYLOAD_TOO_LARGE => "too_large",
+            StatusCode::UNSUPPORTED_MEDIA_TYPE => "unsupported_media_type",
+            StatusCode::UNPROCESSABLE_ENTITY => INVALID_BODY,
+            s if s.is_server_error() => "internal",
+            _ => "bad_request",
+        }
+    }
 }
+
+/// The code of a 422 for a body that is JSON of the wrong shape (a wrong type, an
+/// unknown field, a number that does not fit); a scene that does not validate is
+/// `invalid_scene`.
+pub const INVALID_BODY: &str = "invalid_body";
 
 impl From<JobError> for ApiError {
     fn from(e: JobError) -> Self {

@@ -4,6 +4,7 @@
 mod metrics;
 mod outputs;
 mod recover;
+mod retry;
 
 use super::context::{Context, Metrics};
 use super::disk::{self, Retention};
@@ -14,7 +15,7 @@ use super::run;
 use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
-use super::store::{Checkpoint, JobDir};
+use super::store::JobDir;
 use super::sweep::{Sweep, SweepSpec};
 use super::JobError;
 use crate::integrator::Settings;
@@ -262,6 +263,9 @@ impl Service {
                 "reference exceeds the upload size limit".into(),
             ));
         }
+        if let Some(why) = crate::film::not_exr(bytes) {
+            return Err(bad(format!("reference: the upload is {why}")));
+        }
         crate::film::decode_exr(bytes).map_err(|e| bad(format!("reference: {}", e)))?;
         use sha2::Digest;
         let id: String = sha2::Sha256::digest(bytes)[..8]
@@ -324,14 +328,15 @@ impl Service {
             t.jobs
                 .insert(status.id.clone(), Entry::new(status, Ok(settings), tick));
         }
-        drop(t);
-        self.shared.wake.notify_all();
+        // Said before the scheduler can start them, so `queued` comes before `running`.
         for id in ids {
             self.shared.ctx.emit(Event::State {
                 job: id,
                 state: JobState::Queued,
             });
         }
+        drop(t);
+        self.shared.wake.notify_all();
     }
 
     /// A validated job, with the settings it runs with: typed for the scheduler, and
@@ -364,7 +369,7 @@ impl Service {
         super::memory::check(&settings, &scene, &spec, self.config.max_job)?;
         let status = JobStatus {
             id: self.new_id(),
-            settings: serde_json::to_value(&settings).expect("settings serialise"),
+            settings: crate::json_numbers::to_value(&settings).expect("settings serialise"),
             state: JobState::Queued,
             iteration: 0,
             elapsed_s: 0.0,
@@ -441,6 +446,7 @@ impl Service {
             }
             let mut status = e.status.clone();
             status.workers = None;
+            status.eta_s = None;
             status.state = if c == Control::Pause {
                 JobState::Paused
             } else {
@@ -520,19 +526,11 @@ impl Service {
         if !matches!(status.state, JobState::Queued | JobState::Running) {
             e.runtime = None;
         }
+        // Under the lock: no other change of the job can be said before this one.
+        scheduler::announce(&self.shared.ctx, &status);
         drop(t);
         if status.state == JobState::Queued {
             self.shared.wake.notify_all();
-        }
-        self.shared.ctx.emit(Event::State {
-            job: id.clone(),
-            state: status.state,
-        });
-        if status.state.is_terminal() {
-            self.shared.ctx.emit(Event::Done {
-                job: id,
-                status: Box::new(status.clone()),
-            });
         }
         Ok(status)
     }
@@ -563,30 +561,6 @@ impl Service {
         }
         let mut status = e.status.clone();
         status.state = JobState::Queued;
-        self.commit(t, status)
-    }
-
-    /// Queues a failed or cancelled job again: it resumes from its checkpoint (or
-    /// starts over without one, to the same image).
-    pub fn retry(&self, id: &str) -> Result<JobStatus, JobError> {
-        let t = self.shared.table.lock().expect("job table");
-        let e = t
-            .jobs
-            .get(id)
-            .ok_or_else(|| JobError::NotFound(format!("job {id}")))?;
-        if !matches!(e.status.state, JobState::Failed | JobState::Cancelled) {
-            return Err(JobError::Conflict(format!(
-                "job {id} is {}: only failed or cancelled jobs are retried",
-                e.status.state.as_str()
-            )));
-        }
-        let mut status = e.status.clone();
-        status.state = JobState::Queued;
-        status.error = None;
-        status.finished_at = None;
-        let dir = self.job_dir_of(id);
-        let at = Checkpoint::read_header(&dir).map_or(0, |h| h.iteration);
-        status.iteration = at;
         self.commit(t, status)
     }
 

@@ -132,8 +132,10 @@ pub(super) fn spec_from_pb(s: pb::JobSpec) -> Result<JobSpec, JobError> {
     let params = if s.params_json.trim().is_empty() {
         serde_json::Map::new()
     } else {
-        serde_json::from_str(&s.params_json)
-            .map_err(|e| bad(format!("params_json must be a JSON object: {e}")))?
+        serde_json::from_str(&s.params_json).map_err(|e| {
+            let e = crate::json_numbers::name_out_of_range(&e.to_string(), &s.params_json);
+            bad(format!("params_json must be a JSON object: {e}"))
+        })?
     };
     Ok(JobSpec {
         scene: s.scene,
@@ -197,7 +199,10 @@ pub(super) fn sweep_to_pb(s: Sweep) -> pb::Sweep {
 
 pub(super) fn sweep_spec_from_json(text: &str) -> Result<SweepSpec, JobError> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(de).map_err(|e| bad(format!("spec_json: {e}")))
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let e = crate::json_numbers::name_out_of_range(&e.to_string(), text);
+        bad(format!("spec_json: {e}"))
+    })
 }
 
 fn event(e: pb::job_event::Event) -> pb::JobEvent {

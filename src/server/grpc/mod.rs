@@ -14,8 +14,7 @@ pub use oversize::OversizeExhausted;
 use crate::job::service::JobFilter;
 use crate::job::{JobError, Service};
 use convert::{
-    job_to_pb, scene_to_pb, spec_from_pb, state_event, state_from_pb, sweep_spec_from_json,
-    sweep_to_pb,
+    job_to_pb, scene_to_pb, spec_from_pb, state_from_pb, sweep_spec_from_json, sweep_to_pb,
 };
 use std::pin::Pin;
 use std::sync::Arc;
@@ -246,9 +245,6 @@ impl Caustic for Grpc {
         let job_id = id.clone();
         let watch = self.call(move |s| s.watch(&job_id)).await?;
         let (tx, rx) = mpsc::channel(16);
-        // The state first, for a finished job too (its `done` follows). The channel is
-        // new and has room: this send cannot fail or wait.
-        let _ = tx.try_send(Ok(state_event(watch.state())));
         tokio::spawn(forward(self.svc.clone(), id, include_snapshots, watch, tx));
         Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
     }

@@ -1,6 +1,6 @@
 //! WatchJob: forwarding a service watch to a gRPC stream.
 
-use super::convert::{event_to_pb, state_event};
+use super::convert::event_to_pb;
 use super::{pb, to_status};
 use crate::job::events::Event;
 use crate::job::watch::{Watch, Watched};
@@ -11,9 +11,8 @@ use tonic::Status;
 
 type EventSender = mpsc::Sender<Result<pb::JobEvent, Status>>;
 
-/// Forwards a watch ([`crate::job::watch`]) until its last item or the client
-/// leaving. The job's state was sent already; state events that repeat the last state
-/// sent are dropped: watchers see changes only.
+/// Forwards a watch ([`crate::job::watch`]: the job's state first, then changes)
+/// until its last item or the client leaving.
 pub(super) async fn forward(
     svc: Arc<Service>,
     id: String,
@@ -21,7 +20,6 @@ pub(super) async fn forward(
     mut watch: Watch,
     tx: EventSender,
 ) {
-    let mut sent = watch.state();
     loop {
         let item = tokio::select! {
             w = watch.next() => w,
@@ -29,11 +27,6 @@ pub(super) async fn forward(
         };
         let msg = match item {
             None => return,
-            Some(Watched::Event(Event::State { state, .. })) if state == sent => continue,
-            Some(Watched::Event(Event::State { state, .. })) => {
-                sent = state;
-                Ok(state_event(state))
-            }
             Some(Watched::Event(e @ Event::Snapshot { iteration, .. })) if include_snapshots => {
                 let mut msg = event_to_pb(e);
                 if let Some(pb::job_event::Event::Snapshot(s)) = &mut msg.event {
