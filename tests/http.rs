@@ -113,7 +113,13 @@ fn bundle_files_the_scene_does_not_name_are_not_stored() {
         ])
     );
     // What a worker fetches by id: the stored files, and they render.
-    let store = caustic::job::scenes::SceneStore::new(s.dir.path(), 1 << 20).unwrap();
+    let pool = std::sync::Arc::new(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap(),
+    );
+    let store = caustic::job::scenes::SceneStore::new(s.dir.path(), 1 << 20, pool).unwrap();
     let tar = store.bundle(id).unwrap().expect("an uploaded scene");
     let mut entries: Vec<String> = tar::Archive::new(tar.as_slice())
         .entries()
