@@ -783,6 +783,8 @@ fn the_command_line_imports_and_renders_xml() {
             .contains("bad.xml:2:3: <emitter type=\"sky\">: unknown or unsupported emitter plugin"),
         "{stderr}"
     );
+    // The file is named once, by the importer.
+    assert_eq!(stderr.matches("bad.xml").count(), 1, "{stderr}");
 }
 
 #[test]

@@ -11,7 +11,11 @@ use std::path::Path;
 
 /// Imports an XML scene and prints its warnings (and its sample count) to stderr.
 pub fn import_xml(path: &Path) -> Result<Import> {
-    let import = mitsuba::import_file(path).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    // The importer's errors name their file (and line) already.
+    let import = mitsuba::import_file(path).map_err(|e| match e.path.is_empty() {
+        true => anyhow!("{}: {e}", path.display()),
+        false => anyhow!("{e}"),
+    })?;
     for w in &import.warnings {
         eprintln!("warning: {w}");
     }

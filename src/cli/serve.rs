@@ -39,6 +39,10 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         svc.announce(&format!("REST {url}, gRPC {grpc_addr}"));
         eprintln!("caustic serving REST on {url} and gRPC on {grpc_addr}");
         eprintln!("data directory: {}", a.data_dir.display());
+        eprintln!(
+            "memory per job: at most {} MiB (--max-job-mib)",
+            svc.config().max_job >> 20
+        );
         eprintln!("{}", try_hint(&url, a.token.is_some()));
         let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
         let stopped = move || {
