@@ -115,13 +115,19 @@ fn render_peak(scene: &Scene, s: &Settings, iterations: u64) -> u64 {
 
 /// The Cornell box at `size` x `size`.
 fn cornell(size: u32) -> Scene {
+    cornell_with(size, json!("box"))
+}
+
+/// The Cornell box at `size` x `size` with pixel filter `filter` (a wider one adds
+/// summed weights, splat images and tile borders).
+fn cornell_with(size: u32, filter: Value) -> Scene {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/cornell-box.json"
     ))
     .unwrap();
     let mut v: Value = serde_json::from_str(&text).unwrap();
-    v["film"] = json!({"width": size, "height": size});
+    v["film"] = json!({"width": size, "height": size, "filter": filter});
     common::compile(v)
 }
 
@@ -153,6 +159,7 @@ fn every_algorithm_estimates_what_its_render_allocates() {
     let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let plain = cornell(64);
     let fog = shipped_media("fog-cornell", 64, 64);
+    let filtered = cornell_with(64, json!("lanczos"));
     // The thread pool's own allocations are not the job's: made before measuring.
     render_peak(&plain, &settings("pt", json!({})), 1);
     let cases: Vec<(&Scene, &str, Value)> = vec![
@@ -174,6 +181,13 @@ fn every_algorithm_estimates_what_its_render_allocates() {
             &plain,
             "vpl",
             json!({"light_paths": {"count": 65536}, "max_vertex_mib": 2}),
+        ),
+        (&filtered, "pt", json!({})),
+        (&filtered, "lt", json!({"light_paths": 1})),
+        (
+            &filtered,
+            "vcm",
+            json!({"light_paths": 1, "strategy_images": 3}),
         ),
         (&fog, "volpath", json!({})),
         (&fog, "vcm", json!({"light_paths": 4})),

@@ -22,12 +22,18 @@ pub const FRAC_BITS: i32 = 64;
 /// Largest magnitude one iteration may add to one pixel channel.
 pub const LIMIT: f64 = 4.611_686_018_427_388e18; // 2^62
 
-/// Exact per-pixel sums of whole iterations, with the layers they carry.
+/// Exact per-pixel sums of whole iterations, with the layers they carry, and a
+/// filtered film's summed weights and splats (see [`Film`]): every part of a film
+/// that the image is made from, so that the image is the same wherever its
+/// iterations ran.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ExactSums {
     width: u32,
     height: u32,
     sums: Vec<[i128; 3]>,
+    /// Empty unless a filtered film was added (as the film's).
+    weights: Vec<[i128; 1]>,
+    splats: Vec<[i128; 3]>,
     dropped: u64,
     layers: Vec<ExactLayer>,
 }
@@ -37,6 +43,7 @@ struct ExactLayer {
     name: String,
     iterations: u64,
     sums: Vec<[i128; 3]>,
+    splats: Vec<[i128; 3]>,
 }
 
 /// Why bytes are not an [`ExactSums`].
@@ -48,7 +55,10 @@ pub enum ExactError {
     Size(u32, u32, u32, u32),
 }
 
-const MAGIC: &[u8; 8] = b"CAUSTEX1";
+/// Version 1 held the sums and layers only (pixel-box films), version 2 adds the
+/// weights and splats; both are read.
+const MAGIC: &[u8; 8] = b"CAUSTEX2";
+const MAGIC_V1: &[u8; 8] = b"CAUSTEX1";
 
 impl ExactSums {
     pub fn new(width: u32, height: u32) -> Self {
@@ -56,6 +66,8 @@ impl ExactSums {
             width,
             height,
             sums: vec![[0; 3]; pixel_count(width, height)],
+            weights: Vec::new(),
+            splats: Vec::new(),
             dropped: 0,
             layers: Vec::new(),
         }
@@ -65,6 +77,12 @@ impl ExactSums {
     pub fn bytes_for(width: u32, height: u32, layers: usize) -> u64 {
         let per_image = pixel_count(width, height) * std::mem::size_of::<[i128; 3]>();
         (per_image * (1 + layers)) as u64
+    }
+
+    /// Bytes a filter wider than the pixel box adds to [`ExactSums::bytes_for`]
+    /// (twice [`Film::filter_bytes_for`]: i128 for f64).
+    pub fn filter_bytes_for(width: u32, height: u32, layers: usize, splats: bool) -> u64 {
+        2 * Film::filter_bytes_for(width, height, layers, splats)
     }
 
     pub fn size(&self) -> (u32, u32) {
@@ -82,10 +100,20 @@ impl ExactSums {
         self.check_size(film.width(), film.height())?;
         self.dropped += film.dropped();
         self.dropped += add_rounded(&mut self.sums, film.sums());
-        for (name, iterations, sums) in film.layer_sums() {
-            let k = self.layer(name);
-            self.layers[k].iterations += iterations;
-            self.dropped += add_rounded(&mut self.layers[k].sums, sums);
+        if let Some(w) = film.weights() {
+            self.dropped += add_rounded(&mut self.weights, w.as_chunks::<1>().0);
+        }
+        if let Some(s) = film.splats() {
+            self.dropped += add_rounded(&mut self.splats, s);
+        }
+        for l in film.layers() {
+            let k = self.layer(&l.name);
+            let mine = &mut self.layers[k];
+            mine.iterations += l.iterations;
+            self.dropped += add_rounded(&mut mine.sums, l.sums());
+            if let Some(s) = l.splats() {
+                self.dropped += add_rounded(&mut mine.splats, s);
+            }
         }
         Ok(())
     }
@@ -96,10 +124,14 @@ impl ExactSums {
         self.check_size(other.width, other.height)?;
         self.dropped += other.dropped;
         add_exact(&mut self.sums, &other.sums);
+        add_exact(&mut self.weights, &other.weights);
+        add_exact(&mut self.splats, &other.splats);
         for l in &other.layers {
             let k = self.layer(&l.name);
-            self.layers[k].iterations += l.iterations;
-            add_exact(&mut self.layers[k].sums, &l.sums);
+            let mine = &mut self.layers[k];
+            mine.iterations += l.iterations;
+            add_exact(&mut mine.sums, &l.sums);
+            add_exact(&mut mine.splats, &l.splats);
         }
         Ok(())
     }
@@ -107,37 +139,58 @@ impl ExactSums {
     /// The sums as a film (rounded to f64 once, here), layers included.
     pub fn to_film(&self) -> Film {
         let mut film = Film::from_parts(self.width, self.height, to_f64(&self.sums), self.dropped);
+        let weights = to_f64(&self.weights).into_iter().map(|[w]| w).collect();
+        film.set_filtered(weights, to_f64(&self.splats));
         for l in &self.layers {
-            film.push_layer(&l.name, l.iterations, to_f64(&l.sums));
+            film.push_layer(&l.name, l.iterations, to_f64(&l.sums), to_f64(&l.splats));
         }
         film
     }
 
     /// Little-endian bytes: magic, size, dropped, sums, then each layer's name,
-    /// iteration count and sums.
+    /// iteration count and sums (version 1). Sums with filter weights or splats
+    /// anywhere are written as version 2, where the sums are followed by the weights
+    /// and the splats and each layer's sums by its splats, each of these a flag byte
+    /// (0 absent, 1 present) and then the values.
     pub fn encode(&self) -> Vec<u8> {
+        let v2 = self.is_filtered();
         let mut out = Vec::with_capacity(32 + 48 * self.sums.len() * (1 + self.layers.len()));
-        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(if v2 { MAGIC } else { MAGIC_V1 });
         out.extend_from_slice(&self.width.to_le_bytes());
         out.extend_from_slice(&self.height.to_le_bytes());
         out.extend_from_slice(&self.dropped.to_le_bytes());
         out.extend_from_slice(&(self.layers.len() as u32).to_le_bytes());
         put_sums(&mut out, &self.sums);
+        if v2 {
+            put_optional(&mut out, &self.weights);
+            put_optional(&mut out, &self.splats);
+        }
         for l in &self.layers {
             out.extend_from_slice(&(l.name.len() as u32).to_le_bytes());
             out.extend_from_slice(l.name.as_bytes());
             out.extend_from_slice(&l.iterations.to_le_bytes());
             put_sums(&mut out, &l.sums);
+            if v2 {
+                put_optional(&mut out, &l.splats);
+            }
         }
         out
+    }
+
+    fn is_filtered(&self) -> bool {
+        !self.weights.is_empty()
+            || !self.splats.is_empty()
+            || self.layers.iter().any(|l| !l.splats.is_empty())
     }
 
     /// Reads what [`ExactSums::encode`] wrote; any truncation or excess is an error.
     pub fn decode(bytes: &[u8]) -> Result<ExactSums, ExactError> {
         let mut r = Reader(bytes);
-        if r.take(8)? != MAGIC {
-            return Err(ExactError::Malformed("not exact sums (magic)"));
-        }
+        let v2 = match r.take(8)? {
+            m if m == MAGIC => true,
+            m if m == MAGIC_V1 => false,
+            _ => return Err(ExactError::Malformed("not exact sums (magic)")),
+        };
         let (width, height) = (r.u32()?, r.u32()?);
         let n = (width as usize)
             .checked_mul(height as usize)
@@ -146,6 +199,10 @@ impl ExactSums {
         let dropped = r.u64()?;
         let count = r.u32()?;
         let sums = r.sums(n)?;
+        let (weights, splats) = match v2 {
+            true => (r.optional(n)?, r.optional(n)?),
+            false => (Vec::new(), Vec::new()),
+        };
         let mut layers = Vec::new();
         for _ in 0..count {
             let len = r.u32()? as usize;
@@ -154,10 +211,12 @@ impl ExactSums {
                 .to_string();
             let iterations = r.u64()?;
             let sums = r.sums(n)?;
+            let splats = if v2 { r.optional(n)? } else { Vec::new() };
             layers.push(ExactLayer {
                 name,
                 iterations,
                 sums,
+                splats,
             });
         }
         if !r.0.is_empty() {
@@ -167,6 +226,8 @@ impl ExactSums {
             width,
             height,
             sums,
+            weights,
+            splats,
             dropped,
             layers,
         })
@@ -188,6 +249,7 @@ impl ExactSums {
             name: name.to_string(),
             iterations: 0,
             sums: vec![[0; 3]; self.sums.len()],
+            splats: Vec::new(),
         });
         self.layers.len() - 1
     }
@@ -226,16 +288,19 @@ fn to_fixed(x: f64) -> Option<i128> {
 /// Pixels per parallel task when rounding a film in.
 const CHUNK: usize = 1 << 14;
 
-/// Adds rounded values, returning how many were out of range (those pixels' channels
-/// are left as they were).
-fn add_rounded(sums: &mut [[i128; 3]], values: &[[f64; 3]]) -> u64 {
+/// Adds rounded values (an empty `sums` first becomes zeros of their size), returning
+/// how many were out of range (those pixels' channels are left as they were).
+fn add_rounded<const N: usize>(sums: &mut Vec<[i128; N]>, values: &[[f64; N]]) -> u64 {
     use rayon::prelude::*;
+    if sums.is_empty() {
+        *sums = vec![[0; N]; values.len()];
+    }
     sums.par_chunks_mut(CHUNK)
         .zip(values.par_chunks(CHUNK))
         .map(|(sums, values)| {
             let mut out = 0;
             for (s, v) in sums.iter_mut().zip(values) {
-                for c in 0..3 {
+                for c in 0..N {
                     match to_fixed(v[c]) {
                         Some(q) => s[c] += q,
                         None => out += 1,
@@ -247,27 +312,38 @@ fn add_rounded(sums: &mut [[i128; 3]], values: &[[f64; 3]]) -> u64 {
         .sum()
 }
 
-fn add_exact(sums: &mut [[i128; 3]], other: &[[i128; 3]]) {
+/// Adds `other` (nothing if it is empty; an empty `sums` takes it as it is).
+fn add_exact<const N: usize>(sums: &mut Vec<[i128; N]>, other: &[[i128; N]]) {
+    if sums.is_empty() {
+        sums.extend_from_slice(other);
+        return;
+    }
     for (s, o) in sums.iter_mut().zip(other) {
-        for c in 0..3 {
+        for c in 0..N {
             s[c] += o[c];
         }
     }
 }
 
-fn to_f64(sums: &[[i128; 3]]) -> Vec<[f64; 3]> {
+fn to_f64<const N: usize>(sums: &[[i128; N]]) -> Vec<[f64; N]> {
     let unit = 2f64.powi(-FRAC_BITS);
     sums.iter()
-        .map(|s| [s[0] as f64 * unit, s[1] as f64 * unit, s[2] as f64 * unit])
+        .map(|s| s.map(|c| c as f64 * unit))
         .collect()
 }
 
-fn put_sums(out: &mut Vec<u8>, sums: &[[i128; 3]]) {
+fn put_sums<const N: usize>(out: &mut Vec<u8>, sums: &[[i128; N]]) {
     for s in sums {
         for c in s {
             out.extend_from_slice(&c.to_le_bytes());
         }
     }
+}
+
+/// A flag byte, then the values if there are any.
+fn put_optional<const N: usize>(out: &mut Vec<u8>, sums: &[[i128; N]]) {
+    out.push(!sums.is_empty() as u8);
+    put_sums(out, sums);
 }
 
 struct Reader<'a>(&'a [u8]);
@@ -290,18 +366,24 @@ impl<'a> Reader<'a> {
         Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
     }
 
-    fn sums(&mut self, n: usize) -> Result<Vec<[i128; 3]>, ExactError> {
+    fn sums<const N: usize>(&mut self, n: usize) -> Result<Vec<[i128; N]>, ExactError> {
         let bytes = self.take(
-            n.checked_mul(48)
+            n.checked_mul(16 * N)
                 .ok_or(ExactError::Malformed("too large"))?,
         )?;
         Ok(bytes
-            .chunks_exact(48)
-            .map(|c| {
-                let v = |k: usize| i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap());
-                [v(0), v(1), v(2)]
-            })
+            .chunks_exact(16 * N)
+            .map(|c| std::array::from_fn(|k| i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap())))
             .collect())
+    }
+
+    /// What [`put_optional`] wrote.
+    fn optional<const N: usize>(&mut self, n: usize) -> Result<Vec<[i128; N]>, ExactError> {
+        match self.take(1)?[0] {
+            0 => Ok(Vec::new()),
+            1 => self.sums(n),
+            _ => Err(ExactError::Malformed("bad flag")),
+        }
     }
 }
 
@@ -442,6 +524,84 @@ mod tests {
         let mut huge = bytes.clone();
         huge[8..16].copy_from_slice(&[0xff; 8]);
         assert!(ExactSums::decode(&huge).is_err());
+    }
+
+    /// A filtered film of one "iteration": camera samples spread by a Gaussian (with
+    /// summed weights), splats, and a layer with both.
+    fn filtered_iteration(seed: u64) -> Film {
+        use crate::film::{Filter, PixelFilter, TileBuffer};
+        use glam::Vec2;
+        let filter = PixelFilter::new(Filter::Gaussian { stddev: 0.5 });
+        let mut film = iteration(seed, false);
+        film.clear();
+        let k = film.begin_layer("s2_t1");
+        let mut s = seed | 1;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for t in crate::film::tiles(5, 4, 2) {
+            let mut buf = TileBuffer::for_filter(t, &filter, 5, 4);
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    let p = Vec2::new(x as f32 + next(), y as f32 + next());
+                    let v = Rgb::new(next(), next() * 1e-3, next() * 1e3);
+                    buf.add_sample(&filter, (x, y, p), v);
+                    film.add_layer_sample(&filter, k, (x, y, p), v * 0.5);
+                }
+            }
+            film.add_tile_buffer(&buf);
+        }
+        for _ in 0..30 {
+            let p = Vec2::new(next() * 5.0, next() * 4.0);
+            film.add_splat(&filter, p, Rgb::splat(next()), Some(k));
+        }
+        film
+    }
+
+    #[test]
+    fn filter_weights_and_splats_sum_exactly_and_round_trip() {
+        let films: Vec<Film> = (1..=9).map(filtered_iteration).collect();
+        let mut sequential = ExactSums::new(5, 4);
+        for f in &films {
+            sequential.add_film(f).unwrap();
+        }
+        let mut merged = ExactSums::new(5, 4);
+        for range in [6..9, 0..2, 2..6] {
+            let mut part = ExactSums::new(5, 4);
+            for f in &films[range] {
+                part.add_film(f).unwrap();
+            }
+            merged.merge(&part).unwrap();
+        }
+        assert_eq!(merged, sequential);
+        assert!(!sequential.weights.is_empty() && !sequential.splats.is_empty());
+        assert!(!sequential.layers[0].splats.is_empty());
+        // Its film develops as the f64 sums of the same films do, to rounding.
+        let mut plain = films[0].clone();
+        for f in &films[1..] {
+            plain.merge(f);
+        }
+        let (a, b) = (sequential.to_film().to_image(1.0 / 9.0), plain.to_image(1.0 / 9.0));
+        assert!((a.mean() - b.mean()).abs().max_element() < 1e-6 * b.mean().max_element());
+        let bytes = sequential.encode();
+        assert_eq!(&bytes[..8], MAGIC);
+        assert_eq!(ExactSums::decode(&bytes).unwrap(), sequential);
+        for cut in [20, 40 + 48 * 20, bytes.len() - 1] {
+            assert!(ExactSums::decode(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+        // Magic, width, height, dropped and the layer count take 28 bytes.
+        let mut flag = bytes.clone();
+        assert_eq!(flag[28 + 48 * 20], 1, "the weights' flag");
+        flag[28 + 48 * 20] = 2;
+        assert!(ExactSums::decode(&flag).is_err(), "a weights flag of 2");
+    }
+
+    #[test]
+    fn pixel_box_sums_are_written_as_version_1() {
+        let mut exact = ExactSums::new(5, 4);
+        exact.add_film(&iteration(3, true)).unwrap();
+        assert_eq!(&exact.encode()[..8], MAGIC_V1);
     }
 
     #[test]

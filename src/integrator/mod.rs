@@ -22,6 +22,7 @@ pub mod vrl;
 
 use crate::film::Film;
 use crate::scene::Scene;
+use bidir::Technique;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -394,13 +395,35 @@ impl Settings {
         let layers = self.layers();
         let chained = matches!(self, Settings::Ppm(_) | Settings::Sppm(_));
         let sums = crate::film::ExactSums::bytes_for(w, h, layers) * (1 + chained as u64);
-        let film = crate::film::Film::bytes_for(w, h, layers) + sums;
+        let film = crate::film::Film::bytes_for(w, h, layers) + sums + self.filter_bytes(scene);
         let what = match layers {
             0 => f.film(),
             n => format!("{} with {n} layers", f.film()),
         };
         e.add("film", what, film as f64);
         e
+    }
+
+    /// What a filter wider than the pixel box adds to the film and the exact sums
+    /// (weights, and splat images for the algorithms that splat); nothing for the
+    /// photon mappers, whose per-pixel statistics take the pixel box whatever the
+    /// scene's filter.
+    pub fn filter_bytes(&self, scene: &Scene) -> u64 {
+        let splats = match self {
+            Settings::Lt(_) => Technique::Lt.splats(),
+            Settings::Bpt(_) => Technique::Bpt.splats(),
+            Settings::Bpm(_) => Technique::Bpm.splats(),
+            Settings::Vcm(_) => Technique::Vcm.splats(),
+            Settings::Upbp(s) => s.technique_of("upbp").splats(),
+            Settings::Ppm(_) | Settings::Sppm(_) => return 0,
+            _ => false,
+        };
+        let (w, h, layers) = (scene.width(), scene.height(), self.layers());
+        if scene.filter.is_pixel_box() {
+            return 0;
+        }
+        crate::film::Film::filter_bytes_for(w, h, layers, splats)
+            + crate::film::ExactSums::filter_bytes_for(w, h, layers, splats)
     }
 
     /// The extra images (layers) a job with these settings writes.

@@ -15,8 +15,16 @@ pub const TILE: u32 = 16;
 
 /// Adds what [`render_pixels`] and [`render_paths`] hold to a memory estimate: every
 /// tile's buffer, until the tiles are added to the film in their fixed order.
+/// With a filter wider than the pixel box each buffer also holds the weights and a
+/// border.
 pub fn tile_memory(e: &mut Estimate, facts: &Facts) {
-    let bytes = facts.pixels() * TileBuffer::PIXEL_BYTES as f64;
+    let (scene, filter) = (facts.scene, &facts.scene.filter);
+    let bytes = if filter.is_pixel_box() {
+        facts.pixels() * TileBuffer::PIXEL_BYTES as f64
+    } else {
+        let count = scene.width().div_ceil(TILE) as f64 * scene.height().div_ceil(TILE) as f64;
+        count * TileBuffer::bytes_for(TILE, filter) as f64
+    };
     e.add("camera pass", facts.film(), bytes);
 }
 /// Camera paths in flight per thread in [`render_paths`]. Three and four measured
@@ -55,7 +63,7 @@ where
     let buffers: Vec<TileBuffer> = tiles(w, h, TILE)
         .into_par_iter()
         .map(|tile| {
-            let mut buf = TileBuffer::new(tile);
+            let mut buf = TileBuffer::for_filter(tile, &scene.filter, w, h);
             // A closure, not `&body`: the call through a reference is a function of
             // its own, compiled for baseline x86 outside the AVX2 copy.
             let stats = render_tile(
@@ -117,14 +125,25 @@ where
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let index = y as u64 * w + x as u64;
-            let (ray, mut rng) = camera_sample(scene, seed, iteration, index, x, y, &mut stats);
-            buf.add(x, y, radiance(ray, &mut rng, &mut stats));
+            let (ray, mut rng, p) = camera_sample(scene, seed, iteration, index, x, y, &mut stats);
+            let v = radiance(ray, &mut rng, &mut stats);
+            buf.add_sample(&scene.filter, (x, y, p), v);
         }
     }
     stats
 }
 
-/// Pixel (x, y)'s jittered camera ray and the RNG stream that continues its path.
+/// Pixel (x, y)'s camera sample: its position on the film, uniform in the pixel, and
+/// the RNG stream that continues its path.
+#[inline(always)]
+pub fn film_sample(seed: u64, iteration: u64, index: u64, x: u32, y: u32) -> (Vec2, Rng) {
+    let mut rng = Stream::Pixels.rng(seed, iteration, index);
+    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+    (film_pos, rng)
+}
+
+/// Pixel (x, y)'s jittered camera ray, the RNG stream that continues its path and the
+/// ray's film position.
 #[inline(always)]
 fn camera_sample(
     scene: &Scene,
@@ -134,13 +153,12 @@ fn camera_sample(
     x: u32,
     y: u32,
     stats: &mut RenderStats,
-) -> (Ray, Rng) {
-    let mut rng = Stream::Pixels.rng(seed, iteration, index);
-    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+) -> (Ray, Rng, Vec2) {
+    let (film_pos, mut rng) = film_sample(seed, iteration, index, x, y);
     let ray = scene.camera.generate_ray(film_pos, rng.next_2d());
     stats.samples += 1;
     stats.rays += 1;
-    (ray, rng)
+    (ray, rng, film_pos)
 }
 
 /// An integrator whose camera paths advance one traced segment at a time, so that
@@ -203,10 +221,11 @@ impl Pixels {
         let (x, y) = (t.x0 + self.next % t.width(), t.y0 + self.next / t.width());
         self.next += 1;
         let index = y as u64 * self.w + x as u64;
-        let (ray, rng) = camera_sample(scene, self.seed, self.iteration, index, x, y, stats);
+        let (ray, rng, p) = camera_sample(scene, self.seed, self.iteration, index, x, y, stats);
         Some(Lane {
             x,
             y,
+            p,
             rng,
             path: kernel.start(index, ray),
         })
@@ -217,6 +236,8 @@ impl Pixels {
 struct Lane<P> {
     x: u32,
     y: u32,
+    /// The camera sample's film position.
+    p: Vec2,
     rng: Rng,
     path: P,
 }
@@ -247,7 +268,7 @@ fn two_path_loop<K: PathKernel>(
             let Some(l) = lane else { continue };
             busy = true;
             if let Some(v) = kernel.advance(&mut l.path, &mut l.rng, &mut stats) {
-                buf.add(l.x, l.y, v);
+                buf.add_sample(&scene.filter, (l.x, l.y, l.p), v);
                 *lane = pixels.start(scene, kernel, &mut stats);
             }
         }

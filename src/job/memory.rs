@@ -49,7 +49,9 @@ pub fn estimate(settings: &Settings, scene: &Scene, spec: &JobSpec) -> Estimate 
         e.add("reference image", &film, Image::bytes_for(w, h) as f64);
     }
     let layers = settings.layers();
-    let writing = checkpoint_bytes(w, h, layers).max(images_bytes(w, h, layers));
+    // A filter's weights and splats are copied and encoded with the sums.
+    let filtered = 2 * settings.filter_bytes(scene);
+    let writing = checkpoint_bytes(w, h, layers).max(images_bytes(w, h, layers)) + filtered;
     e.add("checkpoint and snapshots", film, writing as f64);
     e
 }

@@ -1,6 +1,7 @@
 //! The scene file format (JSON, `"format": 1`). These serde types are the contract with
 //! users: every field is documented here and in README.md. Unknown fields are errors.
 
+pub use crate::film::Filter;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -85,12 +86,31 @@ fn default_camera_type() -> String {
     "pinhole".into()
 }
 
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum FilterDesc {
-    /// One pixel wide box: a pixel is the mean radiance over its area.
-    #[default]
-    Box,
+/// The pixel filter: a filter's name (`"box"`, one pixel wide, is the default; another
+/// name takes its default parameters) or an object, `{"type": "gaussian", "stddev":
+/// 0.25}`, with Mitsuba 3's parameters ([`Filter`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FilterDesc(pub Filter);
+
+impl Serialize for FilterDesc {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.0.is_pixel_box() {
+            s.serialize_str("box")
+        } else {
+            self.0.serialize(s)
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FilterDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let v = match serde_json::Value::deserialize(d)? {
+            serde_json::Value::String(name) => serde_json::json!({ "type": name }),
+            v => v,
+        };
+        Filter::deserialize(v).map(FilterDesc).map_err(D::Error::custom)
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]

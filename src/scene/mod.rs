@@ -112,6 +112,9 @@ pub struct Scene {
     pub env_lights: Vec<u32>,
     pub light_sampler: LightSampler,
     pub camera: Camera,
+    /// The film's pixel filter (what camera samples and light-tracing splats are
+    /// spread over the pixels by).
+    pub filter: crate::film::PixelFilter,
     pub sphere: SceneSphere,
     /// Default integrator settings from the scene file.
     pub integrator: Option<serde_json::Value>,

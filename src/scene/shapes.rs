@@ -552,6 +552,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         env_lights,
         light_sampler,
         camera,
+        filter: crate::film::PixelFilter::new(file.film.filter.0),
         sphere,
         integrator: file.integrator.clone(),
         stats: b.stats,

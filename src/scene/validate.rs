@@ -3,6 +3,7 @@
 
 use super::error::{Result, SceneError};
 use super::format::*;
+use crate::film::MAX_RADIUS;
 
 fn finite3(path: &str, v: V3) -> Result<()> {
     if v.iter().all(|x| x.is_finite()) {
@@ -111,7 +112,35 @@ fn validate_film(f: &FilmDesc) -> Result<()> {
             ));
         }
     }
-    Ok(())
+    filter(&f.filter.0).map_err(|e| SceneError::new("film.filter", e))
+}
+
+/// Checks a pixel filter's parameters, saying which one is out of range and why: the
+/// radius bounds what one sample costs ([`MAX_RADIUS`] pixels), Mitchell's B and C
+/// stay in the square Mitchell and Netravali studied.
+pub fn filter(f: &Filter) -> std::result::Result<(), String> {
+    let max = MAX_RADIUS;
+    let (name, v, range) = match *f {
+        Filter::Box { radius } | Filter::Tent { radius } => {
+            ("radius", radius as f64, (0.0, max))
+        }
+        Filter::Gaussian { stddev } => ("stddev", stddev as f64, (0.0, max / 4.0)),
+        Filter::Lanczos { lobes } => ("lobes", lobes as f64, (0.0, max)),
+        Filter::Mitchell { b, c } => {
+            return match [("B", b), ("C", c)].iter().find(|(_, v)| !(0.0..=1.0).contains(v)) {
+                Some((name, v)) => Err(format!("{name} {v} is out of range: [0, 1]")),
+                None => Ok(()),
+            };
+        }
+    };
+    if v > range.0 && v <= range.1 {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name} {v} is out of range: greater than {} and at most {} (a radius of at most {max} pixels)",
+            range.0, range.1
+        ))
+    }
 }
 
 fn validate_camera(scene: &SceneFile) -> Result<()> {

@@ -572,7 +572,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
             let rays = &mut chunk.stats.rays;
             let (event, visible) = next_event_with(scene, &mut ray, shadow, rays);
             if let Some(l) = lens.as_ref().filter(|_| visible) {
-                push_splat(pass, chunk, l.raster, l.value, l.layer);
+                push_splat(chunk, l.raster, l.value, l.layer);
             }
             lens = None;
             (event, 1.0)
@@ -621,7 +621,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     // A path that ends at a vertex with a lens connection traces its shadow ray alone.
     if let Some(l) = lens {
         if scene.visible(&l.ray) {
-            push_splat(pass, chunk, l.raster, l.value, l.layer);
+            push_splat(chunk, l.raster, l.value, l.layer);
         }
     }
 }
@@ -704,7 +704,7 @@ fn connect_to_camera<M: Media>(
     let rays = &mut chunk.stats.shadow_rays;
     let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
     let value = lens_value(pass, walk, (&e, vm), v.cont(), link, tr, tr_mis);
-    push_splat(pass, chunk, raster, value, layer);
+    push_splat(chunk, raster, value, layer);
     None
 }
 
@@ -804,21 +804,13 @@ fn splat_emitter<M: Media>(
     let medium = scene.camera_medium;
     let rays = &mut chunk.stats.shadow_rays;
     if let Some((tr, _)) = shadow::<M>(scene, &ray, medium, rng, rays) {
-        push_splat(pass, chunk, raster, v * tr, pass.layers.connection(1, 1));
+        push_splat(chunk, raster, v * tr, pass.layers.connection(1, 1));
     }
 }
 
+/// Keeps a splat at film position `raster`; the film spreads it by its filter.
 #[inline(always)]
-fn push_splat(
-    pass: &Pass,
-    chunk: &mut Chunk,
-    raster: crate::math::Vec2,
-    v: Rgb,
-    layer: Option<usize>,
-) {
-    let w = pass.scene.width();
-    let x = (raster.x as u32).min(w - 1);
-    let y = (raster.y as u32).min(pass.scene.height() - 1);
+fn push_splat(chunk: &mut Chunk, raster: crate::math::Vec2, v: Rgb, layer: Option<usize>) {
     let layer = layer.map_or(u16::MAX, |l| l as u16);
-    chunk.splats.push((y * w + x, v, layer));
+    chunk.splats.push((raster, v, layer));
 }

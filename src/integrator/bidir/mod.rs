@@ -27,7 +27,7 @@ mod vertex;
 mod walk;
 
 use super::accel::HashGrid;
-use super::pixels::render_paths;
+use super::pixels::{film_sample, render_paths};
 use super::vpm::radius_schedule;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -290,27 +290,44 @@ impl Integrator for Bidir {
                 render_paths(scene, seed, iteration, film, &kernel)
             };
         }
-        for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
-            for (j, &id) in ids.iter().enumerate() {
-                let v = Rgb::new(
-                    f32::from_bits(slots[3 * j].load(Ordering::Relaxed)),
-                    f32::from_bits(slots[3 * j + 1].load(Ordering::Relaxed)),
-                    f32::from_bits(slots[3 * j + 2].load(Ordering::Relaxed)),
-                );
-                film.add_layer_index(id, pixel, v);
-            }
-        }
+        add_layer_values(scene, (seed, iteration), film, &ids, &side);
         // Splats go in after the camera pass, in chunk order: the sum never depends on
         // which thread traced which chunk.
         for c in &ws.chunks {
-            for &(pixel, v, layer) in &c.splats {
-                film.add_index(pixel as usize, v);
-                if let Some(&id) = ids.get(layer as usize) {
-                    film.add_layer_index(id, pixel as usize, v);
-                }
+            for &(p, v, layer) in &c.splats {
+                let id = ids.get(layer as usize).copied();
+                film.add_splat(&scene.filter, p, v, id);
             }
         }
         stats
+    }
+}
+
+/// Adds the camera pass's per-pixel layer values (`side`: three f32 bits per layer
+/// and pixel) to the layers `ids`, at each pixel's camera sample (where a wider filter
+/// than the pixel box spreads them from).
+fn add_layer_values(
+    scene: &Scene,
+    (seed, iteration): (u64, u64),
+    film: &mut Film,
+    ids: &[usize],
+    side: &[AtomicU32],
+) {
+    let (w, k) = (scene.width(), ids.len());
+    for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
+        let (x, y) = (pixel as u32 % w, pixel as u32 / w);
+        let p = match k == 0 || scene.filter.is_pixel_box() {
+            true => crate::math::Vec2::ZERO,
+            false => film_sample(seed, iteration, pixel as u64, x, y).0,
+        };
+        for (j, &id) in ids.iter().enumerate() {
+            let v = Rgb::new(
+                f32::from_bits(slots[3 * j].load(Ordering::Relaxed)),
+                f32::from_bits(slots[3 * j + 1].load(Ordering::Relaxed)),
+                f32::from_bits(slots[3 * j + 2].load(Ordering::Relaxed)),
+            );
+            film.add_layer_sample(&scene.filter, id, (x, y, p), v);
+        }
     }
 }
 
@@ -346,5 +363,5 @@ impl LightStore<'_> {
     }
 }
 
-/// A light-tracing contribution: (pixel, value, layer or u16::MAX).
-pub(crate) type Splat = (u32, Rgb, u16);
+/// A light-tracing contribution: (film position, value, layer or u16::MAX).
+pub(crate) type Splat = (crate::math::Vec2, Rgb, u16);

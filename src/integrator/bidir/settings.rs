@@ -69,7 +69,7 @@ impl Technique {
     }
 
     /// Light vertices connect to the camera (splats).
-    pub(super) fn splats(self) -> bool {
+    pub(crate) fn splats(self) -> bool {
         self.connects() || self == Technique::Lt
     }
 }

@@ -4,7 +4,7 @@ use super::params::{f3, Params, Part};
 use super::xml::Node;
 use super::{media, Ctx};
 use crate::scene::error::Result;
-use crate::scene::format::{CameraDesc, FilmDesc, FilterDesc, FovAxis, LookAt};
+use crate::scene::format::{CameraDesc, FilmDesc, Filter, FilterDesc, FovAxis, LookAt};
 use glam::DVec3;
 
 /// What Mitsuba's `max_depth` -1 (no limit) becomes.
@@ -22,10 +22,7 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
             )))
         }
     };
-    let (film, filter_note) = film(&p, ctx)?;
-    if let Some(w) = filter_note {
-        ctx.warnings.push(w);
-    }
+    let film = film(&p, ctx)?;
     let xf = p.transform("to_world")?;
     let look_at = match &xf {
         None => LookAt {
@@ -132,21 +129,14 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
     Ok((camera, film, spp))
 }
 
-/// The film and, if the filter was replaced, the warning that says so.
-fn film<'a>(p: &Params<'a>, ctx: &Ctx<'a>) -> Result<(FilmDesc, Option<String>)> {
+/// The film, with Mitsuba's defaults: 768 x 576 and a Gaussian filter.
+fn film<'a>(p: &Params<'a>, ctx: &Ctx<'a>) -> Result<FilmDesc> {
     let Some(n) = p.object(&["film"], None)? else {
-        let w = p.node.warning(
-            "no <film>: Mitsuba's default 768 x 576 hdrfilm, its Gaussian filter replaced by a \
-             one-pixel box (a slightly sharper image)",
-        );
-        return Ok((
-            FilmDesc {
-                width: 768,
-                height: 576,
-                filter: FilterDesc::Box,
-            },
-            Some(w),
-        ));
+        return Ok(FilmDesc {
+            width: 768,
+            height: 576,
+            filter: FilterDesc(MITSUBA_DEFAULT_FILTER),
+        });
     };
     if n.kind() != "hdrfilm" {
         return Err(n.err(format!(
@@ -185,32 +175,62 @@ fn film<'a>(p: &Params<'a>, ctx: &Ctx<'a>) -> Result<(FilmDesc, Option<String>)>
         "sample_border",
         "compensate",
     ]);
-    let note = match f.object(&["rfilter"], None)? {
-        None => Some(n.warning(
-            "no <rfilter>: Mitsuba's default Gaussian filter replaced by a one-pixel box \
-             (a slightly sharper image)",
-        )),
-        Some(r) if r.kind() == "box" => {
-            let rp = Params::new(r, ctx)?;
-            if rp.float("radius")?.is_some_and(|v| v != 0.5) {
-                return Err(r.err("only a box of radius 0.5 (one pixel wide) is supported"));
-            }
-            rp.finish("the box filter")?;
-            None
-        }
-        Some(r) => Some(r.warning(format!(
-            "the {} filter is replaced by a one-pixel box (caustic's only pixel filter): a \
-             slightly different, sharper image",
-            r.kind()
-        ))),
+    let filter = match f.object(&["rfilter"], None)? {
+        None => MITSUBA_DEFAULT_FILTER,
+        Some(r) => rfilter(r, ctx)?,
     };
     f.finish("the film")?;
-    let film = FilmDesc {
+    Ok(FilmDesc {
         width,
         height,
-        filter: FilterDesc::Box,
+        filter: FilterDesc(filter),
+    })
+}
+
+/// What Mitsuba's films filter with when a scene names no `<rfilter>`.
+const MITSUBA_DEFAULT_FILTER: Filter = Filter::Gaussian { stddev: 0.5 };
+
+/// An `<rfilter>` as the filter of the same name and parameters (Mitsuba 0.x's box
+/// `radius` too; `catmullrom` is Mitchell's with B = 0, C = 1/2).
+fn rfilter<'a>(r: &'a Node, ctx: &Ctx<'a>) -> Result<Filter> {
+    let p = Params::new(r, ctx)?;
+    let float = |key: &str, default: f32| -> Result<f32> {
+        Ok(p.float(key)?.map_or(default, |v| v as f32))
     };
-    Ok((film, note))
+    let filter = match r.kind() {
+        "box" => Filter::Box {
+            radius: float("radius", 0.5)?,
+        },
+        "tent" => Filter::Tent {
+            radius: float("radius", 1.0)?,
+        },
+        "gaussian" => Filter::Gaussian {
+            stddev: float("stddev", 0.5)?,
+        },
+        "mitchell" => Filter::Mitchell {
+            b: float("B", 1.0 / 3.0)?,
+            c: float("C", 1.0 / 3.0)?,
+        },
+        "catmullrom" => Filter::Mitchell { b: 0.0, c: 0.5 },
+        "lanczos" => {
+            let lobes = p.int("lobes")?.unwrap_or(3);
+            Filter::Lanczos {
+                lobes: u32::try_from(lobes)
+                    .map_err(|_| r.err(format!("lobes {lobes} must be at least 1")))?,
+            }
+        }
+        other => {
+            return Err(r.err(format!(
+                "unknown rfilter plugin \"{other}\" (box, tent, gaussian, mitchell, \
+                 catmullrom or lanczos)"
+            )))
+        }
+    };
+    if let Err(e) = crate::scene::validate::filter(&filter) {
+        return Err(r.err(e));
+    }
+    p.finish("the filter")?;
+    Ok(filter)
 }
 
 fn sampler<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Option<u32>> {
