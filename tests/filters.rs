@@ -59,13 +59,29 @@ fn filters_parse_round_trip_and_default_to_the_box() {
     let f = parse_scene(&v.to_string()).unwrap();
     assert_eq!(f.film.filter.0, Filter::Box { radius: 0.5 });
     let written = serde_json::to_value(&f.film).unwrap();
-    assert_eq!(written["filter"], json!("box"), "the default is written as before");
+    assert_eq!(
+        written["filter"],
+        json!("box"),
+        "the default is written as before"
+    );
     let cases = [
         (json!("gaussian"), Filter::Gaussian { stddev: 0.5 }),
-        (json!({"type": "gaussian", "stddev": 0.25}), Filter::Gaussian { stddev: 0.25 }),
+        (
+            json!({"type": "gaussian", "stddev": 0.25}),
+            Filter::Gaussian { stddev: 0.25 },
+        ),
         (json!({"type": "tent"}), Filter::Tent { radius: 1.0 }),
-        (json!({"type": "mitchell", "C": 0.5}), Filter::Mitchell { b: 1.0 / 3.0, c: 0.5 }),
-        (json!({"type": "lanczos", "lobes": 2}), Filter::Lanczos { lobes: 2 }),
+        (
+            json!({"type": "mitchell", "C": 0.5}),
+            Filter::Mitchell {
+                b: 1.0 / 3.0,
+                c: 0.5,
+            },
+        ),
+        (
+            json!({"type": "lanczos", "lobes": 2}),
+            Filter::Lanczos { lobes: 2 },
+        ),
     ];
     for (json, want) in cases {
         let f = parse_scene(&flat_emitter(json.clone()).to_string()).unwrap();
@@ -123,12 +139,21 @@ fn a_flat_emitter_is_flat_through_every_filter() {
 }
 
 /// Per-seed means of `f` over the `images` of several independent renders.
-fn seed_means(images: &[caustic::film::Image], f: impl Fn(&caustic::film::Image) -> f64) -> (f64, f64) {
+fn seed_means(
+    images: &[caustic::film::Image],
+    f: impl Fn(&caustic::film::Image) -> f64,
+) -> (f64, f64) {
     mean_se(&images.iter().map(f).collect::<Vec<_>>())
 }
 
 /// The image of `iterations` iterations of `alg` with seed `seed`.
-fn image(scene: &Scene, alg: &str, params: Value, seed: u64, iterations: u64) -> caustic::film::Image {
+fn image(
+    scene: &Scene,
+    alg: &str,
+    params: Value,
+    seed: u64,
+    iterations: u64,
+) -> caustic::film::Image {
     let (film, n) = render(scene, &settings(alg, params), seed, iterations);
     assert_eq!(film.dropped(), 0);
     film.to_image(1.0 / n as f64)
@@ -142,7 +167,10 @@ fn inner_mean(img: &caustic::film::Image, c: usize, inset: f64) -> f64 {
     for y in 0..h {
         for x in 0..w {
             let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
-            if [cx, w as f64 - cx, cy, h as f64 - cy].iter().all(|&d| d >= inset) {
+            if [cx, w as f64 - cx, cy, h as f64 - cy]
+                .iter()
+                .all(|&d| d >= inset)
+            {
                 sum = (sum.0 + img.get(x, y)[c] as f64, sum.1 + 1);
             }
         }
@@ -161,11 +189,11 @@ fn light_tracing_a_flat_emitter_keeps_its_energy() {
         let images: Vec<_> = (0..8)
             .map(|s| image(&scene, "lt", json!({"max_depth": 1}), 11 + s, 48))
             .collect();
-        for c in 0..3 {
+        for (c, le) in LE.iter().enumerate() {
             for (what, inset) in [("all", 0.0), ("interior", inset)] {
                 let (m, se) = seed_means(&images, |img| inner_mean(img, c, inset));
-                assert!(se > 0.0 && se < 0.05 * LE[c], "{filter} {what}: se {se}");
-                assert!((m - LE[c]).abs() < 4.0 * se, "{filter} {what} {c}: {m} ± {se}");
+                assert!(se > 0.0 && se < 0.05 * le, "{filter} {what}: se {se}");
+                assert!((m - le).abs() < 4.0 * se, "{filter} {what} {c}: {m} ± {se}");
             }
         }
     }
@@ -181,14 +209,21 @@ fn pt_and_lt_agree_through_a_filter() {
         let scene = cornell(20, filter.clone());
         let inset = 2.0 * scene.filter.filter().radius();
         let params = json!({"max_depth": 4});
-        let pt: Vec<_> = (0..6).map(|s| image(&scene, "pt", params.clone(), 100 + s, 64)).collect();
-        let lt: Vec<_> = (0..6).map(|s| image(&scene, "lt", params.clone(), 200 + s, 64)).collect();
+        let pt: Vec<_> = (0..6)
+            .map(|s| image(&scene, "pt", params.clone(), 100 + s, 64))
+            .collect();
+        let lt: Vec<_> = (0..6)
+            .map(|s| image(&scene, "lt", params.clone(), 200 + s, 64))
+            .collect();
         for c in 0..3 {
             let (a, sa) = seed_means(&pt, |img| inner_mean(img, c, inset));
             let (b, sb) = seed_means(&lt, |img| inner_mean(img, c, inset));
             let tol = 4.0 * (sa * sa + sb * sb).sqrt() + 2e-3 * a;
             assert!(tol < 0.05 * a, "{filter}: too noisy to tell ({tol} vs {a})");
-            assert!((a - b).abs() < tol, "{filter} channel {c}: pt {a} ± {sa}, lt {b} ± {sb}");
+            assert!(
+                (a - b).abs() < tol,
+                "{filter} channel {c}: pt {a} ± {sa}, lt {b} ± {sb}"
+            );
         }
     }
 }
@@ -204,21 +239,32 @@ fn filtered_images_do_not_depend_on_the_thread_count() {
         ("vcm", json!({"max_depth": 3, "technique_layers": true})),
     ] {
         let run = |threads| {
-            on_threads(threads, || render(&scene, &settings(alg, params.clone()), 9, 3).0)
+            on_threads(threads, || {
+                render(&scene, &settings(alg, params.clone()), 9, 3).0
+            })
         };
         let (one, three): (Film, Film) = (run(1), run(3));
         assert!(one.weights().is_some(), "{alg}: a filtered film");
         assert_eq!(one.splats().is_some(), alg != "pt", "{alg}");
         assert_eq!(one, three, "{alg}");
         let bits = |f: &Film| -> Vec<u32> {
-            f.to_image(1.0 / 3.0).pixels().iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
+            f.to_image(1.0 / 3.0)
+                .pixels()
+                .iter()
+                .flat_map(|p| p.to_array())
+                .map(f32::to_bits)
+                .collect()
         };
         assert_eq!(bits(&one), bits(&three), "{alg}");
     }
 }
 
 /// The sums of `iterations` in order from fresh state.
-fn range_sums(scene: &Scene, integ: &dyn Integrator, iterations: std::ops::Range<u64>) -> ExactSums {
+fn range_sums(
+    scene: &Scene,
+    integ: &dyn Integrator,
+    iterations: std::ops::Range<u64>,
+) -> ExactSums {
     let (w, h) = (scene.width(), scene.height());
     let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
     for i in iterations {

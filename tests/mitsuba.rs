@@ -886,14 +886,32 @@ fn rfilters_map_exactly() {
     }
     // Out of caustic's range, or not a filter: the element and the parameter named.
     let bad = [
-        ("<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"2\"/></rfilter>", "stddev 2"),
-        ("<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"-1\"/></rfilter>", "lobes -1"),
-        ("<rfilter type=\"mitchell\"><float name=\"B\" value=\"2\"/></rfilter>", "B 2"),
-        ("<rfilter type=\"tent\"><float name=\"stddev\" value=\"1\"/></rfilter>", "stddev"),
-        ("<rfilter type=\"sinc\"/>", "unknown rfilter plugin \"sinc\""),
+        (
+            "<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"2\"/></rfilter>",
+            "stddev 2",
+        ),
+        (
+            "<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"-1\"/></rfilter>",
+            "lobes -1",
+        ),
+        (
+            "<rfilter type=\"mitchell\"><float name=\"B\" value=\"2\"/></rfilter>",
+            "B 2",
+        ),
+        (
+            "<rfilter type=\"tent\"><float name=\"stddev\" value=\"1\"/></rfilter>",
+            "stddev",
+        ),
+        (
+            "<rfilter type=\"sinc\"/>",
+            "unknown rfilter plugin \"sinc\"",
+        ),
     ];
     for (film, words) in bad {
         let err = imported_film(film).expect_err(film);
-        assert!(err.contains("<rfilter type=") && err.contains(words), "{film}: {err}");
+        assert!(
+            err.contains("<rfilter type=") && err.contains(words),
+            "{film}: {err}"
+        );
     }
 }

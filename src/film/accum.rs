@@ -87,7 +87,10 @@ impl Film {
     /// Sets a filtered film's summed weights and splats (each empty, or one per pixel).
     pub fn set_filtered(&mut self, weights: Vec<f64>, splats: Vec<[f64; 3]>) {
         let n = self.sums.len();
-        assert!(weights.is_empty() || weights.len() == n, "Film: weights size");
+        assert!(
+            weights.is_empty() || weights.len() == n,
+            "Film: weights size"
+        );
         assert!(splats.is_empty() || splats.len() == n, "Film: splats size");
         (self.weights, self.splats) = (weights, splats);
     }
@@ -103,7 +106,12 @@ impl Film {
     /// summed weights, and with `splats` a splat image per image.
     pub fn filter_bytes_for(width: u32, height: u32, layers: usize, splats: bool) -> u64 {
         let n = pixel_count(width, height) as u64;
-        n * 8 + if splats { n * 24 * (1 + layers as u64) } else { 0 }
+        n * 8
+            + if splats {
+                n * 24 * (1 + layers as u64)
+            } else {
+                0
+            }
     }
 
     pub fn width(&self) -> u32 {
@@ -283,7 +291,14 @@ impl Film {
             .iter()
             .map(|l| {
                 let scale = 1.0 / l.iterations.max(1) as f64;
-                let img = develop(self.width, self.height, &l.sums, &self.weights, &l.splats, scale);
+                let img = develop(
+                    self.width,
+                    self.height,
+                    &l.sums,
+                    &self.weights,
+                    &l.splats,
+                    scale,
+                );
                 (l.name.clone(), img)
             })
             .collect()
@@ -303,7 +318,14 @@ impl Film {
     /// wider filter the weighted camera sums over their weights, plus the splats
     /// times `scale`.
     pub fn to_image(&self, scale: f64) -> Image {
-        develop(self.width, self.height, &self.sums, &self.weights, &self.splats, scale)
+        develop(
+            self.width,
+            self.height,
+            &self.sums,
+            &self.weights,
+            &self.splats,
+            scale,
+        )
     }
 
     /// Adds a tile-local buffer (row-major within the tile) and its dropped count.
@@ -472,7 +494,12 @@ mod tests {
 
     /// A film of `w` x `h` with `m` x `m` camera samples per pixel on a regular grid,
     /// of radiance `l(x, y)`, added through tile buffers as the renderer does.
-    fn camera_film(filter: &PixelFilter, (w, h): (u32, u32), m: u32, l: &dyn Fn(f32, f32) -> Rgb) -> Film {
+    fn camera_film(
+        filter: &PixelFilter,
+        (w, h): (u32, u32),
+        m: u32,
+        l: &dyn Fn(f32, f32) -> Rgb,
+    ) -> Film {
         let mut film = Film::new(w, h);
         for t in crate::film::tiles(w, h, 4) {
             let mut buf = TileBuffer::for_filter(t, filter, w, h);
@@ -494,7 +521,12 @@ mod tests {
 
     /// The same radiance as light-tracing splats: `m` x `m` per pixel of unit area,
     /// each carrying 1 / m^2 of it (one "iteration").
-    fn splat_film(filter: &PixelFilter, (w, h): (u32, u32), m: u32, l: &dyn Fn(f32, f32) -> Rgb) -> Film {
+    fn splat_film(
+        filter: &PixelFilter,
+        (w, h): (u32, u32),
+        m: u32,
+        l: &dyn Fn(f32, f32) -> Rgb,
+    ) -> Film {
         let mut film = Film::new(w, h);
         let n = (w * m, h * m);
         for (i, j) in (0..n.0).flat_map(|i| (0..n.1).map(move |j| (i, j))) {
@@ -523,13 +555,22 @@ mod tests {
                     let d = (camera.get(x, y) - c).abs().max_element();
                     assert!(d <= 3e-6, "{f:?} camera ({x}, {y}): {}", camera.get(x, y));
                     let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
-                    let interior = [cx, w as f64 - cx, cy, h as f64 - cy].iter().all(|&d| d >= inside);
+                    let interior = [cx, w as f64 - cx, cy, h as f64 - cy]
+                        .iter()
+                        .all(|&d| d >= inside);
                     let d = (splats.get(x, y) - c).abs().max_element();
-                    assert!(!interior || d <= 6e-3, "{f:?} splats ({x}, {y}): {}", splats.get(x, y));
+                    assert!(
+                        !interior || d <= 6e-3,
+                        "{f:?} splats ({x}, {y}): {}",
+                        splats.get(x, y)
+                    );
                 }
             }
             let energy = splats.mean() / c;
-            assert!((energy - Rgb::ONE).abs().max_element() < 1e-5, "{f:?}: {energy}");
+            assert!(
+                (energy - Rgb::ONE).abs().max_element() < 1e-5,
+                "{f:?}: {energy}"
+            );
         }
     }
 
@@ -560,9 +601,8 @@ mod tests {
             let h = (b - a) / n as f64;
             (0..n).map(|i| f(a + (i as f64 + 0.5) * h) * h).sum::<f64>()
         };
-        let gauss = |a: f64, b: f64| {
-            fine(&|x| ((-2.0 * x * x).exp() - (-8.0f64).exp()).max(0.0), a, b)
-        };
+        let gauss =
+            |a: f64, b: f64| fine(&|x| ((-2.0 * x * x).exp() - (-8.0f64).exp()).max(0.0), a, b);
         // Mitchell with B = C = 1/3, [MN88] eq. 8 written out again.
         let mitchell = |a: f64, b: f64| {
             let k = |x: f64| {
@@ -578,7 +618,9 @@ mod tests {
             fine(&k, a, b)
         };
         let third = 1.0 / 3.0;
-        let cases: [(Filter, &dyn Fn(f64, f64) -> f64, bool); 4] = [
+        // (filter, its integral over [a, b], whether splats are checked too)
+        type Case<'a> = (Filter, &'a dyn Fn(f64, f64) -> f64, bool);
+        let cases: [Case; 4] = [
             (Filter::Tent { radius: 1.25 }, &tent, false),
             (Filter::Gaussian { stddev: 0.5 }, &gauss, false),
             (Filter::Tent { radius: 1.0 }, &tent1, true),
@@ -593,11 +635,17 @@ mod tests {
                 let c = x as f64 + 0.5;
                 let want = integral(-c, edge - c) / integral(-c, w as f64 - c);
                 let got = camera.get(x, h / 2).x as f64;
-                assert!((got - want).abs() < 2e-3, "{f:?} camera pixel {x}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 2e-3,
+                    "{f:?} camera pixel {x}: {got} vs {want}"
+                );
                 let inside = c >= 2.0 * f.radius() && w as f64 - c >= 2.0 * f.radius();
                 if splats_too && inside {
                     let got = splats.get(x, h / 2).x as f64;
-                    assert!((got - want).abs() < 2e-3, "{f:?} splats pixel {x}: {got} vs {want}");
+                    assert!(
+                        (got - want).abs() < 2e-3,
+                        "{f:?} splats pixel {x}: {got} vs {want}"
+                    );
                 }
             }
         }
@@ -618,7 +666,10 @@ mod tests {
         // Splats to the pixel they lie in (the film's edge belongs to the last pixel).
         let want = 0.3f32 as f64 + 0.1f32 as f64 + 0.7f32 as f64;
         assert_eq!(film.sums()[5], [want; 3]);
-        assert_eq!(film.to_image(0.5).get(2, 1), Rgb::splat((want * 0.5) as f32));
+        assert_eq!(
+            film.to_image(0.5).get(2, 1),
+            Rgb::splat((want * 0.5) as f32)
+        );
     }
 
     #[test]

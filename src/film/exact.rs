@@ -327,9 +327,7 @@ fn add_exact<const N: usize>(sums: &mut Vec<[i128; N]>, other: &[[i128; N]]) {
 
 fn to_f64<const N: usize>(sums: &[[i128; N]]) -> Vec<[f64; N]> {
     let unit = 2f64.powi(-FRAC_BITS);
-    sums.iter()
-        .map(|s| s.map(|c| c as f64 * unit))
-        .collect()
+    sums.iter().map(|s| s.map(|c| c as f64 * unit)).collect()
 }
 
 fn put_sums<const N: usize>(out: &mut Vec<u8>, sums: &[[i128; N]]) {
@@ -373,7 +371,11 @@ impl<'a> Reader<'a> {
         )?;
         Ok(bytes
             .chunks_exact(16 * N)
-            .map(|c| std::array::from_fn(|k| i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap())))
+            .map(|c| {
+                std::array::from_fn(|k| {
+                    i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap())
+                })
+            })
             .collect())
     }
 
@@ -537,7 +539,9 @@ mod tests {
         let k = film.begin_layer("s2_t1");
         let mut s = seed | 1;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 40) as f32 / (1u64 << 24) as f32
         };
         for t in crate::film::tiles(5, 4, 2) {
@@ -582,7 +586,10 @@ mod tests {
         for f in &films[1..] {
             plain.merge(f);
         }
-        let (a, b) = (sequential.to_film().to_image(1.0 / 9.0), plain.to_image(1.0 / 9.0));
+        let (a, b) = (
+            sequential.to_film().to_image(1.0 / 9.0),
+            plain.to_image(1.0 / 9.0),
+        );
         assert!((a.mean() - b.mean()).abs().max_element() < 1e-6 * b.mean().max_element());
         let bytes = sequential.encode();
         assert_eq!(&bytes[..8], MAGIC);

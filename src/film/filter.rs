@@ -139,7 +139,9 @@ impl Filter {
         let mut cuts = vec![a];
         cuts.extend([-1.0, 0.0, 1.0].into_iter().filter(|&k| a < k && k < b));
         cuts.push(b);
-        cuts.windows(2).map(|w| self.gauss_legendre(w[0], w[1])).sum()
+        cuts.windows(2)
+            .map(|w| self.gauss_legendre(w[0], w[1]))
+            .sum()
     }
 
     fn gauss_legendre(&self, a: f64, b: f64) -> f64 {
@@ -165,7 +167,9 @@ fn mitchell(x: f64, b: f64, c: f64) -> f64 {
     let v = if x < 1.0 {
         (12.0 - 9.0 * b - 6.0 * c) * x3 + (-18.0 + 12.0 * b + 6.0 * c) * x2 + (6.0 - 2.0 * b)
     } else if x < 2.0 {
-        (-b - 6.0 * c) * x3 + (6.0 * b + 30.0 * c) * x2 + (-12.0 * b - 48.0 * c) * x
+        (-b - 6.0 * c) * x3
+            + (6.0 * b + 30.0 * c) * x2
+            + (-12.0 * b - 48.0 * c) * x
             + (8.0 * b + 24.0 * c)
     } else {
         0.0
@@ -333,7 +337,10 @@ mod tests {
         let pi = std::f64::consts::PI;
         let want = (pi * 0.5).sin() * (pi / 6.0).sin() / (pi * 0.5 * pi / 6.0);
         assert!((l.eval(0.5) - want).abs() < 1e-15);
-        assert!(l.eval(1.0).abs() < 1e-15 && l.eval(1.5) < 0.0, "a negative lobe");
+        assert!(
+            l.eval(1.0).abs() < 1e-15 && l.eval(1.5) < 0.0,
+            "a negative lobe"
+        );
         assert_eq!(l.eval(3.0), 0.0);
         let b = Filter::Box { radius: 1.5 };
         assert_eq!((b.eval(-1.5), b.eval(1.4999), b.eval(1.5)), (1.0, 1.0, 0.0));
@@ -345,8 +352,14 @@ mod tests {
     fn integrals_match_closed_forms() {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1.0);
         assert!(close(Filter::Box { radius: 1.5 }.integral(-9.0, 9.0), 3.0));
-        assert!(close(Filter::Tent { radius: 1.25 }.integral(-2.0, 2.0), 1.25));
-        assert!(close(Filter::Tent { radius: 1.0 }.integral(0.0, 0.5), 0.375));
+        assert!(close(
+            Filter::Tent { radius: 1.25 }.integral(-2.0, 2.0),
+            1.25
+        ));
+        assert!(close(
+            Filter::Tent { radius: 1.0 }.integral(0.0, 0.5),
+            0.375
+        ));
         let m = Filter::Mitchell { b: 0.3, c: 0.35 };
         assert!(close(m.integral(-2.0, 2.0), 1.0));
         // Truncated, shifted Gaussian: s sqrt(2 pi) erf(r / (s sqrt 2)) - 2 r e^(-r^2/2s^2),
@@ -355,12 +368,18 @@ mod tests {
         let g = Filter::Gaussian { stddev: s as f32 };
         let want = s * (2.0 * std::f64::consts::PI).sqrt() * 0.999_936_657_516_333_8
             - 2.0 * 2.0 * (-8.0f64).exp();
-        assert!(close(g.integral(-2.0, 2.0), want), "{}", g.integral(-2.0, 2.0));
+        assert!(
+            close(g.integral(-2.0, 2.0), want),
+            "{}",
+            g.integral(-2.0, 2.0)
+        );
         // Lanczos against a midpoint sum of 2^20 steps.
         let l = Filter::Lanczos { lobes: 3 };
         let n = 1 << 20;
         let h = 6.0 / n as f64;
-        let fine: f64 = (0..n).map(|i| l.eval(-3.0 + (i as f64 + 0.5) * h) * h).sum();
+        let fine: f64 = (0..n)
+            .map(|i| l.eval(-3.0 + (i as f64 + 0.5) * h) * h)
+            .sum();
         assert!((l.integral(-3.0, 3.0) - fine).abs() < 1e-10);
         assert!(close(l.integral(-3.0, 0.0) * 2.0, l.integral(-3.0, 3.0)));
     }
@@ -369,10 +388,7 @@ mod tests {
     fn radius_and_border_follow_mitsuba() {
         let radii: Vec<f64> = ALL.iter().map(Filter::radius).collect();
         assert_eq!(radii, [0.5, 1.0, 2.0, 2.0, 3.0]);
-        let borders: Vec<u32> = ALL
-            .iter()
-            .map(|f| PixelFilter::new(*f).border())
-            .collect();
+        let borders: Vec<u32> = ALL.iter().map(|f| PixelFilter::new(*f).border()).collect();
         assert_eq!(borders, [0, 1, 2, 2, 3]);
     }
 
@@ -391,9 +407,17 @@ mod tests {
         let edge = pf.taps(0.3, 10);
         assert_eq!((edge.first, edge.count), (0, 2));
         let gauss = PixelFilter::new(Filter::Gaussian { stddev: 0.5 });
-        assert_eq!(gauss.taps(5.0, 10).count, 4, "centres 3.5 .. 6.5 within 2 of 5");
+        assert_eq!(
+            gauss.taps(5.0, 10).count,
+            4,
+            "centres 3.5 .. 6.5 within 2 of 5"
+        );
         let centred = gauss.taps(5.5, 10);
-        assert_eq!((centred.first, centred.count), (3, 5), "3.5 .. 7.5 within 2 of 5.5");
+        assert_eq!(
+            (centred.first, centred.count),
+            (3, 5),
+            "3.5 .. 7.5 within 2 of 5.5"
+        );
         assert_eq!((centred.weights[0], centred.weights[4]), (0.0, 0.0));
         assert_eq!(gauss.taps(9.9, 10).count, 2);
     }
@@ -412,7 +436,11 @@ mod tests {
             }
         }
         let narrow = PixelFilter::new(Filter::Box { radius: 0.25 });
-        assert_eq!(narrow.splat_taps(0.1, 12), None, "between the pixels' reach");
+        assert_eq!(
+            narrow.splat_taps(0.1, 12),
+            None,
+            "between the pixels' reach"
+        );
     }
 
     /// What splats spread uniformly over a row of 16 pixels converge to, pixel by

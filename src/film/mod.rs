@@ -20,12 +20,12 @@ mod tile;
 pub use accum::{is_valid_sample, Film, Layer};
 pub use atomic::write_bytes_atomic;
 pub use error::{FilmError, MAX_PIXELS};
-pub use filter::{Filter, PixelFilter, Taps, MAX_RADIUS};
 pub use exact::{ExactError, ExactSums};
 pub use exr_io::{
     decode_exr, decode_exr_layer, encode_exr, encode_exr_layers, read_exr, read_exr_layer,
     read_exr_named, write_exr, write_exr_layers,
 };
+pub use filter::{Filter, PixelFilter, Taps, MAX_RADIUS};
 pub use hdr_io::{decode_hdr, read_hdr, read_image};
 pub use image::Image;
 pub use metrics::{compare, false_colour_diff, rel_mse, rmse, ErrorMetrics};

@@ -260,6 +260,10 @@ mod tests {
                 g.eval(4.5 - (x as f64 + 0.25)) * g.eval(3.5 - (y as f64 + 0.75))
             })
             .sum();
-        assert!((wb[mid] - expected).abs() < 1e-12, "{} vs {expected}", wb[mid]);
+        assert!(
+            (wb[mid] - expected).abs() < 1e-12,
+            "{} vs {expected}",
+            wb[mid]
+        );
     }
 }

@@ -109,7 +109,9 @@ impl<'de> Deserialize<'de> for FilterDesc {
             serde_json::Value::String(name) => serde_json::json!({ "type": name }),
             v => v,
         };
-        Filter::deserialize(v).map(FilterDesc).map_err(D::Error::custom)
+        Filter::deserialize(v)
+            .map(FilterDesc)
+            .map_err(D::Error::custom)
     }
 }
 

@@ -121,13 +121,14 @@ fn validate_film(f: &FilmDesc) -> Result<()> {
 pub fn filter(f: &Filter) -> std::result::Result<(), String> {
     let max = MAX_RADIUS;
     let (name, v, range) = match *f {
-        Filter::Box { radius } | Filter::Tent { radius } => {
-            ("radius", radius as f64, (0.0, max))
-        }
+        Filter::Box { radius } | Filter::Tent { radius } => ("radius", radius as f64, (0.0, max)),
         Filter::Gaussian { stddev } => ("stddev", stddev as f64, (0.0, max / 4.0)),
         Filter::Lanczos { lobes } => ("lobes", lobes as f64, (0.0, max)),
         Filter::Mitchell { b, c } => {
-            return match [("B", b), ("C", c)].iter().find(|(_, v)| !(0.0..=1.0).contains(v)) {
+            return match [("B", b), ("C", c)]
+                .iter()
+                .find(|(_, v)| !(0.0..=1.0).contains(v))
+            {
                 Some((name, v)) => Err(format!("{name} {v} is out of range: [0, 1]")),
                 None => Ok(()),
             };
