@@ -291,3 +291,25 @@ fn filtered_ranges_and_resumes_equal_the_sequential_sums() {
     let film = whole.to_film();
     assert!(film.weights().is_some() && film.splats().is_some());
 }
+
+/// A filtered film's layers (camera parts over the image's summed weights, splats
+/// normalised as the image's) still add up to the image they split.
+#[test]
+fn filtered_strategy_images_sum_to_the_image() {
+    let scene = cornell(18, json!("mitchell"));
+    let s = settings("bpt", json!({"max_depth": 3, "strategy_images": 3}));
+    let (film, n) = render(&scene, &s, 5, 4);
+    let image = film.to_image(1.0 / n as f64);
+    let layers = film.layer_images();
+    assert_eq!(layers.len(), 9);
+    let peak = image
+        .pixels()
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0, f32::max);
+    for (i, p) in image.pixels().iter().enumerate() {
+        let sum: glam::Vec3 = layers.iter().map(|(_, l)| l.pixels()[i]).sum();
+        let d = (sum - *p).abs().max_element() / peak;
+        assert!(d < 1e-4, "pixel {i}: layers {sum} vs image {p}");
+    }
+}
