@@ -12,6 +12,7 @@ mod params;
 mod sensor;
 mod serialized;
 mod shapes;
+mod upgrade;
 mod xml;
 
 use super::error::Result;
@@ -53,9 +54,14 @@ pub fn is_xml_path(path: &Path) -> bool {
 /// Imports a Mitsuba 3 XML scene file; the files it names resolve next to it (or next
 /// to the file that includes them) and end up relative to its folder.
 pub fn import_file(path: &Path) -> Result<Import> {
-    let (root, mut sources) = xml::read(path)?;
+    let xml::Read {
+        root,
+        files: mut sources,
+        warnings,
+    } = xml::read(path)?;
     let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mut ctx = Ctx::new(&root, main_dir)?;
+    ctx.warnings = warnings;
     let mut camera = None;
     let mut integrator = None;
     let mut shapes = Vec::new();

@@ -258,7 +258,7 @@ fn color(n: &Node) -> Result<V3> {
 }
 
 /// `x`, `y`, `z` attributes (missing ones `default`) or a `value` of three numbers.
-fn xyz(n: &Node, default: f64) -> Result<DVec3> {
+pub fn xyz(n: &Node, default: f64) -> Result<DVec3> {
     if let Some(v) = n.attr("value") {
         return match numbers(n, v)?.as_slice() {
             [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
