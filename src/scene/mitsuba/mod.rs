@@ -7,6 +7,7 @@
 mod bsdf;
 mod budget;
 mod emitters;
+mod integrator;
 mod media;
 mod params;
 mod sensor;
@@ -75,7 +76,8 @@ pub fn import_file(path: &Path) -> Result<Import> {
             "integrator" if integrator.is_some() => {
                 return Err(n.err("a second integrator; remove it"))
             }
-            "integrator" => integrator = Some((n, sensor::integrator(n, &mut ctx)?)),
+            // Converted after the sensor; its warnings go here, in document order.
+            "integrator" => integrator = Some((n, ctx.warnings.len())),
             "shape" => {
                 (ctx.budget).spend(Work::Shapes, 1).map_err(|m| n.err(m))?;
                 shapes.push(shapes::shape(n, &mut ctx)?)
@@ -97,8 +99,14 @@ pub fn import_file(path: &Path) -> Result<Import> {
     let Some((camera, film, spp)) = camera else {
         return Err(root.err("the scene has no <sensor>: caustic needs a camera; add one"));
     };
+    // After the sensor: photon counts per pass become counts per pixel.
+    let pixels = u64::from(film.width) * u64::from(film.height);
     let integrator = match integrator {
-        Some((n, v)) => {
+        Some((n, at)) => {
+            let before = ctx.warnings.len();
+            let v = integrator::integrator(n, &mut ctx, pixels)?;
+            let new: Vec<String> = ctx.warnings.drain(before..).collect();
+            ctx.warnings.splice(at..at, new);
             if n.kind() == "path" && !ctx.media.is_empty() {
                 ctx.warn(
                     n,
@@ -112,9 +120,9 @@ pub fn import_file(path: &Path) -> Result<Import> {
                 "{}: no <integrator>: Mitsuba's default path tracer with unlimited max_depth \
                  becomes pt with max_depth {}",
                 root.loc,
-                sensor::UNLIMITED_DEPTH
+                integrator::UNLIMITED_DEPTH
             ));
-            serde_json::json!({"algorithm": "pt", "max_depth": sensor::UNLIMITED_DEPTH})
+            serde_json::json!({"algorithm": "pt", "max_depth": integrator::UNLIMITED_DEPTH})
         }
     };
     let scene = SceneFile {

@@ -190,6 +190,17 @@ impl<'a> Params<'a> {
         Ok(found)
     }
 
+    /// The parameters and objects nothing has taken (yet).
+    pub fn unread(&self) -> Vec<&'a Node> {
+        let props = (self.props.iter())
+            .filter(|(_, used)| !used.get())
+            .map(|(n, _)| *n);
+        let objects = (self.objects.iter())
+            .filter(|(_, _, used)| !used.get())
+            .map(|(_, n, _)| *n);
+        props.chain(objects).collect()
+    }
+
     /// Every parameter and object must have been taken by the converter.
     pub fn finish(&self, what: &str) -> Result<()> {
         if let Some((n, _)) = self.props.iter().find(|(_, used)| !used.get()) {

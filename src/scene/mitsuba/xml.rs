@@ -201,8 +201,9 @@ impl Reader {
             )
         })?;
         let root = doc.root_element();
+        // Mitsuba 2 and 3 require a version: a file without one is from 0.x.
         let legacy = match root.attribute("version") {
-            None => false,
+            None => true,
             Some(v) => upgrade::is_legacy(v).ok_or_else(|| {
                 let pos = doc.text_pos_at(root.range().start);
                 SceneError::new(
