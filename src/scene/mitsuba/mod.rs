@@ -1,4 +1,5 @@
-//! Mitsuba 3 XML scenes, imported into caustic's scene format. What caustic cannot
+//! Mitsuba 3 XML scenes, imported into caustic's scene format (Mitsuba 0.x files are
+//! first brought to Mitsuba 3's form by module `upgrade`). What caustic cannot
 //! represent is an error naming the element and its line; where an approximation is
 //! honest (a `plastic` BSDF drawn as its diffuse base, a Gaussian pixel filter as a
 //! box), it is made and a warning says exactly what changed. Nothing changes the
@@ -52,7 +53,7 @@ pub fn is_xml_path(path: &Path) -> bool {
         .is_some_and(|x| x.eq_ignore_ascii_case("xml"))
 }
 
-/// Imports a Mitsuba 3 XML scene file; the files it names resolve next to it (or next
+/// Imports a Mitsuba 3 (or 0.x) XML scene file; the files it names resolve next to it (or next
 /// to the file that includes them) and end up relative to its folder.
 pub fn import_file(path: &Path) -> Result<Import> {
     let xml::Read {
