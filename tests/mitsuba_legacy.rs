@@ -267,3 +267,52 @@ fn what_cannot_be_upgraded_is_an_error_at_its_element() {
         assert!(err.contains(words), "want {words}: {err}");
     }
 }
+
+#[test]
+fn a_sensor_without_a_fov_takes_its_focal_length_as_mitsuba_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let import_sensor = |focal: &str| {
+        let text = format!(
+            "<scene version=\"0.5.0\">\n<sensor type=\"perspective\">\n{focal}\
+             <film type=\"hdrfilm\"><integer name=\"width\" value=\"30\"/>\
+             <integer name=\"height\" value=\"20\"/></film></sensor>\n\
+             <shape type=\"sphere\"/><emitter type=\"constant\"/></scene>"
+        );
+        std::fs::write(dir.path().join("s.xml"), text).unwrap();
+        import_file(&dir.path().join("s.xml"))
+    };
+    let fov_x = |focal: &str| {
+        let i = import_sensor(focal).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(i.scene.camera.fov_axis, caustic::scene::format::FovAxis::X);
+        i.scene.camera.fov as f64
+    };
+    // Mitsuba 3's parse_fov: a diagonal fov from a 36 x 24 mm film, then its x part.
+    let mitsuba = |mm: f64| {
+        let diagonal = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / mm;
+        let width = diagonal / (1.0 + 1.0 / (1.5f64 * 1.5)).sqrt();
+        2.0 * (width * 0.5).atan().to_degrees()
+    };
+    let given = fov_x("<string name=\"focalLength\" value=\"35mm\"/>");
+    assert!(
+        (given - mitsuba(35.0)).abs() < 1e-4,
+        "{given} {}",
+        mitsuba(35.0)
+    );
+    let default = fov_x("");
+    assert!(
+        (default - mitsuba(50.0)).abs() < 1e-4,
+        "{default} {}",
+        mitsuba(50.0)
+    );
+    let err = import_sensor("<string name=\"focalLength\" value=\"wide\"/>")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("s.xml:3:1: <string name=\"focal_length\">"),
+        "{err}"
+    );
+    assert!(
+        err.contains("focal_length \"wide\" is not a length"),
+        "{err}"
+    );
+}

@@ -58,13 +58,8 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
             }
         },
     };
-    let fov = p.float("fov")?.ok_or_else(|| {
-        n.err(
-            "needs a fov (focal_length is not supported): add <float name=\"fov\" value=\"...\"/>",
-        )
-    })?;
+    let (fov, axis) = field_of_view(n, &p)?;
     let (w, h) = (film.width as f64, film.height as f64);
-    let axis = p.string("fov_axis")?;
     let (fov, fov_axis) = match axis.map_or("x", |(_, s)| s) {
         "x" => (fov, FovAxis::X),
         "y" => (fov, FovAxis::Y),
@@ -127,6 +122,32 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
         medium,
     };
     Ok((camera, film, spp))
+}
+
+/// `fov` (degrees) and its `fov_axis`; or, as Mitsuba (0.x and 3) reads a sensor
+/// without a fov, `focal_length` (`50mm` by default) on a 36 x 24 mm film: a fov
+/// across the diagonal of 2 atan(sqrt(36^2 + 24^2) / (2 f)).
+fn field_of_view<'a>(n: &'a Node, p: &Params<'a>) -> Result<(f64, Option<(&'a Node, &'a str)>)> {
+    let focal = p.string("focal_length")?;
+    match (p.float("fov")?, focal) {
+        (Some(_), Some((f, _))) => Err(f.err("give a fov or a focal_length, not both")),
+        (Some(fov), None) => Ok((fov, p.string("fov_axis")?)),
+        (None, focal) => {
+            let text = focal.map_or("50mm", |(_, s)| s).trim();
+            let mm = (text.strip_suffix("mm").unwrap_or(text).trim().parse().ok())
+                .filter(|f: &f64| f.is_finite() && *f > 0.0)
+                .ok_or_else(|| {
+                    focal.map_or(n, |(f, _)| f).err(format!(
+                        "focal_length \"{text}\" is not a length in millimetres such as 50mm"
+                    ))
+                })?;
+            // Mitsuba ignores the axis then.
+            p.ignore(&["fov_axis"]);
+            let diagonal = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+            let fov = 2.0 * (diagonal / (2.0 * mm)).atan().to_degrees();
+            Ok((fov, Some((n, "diagonal"))))
+        }
+    }
 }
 
 /// The film and, if the filter was replaced, the warning that says so.
