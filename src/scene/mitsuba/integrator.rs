@@ -131,6 +131,24 @@ fn algorithm(kind: &str, p: &Params, ctx: &mut Ctx) -> (&'static str, Option<Str
     }
 }
 
+/// What a scene without an `<integrator>` renders with: Mitsuba 3's default, a path
+/// tracer without a depth limit; Mitsuba 0.x's, direct illumination (its `direct`).
+pub fn default(root: &Node, ctx: &mut Ctx) -> serde_json::Value {
+    let (depth, what) = if root.legacy() {
+        (2, "Mitsuba 0.x's default, direct illumination,")
+    } else {
+        (
+            UNLIMITED_DEPTH,
+            "Mitsuba's default path tracer with unlimited max_depth",
+        )
+    };
+    ctx.warnings.push(format!(
+        "{}: no <integrator>: {what} becomes pt with max_depth {depth}",
+        root.loc
+    ));
+    serde_json::json!({"algorithm": "pt", "max_depth": depth})
+}
+
 /// `{"algorithm": ..., "max_depth": ...}` for the scene's `integrator`; `pixels` is the
 /// film's pixel count (photon counts per pass become caustic's per-pixel ones).
 pub fn integrator<'a>(n: &'a Node, ctx: &mut Ctx<'a>, pixels: u64) -> Result<serde_json::Value> {

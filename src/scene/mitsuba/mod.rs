@@ -116,15 +116,7 @@ pub fn import_file(path: &Path) -> Result<Import> {
             }
             v
         }
-        None => {
-            ctx.warnings.push(format!(
-                "{}: no <integrator>: Mitsuba's default path tracer with unlimited max_depth \
-                 becomes pt with max_depth {}",
-                root.loc,
-                integrator::UNLIMITED_DEPTH
-            ));
-            serde_json::json!({"algorithm": "pt", "max_depth": integrator::UNLIMITED_DEPTH})
-        }
+        None => integrator::default(&root, &mut ctx),
     };
     let scene = SceneFile {
         format: 1,
