@@ -101,6 +101,8 @@ fn allowed_attrs(tag: &str, legacy: bool) -> Option<&'static [&'static str]> {
             "lookAt" => return Some(&["origin", "target", "up"]),
             "blackbody" => return Some(&["name", "temperature", "scale"]),
             "animation" => return Some(&["name"]),
+            "subsurface" => return Some(&["type", "id", "name"]),
+            "alias" => return Some(&["id", "as"]),
             _ => {}
         }
     }

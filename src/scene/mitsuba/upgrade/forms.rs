@@ -1,7 +1,8 @@
 //! The 0.x forms of values that Mitsuba 3 no longer reads, as the ones it does:
 //! `<lookAt>` as `<lookat>`, `<srgb>` as linear `<rgb>`, `#rrggbb` colours as numbers,
 //! and no `intent` (in an RGB renderer a colour means the same whichever intent it
-//! names). What has no Mitsuba 3 form (`<blackbody>`, `<animation>`) is an error.
+//! names). What has no Mitsuba 3 form (`<blackbody>`, `<animation>`, `<subsurface>`,
+//! `<alias>`) is an error.
 
 use super::super::xml::Node;
 use crate::scene::error::Result;
@@ -24,6 +25,15 @@ pub fn element(n: &mut Node) -> Result<()> {
                 "black-body spectra are not supported (caustic renders RGB): give the \
                  colour as <rgb>",
             ))
+        }
+        "subsurface" => {
+            return Err(n.err(
+                "0.x's subsurface integrators (dipole) have no Mitsuba 3 form: give the shape \
+                 a dielectric BSDF and a homogeneous interior medium (volpath renders it)",
+            ))
+        }
+        "alias" => {
+            return Err(n.err("<alias> has no Mitsuba 3 form: refer to the object by its own id"))
         }
         "animation" => {
             return Err(n.err(

@@ -165,6 +165,14 @@ fn the_0x_value_forms_become_mitsuba_3s() {
             "<transform name=\"toWorld\"><animation/></transform>",
             "animated transforms",
         ),
+        (
+            "<subsurface type=\"dipole\"/>",
+            "subsurface integrators (dipole)",
+        ),
+        (
+            "<alias id=\"a\" as=\"b\"/>",
+            "<alias> has no Mitsuba 3 form",
+        ),
     ] {
         let err = upgrade_error(&format!("<emitter type=\"point\">\n{body}\n</emitter>"));
         assert!(err.starts_with("s.xml:3:"), "{err}");
