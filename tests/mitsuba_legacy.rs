@@ -319,18 +319,11 @@ fn a_sensor_without_a_fov_takes_its_focal_length_as_mitsuba_does() {
 
 #[test]
 fn without_an_integrator_a_0x_scene_renders_0xs_default_direct_lighting() {
-    let dir = tempfile::tempdir().unwrap();
-    for name in ["camera.xml", "stage.xml"] {
-        std::fs::copy(data(name), dir.path().join(name)).unwrap();
-    }
-    let body = "<include filename=\"camera.xml\"/><include filename=\"stage.xml\"/>";
     for (version, depth, words) in [
         ("0.6.0", 2, "no <integrator>: Mitsuba 0.x's default, direct illumination, becomes pt with max_depth 2"),
         ("3.0.0", 1024, "no <integrator>: Mitsuba's default path tracer with unlimited max_depth becomes pt with max_depth 1024"),
     ] {
-        let text = format!("<scene version=\"{version}\">\n{body}\n</scene>\n");
-        std::fs::write(dir.path().join("s.xml"), text).unwrap();
-        let i = import_file(&dir.path().join("s.xml")).unwrap();
+        let i = import_with_camera(version, "").unwrap();
         assert_eq!(
             i.scene.integrator,
             Some(serde_json::json!({"algorithm": "pt", "max_depth": depth}))
