@@ -306,7 +306,6 @@ fn every_error_names_the_element_and_its_line() {
         ("<shape type=\"sphere\">\n  <bsdf type=\"hair\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"hair\">", "unknown or unsupported BSDF plugin"),
         ("<shape type=\"bezier\"/>", "s.xml:2:1: <shape type=\"bezier\">", "unknown or unsupported shape plugin"),
         ("<emitter type=\"sky\"/>", "s.xml:2:1: <emitter type=\"sky\">", "unknown or unsupported emitter plugin"),
-        ("<integrator type=\"aov\"/>", "s.xml:2:1: <integrator type=\"aov\">", "unknown integrator plugin"),
         ("<sensor type=\"orthographic\"/>", "s.xml:2:1: <sensor type=\"orthographic\">", "unknown sensor plugin"),
         ("<shapegroup/>", "s.xml:2:1: <shapegroup>", "unknown element"),
         // A feature caustic lacks.
@@ -322,7 +321,6 @@ fn every_error_names_the_element_and_its_line() {
         ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <spectrum name=\"reflectance\">", "spectra given by wavelength"),
         ("<shape type=\"sphere\">\n  <boolean name=\"flip_normals\" value=\"yes\"/>\n</shape>", "s.xml:3:3: <boolean name=\"flip_normals\">", "not true or false"),
         ("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"$r\"/>\n</shape>", "s.xml:3:3: <float name=\"radius\">", "\"$r\" has no value"),
-        ("<integrator type=\"path\">\n  <integer name=\"max_depth\" value=\"0\"/>\n</integrator>", "s.xml:2:1: <integrator type=\"path\">", "max_depth 0"),
         // Unknown references.
         ("<shape type=\"sphere\">\n  <ref id=\"glass\"/>\n</shape>", "s.xml:3:3: <ref id=\"glass\">", "unknown reference \"glass\""),
         ("<bsdf type=\"diffuse\" id=\"a\"/>\n<medium type=\"homogeneous\" id=\"a\"/>", "s.xml:3:1: <medium type=\"homogeneous\" id=\"a\">", "already used at s.xml:2:1"),

@@ -1,4 +1,5 @@
-//! Mitsuba 3 XML scenes, imported into caustic's scene format. What caustic cannot
+//! Mitsuba 3 XML scenes, imported into caustic's scene format (Mitsuba 0.x files are
+//! first brought to Mitsuba 3's form by module `upgrade`). What caustic cannot
 //! represent is an error naming the element and its line; where an approximation is
 //! honest (a `plastic` BSDF drawn as its diffuse base, a Gaussian pixel filter as a
 //! box), it is made and a warning says exactly what changed. Nothing changes the
@@ -7,11 +8,13 @@
 mod bsdf;
 mod budget;
 mod emitters;
+mod integrator;
 mod media;
 mod params;
 mod sensor;
 mod serialized;
 mod shapes;
+mod upgrade;
 mod xml;
 
 use super::error::Result;
@@ -50,12 +53,17 @@ pub fn is_xml_path(path: &Path) -> bool {
         .is_some_and(|x| x.eq_ignore_ascii_case("xml"))
 }
 
-/// Imports a Mitsuba 3 XML scene file; the files it names resolve next to it (or next
+/// Imports a Mitsuba 3 (or 0.x) XML scene file; the files it names resolve next to it (or next
 /// to the file that includes them) and end up relative to its folder.
 pub fn import_file(path: &Path) -> Result<Import> {
-    let (root, mut sources) = xml::read(path)?;
+    let xml::Read {
+        root,
+        files: mut sources,
+        warnings,
+    } = xml::read(path)?;
     let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mut ctx = Ctx::new(&root, main_dir)?;
+    ctx.warnings = warnings;
     let mut camera = None;
     let mut integrator = None;
     let mut shapes = Vec::new();
@@ -69,7 +77,8 @@ pub fn import_file(path: &Path) -> Result<Import> {
             "integrator" if integrator.is_some() => {
                 return Err(n.err("a second integrator; remove it"))
             }
-            "integrator" => integrator = Some((n, sensor::integrator(n, &mut ctx)?)),
+            // Converted after the sensor; its warnings go here, in document order.
+            "integrator" => integrator = Some((n, ctx.warnings.len())),
             "shape" => {
                 (ctx.budget).spend(Work::Shapes, 1).map_err(|m| n.err(m))?;
                 shapes.push(shapes::shape(n, &mut ctx)?)
@@ -91,8 +100,14 @@ pub fn import_file(path: &Path) -> Result<Import> {
     let Some((camera, film, spp)) = camera else {
         return Err(root.err("the scene has no <sensor>: caustic needs a camera; add one"));
     };
+    // After the sensor: photon counts per pass become counts per pixel.
+    let pixels = u64::from(film.width) * u64::from(film.height);
     let integrator = match integrator {
-        Some((n, v)) => {
+        Some((n, at)) => {
+            let before = ctx.warnings.len();
+            let v = integrator::integrator(n, &mut ctx, pixels)?;
+            let new: Vec<String> = ctx.warnings.drain(before..).collect();
+            ctx.warnings.splice(at..at, new);
             if n.kind() == "path" && !ctx.media.is_empty() {
                 ctx.warn(
                     n,
@@ -101,15 +116,7 @@ pub fn import_file(path: &Path) -> Result<Import> {
             }
             v
         }
-        None => {
-            ctx.warnings.push(format!(
-                "{}: no <integrator>: Mitsuba's default path tracer with unlimited max_depth \
-                 becomes pt with max_depth {}",
-                root.loc,
-                sensor::UNLIMITED_DEPTH
-            ));
-            serde_json::json!({"algorithm": "pt", "max_depth": sensor::UNLIMITED_DEPTH})
-        }
+        None => integrator::default(&root, &mut ctx),
     };
     let scene = SceneFile {
         format: 1,

@@ -190,6 +190,17 @@ impl<'a> Params<'a> {
         Ok(found)
     }
 
+    /// The parameters and objects nothing has taken (yet).
+    pub fn unread(&self) -> Vec<&'a Node> {
+        let props = (self.props.iter())
+            .filter(|(_, used)| !used.get())
+            .map(|(n, _)| *n);
+        let objects = (self.objects.iter())
+            .filter(|(_, _, used)| !used.get())
+            .map(|(_, n, _)| *n);
+        props.chain(objects).collect()
+    }
+
     /// Every parameter and object must have been taken by the converter.
     pub fn finish(&self, what: &str) -> Result<()> {
         if let Some((n, _)) = self.props.iter().find(|(_, used)| !used.get()) {
@@ -258,7 +269,7 @@ fn color(n: &Node) -> Result<V3> {
 }
 
 /// `x`, `y`, `z` attributes (missing ones `default`) or a `value` of three numbers.
-fn xyz(n: &Node, default: f64) -> Result<DVec3> {
+pub fn xyz(n: &Node, default: f64) -> Result<DVec3> {
     if let Some(v) = n.attr("value") {
         return match numbers(n, v)?.as_slice() {
             [x, y, z] => Ok(DVec3::new(*x, *y, *z)),

@@ -1,14 +1,11 @@
-//! `<sensor>` (with its `<film>`, `<rfilter>` and `<sampler>`) and `<integrator>`.
+//! `<sensor>`, with its `<film>` and `<rfilter>` (its `<sampler>`: module `integrator`).
 
 use super::params::{f3, Params, Part};
 use super::xml::Node;
-use super::{media, Ctx};
+use super::{integrator, media, Ctx};
 use crate::scene::error::Result;
 use crate::scene::format::{CameraDesc, FilmDesc, Filter, FilterDesc, FovAxis, LookAt};
 use glam::DVec3;
-
-/// What Mitsuba's `max_depth` -1 (no limit) becomes.
-pub const UNLIMITED_DEPTH: u32 = 1024;
 
 /// The camera, the film and the sample count.
 pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDesc, Option<u32>)> {
@@ -58,13 +55,8 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
             }
         },
     };
-    let fov = p.float("fov")?.ok_or_else(|| {
-        n.err(
-            "needs a fov (focal_length is not supported): add <float name=\"fov\" value=\"...\"/>",
-        )
-    })?;
+    let (fov, axis) = field_of_view(n, &p)?;
     let (w, h) = (film.width as f64, film.height as f64);
-    let axis = p.string("fov_axis")?;
     let (fov, fov_axis) = match axis.map_or("x", |(_, s)| s) {
         "x" => (fov, FovAxis::X),
         "y" => (fov, FovAxis::Y),
@@ -111,7 +103,7 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
         (0.0, None)
     };
     p.ignore(&["shutter_open", "shutter_close"]);
-    let spp = sampler(&p, ctx)?;
+    let spp = integrator::sampler(&p, ctx)?;
     let medium = match p.object(&["medium"], None)? {
         Some(m) => Some(media::medium(m, ctx)?),
         None => None,
@@ -127,6 +119,32 @@ pub fn sensor<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<(CameraDesc, FilmDes
         medium,
     };
     Ok((camera, film, spp))
+}
+
+/// `fov` (degrees) and its `fov_axis`; or, as Mitsuba (0.x and 3) reads a sensor
+/// without a fov, `focal_length` (`50mm` by default) on a 36 x 24 mm film: a fov
+/// across the diagonal of 2 atan(sqrt(36^2 + 24^2) / (2 f)).
+fn field_of_view<'a>(n: &'a Node, p: &Params<'a>) -> Result<(f64, Option<(&'a Node, &'a str)>)> {
+    let focal = p.string("focal_length")?;
+    match (p.float("fov")?, focal) {
+        (Some(_), Some((f, _))) => Err(f.err("give a fov or a focal_length, not both")),
+        (Some(fov), None) => Ok((fov, p.string("fov_axis")?)),
+        (None, focal) => {
+            let text = focal.map_or("50mm", |(_, s)| s).trim();
+            let mm = (text.strip_suffix("mm").unwrap_or(text).trim().parse().ok())
+                .filter(|f: &f64| f.is_finite() && *f > 0.0)
+                .ok_or_else(|| {
+                    focal.map_or(n, |(f, _)| f).err(format!(
+                        "focal_length \"{text}\" is not a length in millimetres such as 50mm"
+                    ))
+                })?;
+            // Mitsuba ignores the axis then.
+            p.ignore(&["fov_axis"]);
+            let diagonal = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+            let fov = 2.0 * (diagonal / (2.0 * mm)).atan().to_degrees();
+            Ok((fov, Some((n, "diagonal"))))
+        }
+    }
 }
 
 /// The film, with Mitsuba's defaults: 768 x 576 and a Gaussian filter.
@@ -231,81 +249,4 @@ fn rfilter<'a>(r: &'a Node, ctx: &Ctx<'a>) -> Result<Filter> {
     }
     p.finish("the filter")?;
     Ok(filter)
-}
-
-fn sampler<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Option<u32>> {
-    let Some(n) = p.object(&["sampler"], None)? else {
-        return Ok(None);
-    };
-    let s = Params::new(n, ctx)?;
-    let count = s.int("sample_count")?.unwrap_or(4);
-    let spp = u32::try_from(count)
-        .ok()
-        .filter(|&c| c >= 1)
-        .ok_or_else(|| n.err(format!("sample_count {count} must be at least 1")))?;
-    // The random numbers differ anyway: the seed and stratification change the noise,
-    // not the expected image.
-    s.ignore(&["seed", "jitter", "scramble_seed"]);
-    s.finish("the sampler")?;
-    match n.kind() {
-        "independent" => {}
-        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "pmj02" => ctx.warn(
-            n,
-            "caustic samples with independent random numbers: the same expected image \
-                 with different noise",
-        ),
-        other => return Err(n.err(format!("unknown sampler plugin \"{other}\""))),
-    }
-    Ok(Some(spp))
-}
-
-/// `{"algorithm": ..., "max_depth": ...}` for the scene's `integrator`.
-pub fn integrator<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<serde_json::Value> {
-    let p = Params::new(n, ctx)?;
-    let algorithm = match n.kind() {
-        "path" => "pt",
-        "volpath" | "volpathmis" => "volpath",
-        "bdpt" => "bpt",
-        "ptracer" => "lt",
-        other => {
-            return Err(n.err(format!(
-                "unknown integrator plugin \"{other}\": caustic imports path, volpath, \
-                 volpathmis, bdpt and ptracer (choose another algorithm with --algorithm)"
-            )))
-        }
-    };
-    let mut out = serde_json::json!({ "algorithm": algorithm });
-    let depth = p.int("max_depth")?.unwrap_or(-1);
-    let depth = match depth {
-        -1 => {
-            ctx.warn(
-                n,
-                format!("max_depth -1 (no limit) becomes {UNLIMITED_DEPTH}"),
-            );
-            UNLIMITED_DEPTH
-        }
-        d if d >= 1 && d <= u32::MAX as i64 => d as u32,
-        d => return Err(n.err(format!("max_depth {d} must be -1 or at least 1"))),
-    };
-    out["max_depth"] = depth.into();
-    if let Some(rr) = p.int("rr_depth")? {
-        let rr = u32::try_from(rr).map_err(|_| n.err(format!("rr_depth {rr} must be >= 0")))?;
-        if algorithm == "pt" || algorithm == "volpath" {
-            out["rr_depth"] = rr.into();
-        } else {
-            ctx.warn(
-                n,
-                format!(
-                    "rr_depth is ignored: caustic's {algorithm} plays Russian roulette on the \
-                     albedo at every vertex (the same expected image)"
-                ),
-            );
-        }
-    }
-    if p.boolean("hide_emitters")? == Some(true) {
-        return Err(n.err("hide_emitters is not supported: caustic always shows emitters"));
-    }
-    p.ignore(&["samples_per_pass", "timeout"]);
-    p.finish("the integrator")?;
-    Ok(out)
 }

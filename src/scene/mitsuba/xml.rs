@@ -1,9 +1,11 @@
 //! Mitsuba XML as a tree of owned nodes: `<include>`s expanded in place, `<default>`s
-//! collected and `$name` references substituted, every node with its file, line and
-//! column for messages.
+//! collected and `$name` references substituted, the elements of Mitsuba 0.x files
+//! upgraded to Mitsuba 3's form (module `upgrade`), every node with its file, line
+//! and column for messages.
 
 use super::super::error::{Result, SceneError};
 use super::budget::{Budget, Work};
+use super::upgrade;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -15,6 +17,8 @@ pub struct SrcFile {
     pub name: String,
     /// The file's folder, relative to the main file's folder.
     pub dir: PathBuf,
+    /// A Mitsuba 0.x file (its elements were upgraded).
+    pub legacy: bool,
 }
 
 /// Where a node starts.
@@ -72,10 +76,36 @@ impl Node {
     pub fn kind(&self) -> &str {
         self.attr("type").unwrap_or("")
     }
+
+    /// Sets attribute `key`, adding it if it is missing.
+    pub fn set_attr(&mut self, key: &str, value: &str) {
+        match self.attrs.iter_mut().find(|(k, _)| k == key) {
+            Some((_, v)) => *v = value.to_string(),
+            None => self.attrs.push((key.to_string(), value.to_string())),
+        }
+    }
+
+    /// Whether the element comes from a Mitsuba 0.x file.
+    pub fn legacy(&self) -> bool {
+        self.loc.file.legacy
+    }
 }
 
-/// Attributes each element may carry; anything else is an error.
-fn allowed_attrs(tag: &str) -> Option<&'static [&'static str]> {
+/// Attributes each element may carry; anything else is an error. A 0.x file also has
+/// elements and attributes that its upgrade rewrites or refuses.
+fn allowed_attrs(tag: &str, legacy: bool) -> Option<&'static [&'static str]> {
+    if legacy {
+        match tag {
+            "rgb" | "srgb" => return Some(&["name", "value", "intent"]),
+            "spectrum" => return Some(&["name", "value", "filename", "intent"]),
+            "lookAt" => return Some(&["origin", "target", "up"]),
+            "blackbody" => return Some(&["name", "temperature", "scale"]),
+            "animation" => return Some(&["name"]),
+            "subsurface" => return Some(&["type", "id", "name"]),
+            "alias" => return Some(&["id", "as"]),
+            _ => {}
+        }
+    }
     Some(match tag {
         "scene" => &["version"],
         "default" => &["name", "value"],
@@ -95,17 +125,22 @@ fn allowed_attrs(tag: &str) -> Option<&'static [&'static str]> {
     })
 }
 
-/// Reads the main scene file and everything it includes; also the names (relative
-/// to the main file's folder) of the files read, the main one first.
-pub fn read(path: &Path) -> Result<(Node, Vec<String>)> {
+/// A scene file read with everything it includes.
+pub struct Read {
+    pub root: Node,
+    /// The names (relative to the main file's folder) of the files read, the main
+    /// one first.
+    pub files: Vec<String>,
+    /// What upgrading 0.x elements changed in the image, one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Reads the main scene file and everything it includes.
+pub fn read(path: &Path) -> Result<Read> {
     let name = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let file = Arc::new(SrcFile {
-        name,
-        dir: PathBuf::new(),
-    });
     let main_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mut reader = Reader {
         main_dir,
@@ -114,15 +149,19 @@ pub fn read(path: &Path) -> Result<(Node, Vec<String>)> {
         depth: 0,
         substituted: 0,
         budget: Budget::default(),
-        read: vec![file.name.clone()],
+        read: vec![name.clone()],
+        warnings: Vec::new(),
     };
-    let text =
-        std::fs::read_to_string(path).map_err(|e| SceneError::new(&file.name, e.to_string()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::new(&name, e.to_string()))?;
     (reader.budget)
         .spend(Work::XmlBytes, text.len() as u64)
-        .map_err(|m| SceneError::new(&file.name, m))?;
-    let root = reader.file(&text, file, path)?;
-    Ok((root, reader.read))
+        .map_err(|m| SceneError::new(&name, m))?;
+    let root = reader.file(&text, name, PathBuf::new(), path)?;
+    Ok(Read {
+        root,
+        files: reader.read,
+        warnings: reader.warnings,
+    })
 }
 
 struct Reader {
@@ -140,6 +179,8 @@ struct Reader {
     budget: Budget,
     /// The files read, by their names relative to the main file's folder.
     read: Vec<String>,
+    /// What the upgrades of 0.x elements changed.
+    warnings: Vec<String>,
 }
 
 /// Far more than any real scene substitutes.
@@ -150,17 +191,33 @@ const MAX_SUBSTITUTED: usize = 1 << 24;
 const MAX_DEPTH: usize = 64;
 
 impl Reader {
-    fn file(&mut self, text: &str, file: Arc<SrcFile>, path: &Path) -> Result<Node> {
+    /// Reads file `name` (relative to the main file's folder, in `dir`), at `path`.
+    fn file(&mut self, text: &str, name: String, dir: PathBuf, path: &Path) -> Result<Node> {
         let canon = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
         self.stack.push(canon);
         let doc = roxmltree::Document::parse(text).map_err(|e| {
             let pos = e.pos();
             SceneError::new(
-                format!("{}:{}:{}", file.name, pos.row, pos.col),
+                format!("{name}:{}:{}", pos.row, pos.col),
                 format!("not well-formed XML: {e}"),
             )
         })?;
         let root = doc.root_element();
+        // Mitsuba 2 and 3 require a version: a file without one is from 0.x.
+        let legacy = match root.attribute("version") {
+            None => true,
+            Some(v) => upgrade::is_legacy(v).ok_or_else(|| {
+                let pos = doc.text_pos_at(root.range().start);
+                SceneError::new(
+                    format!("{name}:{}:{}", pos.row, pos.col),
+                    format!(
+                        "<{}>: version \"{v}\" is not a version number (such as 3.0.0)",
+                        root.tag_name().name()
+                    ),
+                )
+            })?,
+        };
+        let file = Arc::new(SrcFile { name, dir, legacy });
         let at = |n: roxmltree::Node| {
             let pos = doc.text_pos_at(n.range().start);
             Loc {
@@ -175,16 +232,6 @@ impl Reader {
                 format!(
                     "<{}>: the root element must be <scene>",
                     root.tag_name().name()
-                ),
-            ));
-        }
-        if let Some(v) = root.attribute("version").filter(|v| v.starts_with("0.")) {
-            return Err(SceneError::new(
-                at(root).to_string(),
-                format!(
-                    "<scene version=\"{v}\">: a Mitsuba 0.x scene (camelCase parameters); caustic \
-                     reads Mitsuba 3 scenes: upgrade it with Mitsuba 3 (which loads and can \
-                     re-save old scenes) first"
                 ),
             ));
         }
@@ -233,7 +280,7 @@ impl Reader {
         (self.budget)
             .spend(Work::Elements, 1)
             .map_err(|m| node.err(m))?;
-        let Some(allowed) = allowed_attrs(&node.tag) else {
+        let Some(allowed) = allowed_attrs(&node.tag, node.legacy()) else {
             return Err(node.err(
                 "unknown element: caustic imports Mitsuba 3 scene elements (shape, bsdf, emitter, \
                  sensor, medium, ...); remove it or convert it by hand",
@@ -263,6 +310,9 @@ impl Reader {
                 }
                 _ => node.children.push(self.node(c, at)?),
             }
+        }
+        if node.legacy() {
+            upgrade::node(&mut node, &mut self.warnings)?;
         }
         Ok(node)
     }
@@ -323,11 +373,9 @@ impl Reader {
         self.budget
             .spend(Work::XmlBytes, text.len() as u64)
             .map_err(|m| inc.err(m))?;
-        let file = Arc::new(SrcFile {
-            name: rel.to_string_lossy().into_owned(),
-            dir: rel.parent().map(Path::to_path_buf).unwrap_or_default(),
-        });
-        self.read.push(file.name.clone());
-        self.file(&text, file, &path)
+        let name = rel.to_string_lossy().into_owned();
+        self.read.push(name.clone());
+        let dir = rel.parent().map(Path::to_path_buf).unwrap_or_default();
+        self.file(&text, name, dir, &path)
     }
 }
