@@ -199,6 +199,17 @@ impl Material {
         }
     }
 
+    /// Probability that `sample` picks a delta lobe from `wo`, for a BSDF that mixes
+    /// one with continuous lobes (plastic's coating); 0 for every other BSDF. Sampling
+    /// with `u_lobe` 0 picks that delta lobe where this is positive.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        match self {
+            Material::Plastic(m) => m.delta_probability(orient(m.two_sided, wo, Vec3::Z).0),
+            _ => 0.0,
+        }
+    }
+
     /// True when nothing arriving from `wo` (local frame) is scattered, whatever the
     /// outgoing direction: the back of a one-sided surface. Light vertices there add
     /// nothing to any technique.

@@ -47,6 +47,15 @@ impl Plastic {
         (1.0 - p) * cosine_hemisphere_pdf(wi.z)
     }
 
+    /// Probability that `sample` picks the delta lobe from `wo`.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.coating.prob_specular(self.fresnel(wo.z))
+    }
+
     #[inline]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
