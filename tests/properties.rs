@@ -418,9 +418,54 @@ fn material() -> BoxedStrategy<Value> {
         1 => mirror,
         2 => dielectric,
         2 => conductor,
+        3 => issue37_material(),
         1 => Just(json!({"type": "null"})),
     ]
     .boxed()
+}
+
+/// The rough materials, plastics and the thin dielectric, with roughness from nearly
+/// smooth to very rough, isotropic or not.
+fn issue37_material() -> BoxedStrategy<Value> {
+    let alpha = prop_oneof![Just(5e-4), Just(0.02), dec(5, 100, 100.0), Just(3.0)];
+    (
+        0..5usize,
+        prop_oneof![Just("beckmann"), Just("ggx")],
+        alpha,
+        prop::option::of(dec(1, 100, 100.0)),
+        unit3(),
+        any::<bool>(),
+        opt_bool(),
+    )
+        .prop_map(|(kind, d, a, av, colour, nonlinear, t)| {
+            let ty = [
+                "roughdielectric",
+                "roughconductor",
+                "plastic",
+                "roughplastic",
+                "thindielectric",
+            ][kind];
+            let mut m = json!({"type": ty});
+            if kind != 2 && kind != 4 {
+                m["distribution"] = json!(d);
+                match av {
+                    Some(v) if kind < 2 => {
+                        m["alpha_u"] = json!(a);
+                        m["alpha_v"] = json!(v);
+                    }
+                    _ => m["alpha"] = json!(a),
+                }
+            }
+            if kind == 2 || kind == 3 {
+                m["diffuse_reflectance"] = colour;
+                m["nonlinear"] = json!(nonlinear);
+            }
+            if kind != 0 && kind != 4 {
+                put(&mut m, "two_sided", t.map(Value::Bool));
+            }
+            m
+        })
+        .boxed()
 }
 
 fn phase() -> BoxedStrategy<Value> {
@@ -1361,6 +1406,30 @@ fn mutations() -> Vec<Mutation> {
         }),
         ("materials.bad", |s| {
             s["materials"]["bad"] = json!({"type": "velvet"})
+        }),
+        ("materials.bad.alpha_v", |s| {
+            s["materials"]["bad"] = json!({"type": "roughdielectric", "alpha_u": 0.1})
+        }),
+        (
+            "materials.bad.alpha",
+            |s| {
+                s["materials"]["bad"] =
+                    json!({"type": "roughconductor", "alpha": 0.1, "alpha_u": 0.1, "alpha_v": 0.2})
+            },
+        ),
+        ("materials.bad.alpha", |s| {
+            s["materials"]["bad"] = json!({"type": "roughplastic", "alpha": -1})
+        }),
+        (
+            "materials.bad.int_ior",
+            |s| s["materials"]["bad"] = json!({"type": "plastic", "int_ior": 1.2, "ext_ior": 1.2}),
+        ),
+        ("materials.bad.diffuse_reflectance", |s| {
+            s["materials"]["bad"] = json!({"type": "plastic", "diffuse_reflectance": [2, 0, 0]})
+        }),
+        ("materials.bad.specular_transmittance", |s| {
+            s["materials"]["bad"] =
+                json!({"type": "thindielectric", "specular_transmittance": [0, -1, 0]})
         }),
         ("media.bad", |s| {
             add_medium(

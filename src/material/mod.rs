@@ -4,19 +4,29 @@
 //! f(wo, wi) |cos theta_i| (the cosine included, as in Mitsuba) and `sample` returns
 //! that value divided by the pdf.
 
+mod coating;
 mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-mod ggx;
+pub mod microfacet;
 mod mirror;
 mod phong;
+mod plastic;
+mod rough_dielectric;
+mod rough_plastic;
+mod thin_dielectric;
 
+pub use coating::Coating;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mirror::Mirror;
 pub use phong::Phong;
+pub use plastic::Plastic;
+pub use rough_dielectric::RoughDielectric;
+pub use rough_plastic::RoughPlastic;
+pub use thin_dielectric::ThinDielectric;
 
 use crate::math::{Rgb, Vec2, Vec3, Vec3A};
 
@@ -49,6 +59,10 @@ pub enum Material {
     Mirror(Mirror),
     Dielectric(Dielectric),
     Conductor(Conductor),
+    RoughDielectric(RoughDielectric),
+    Plastic(Plastic),
+    RoughPlastic(RoughPlastic),
+    ThinDielectric(ThinDielectric),
     /// Index-matched boundary: not a scattering event at all.
     Null,
 }
@@ -71,7 +85,12 @@ impl Material {
             Material::Phong(m) => m.two_sided,
             Material::Mirror(m) => m.two_sided,
             Material::Conductor(m) => m.two_sided,
-            Material::Dielectric(_) | Material::Null => false,
+            Material::Plastic(m) => m.two_sided,
+            Material::RoughPlastic(m) => m.two_sided,
+            Material::Dielectric(_)
+            | Material::RoughDielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Null => false,
         }
     }
 
@@ -83,10 +102,13 @@ impl Material {
             Material::Diffuse(m) => m.eval(wo, wi),
             Material::Phong(m) => m.eval(wo, wi),
             Material::Conductor(m) => m.eval(wo, wi),
-            Material::Dielectric(_) | Material::Mirror(_) | Material::Null => {
-                let _ = mode;
-                Rgb::ZERO
-            }
+            Material::RoughDielectric(m) => m.eval(wo, wi, mode),
+            Material::Plastic(m) => m.eval(wo, wi),
+            Material::RoughPlastic(m) => m.eval(wo, wi),
+            Material::Dielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Mirror(_)
+            | Material::Null => Rgb::ZERO,
         }
     }
 
@@ -98,7 +120,13 @@ impl Material {
             Material::Diffuse(m) => m.pdf(wo, wi),
             Material::Phong(m) => m.pdf(wo, wi),
             Material::Conductor(m) => m.pdf(wo, wi),
-            Material::Dielectric(_) | Material::Mirror(_) | Material::Null => 0.0,
+            Material::RoughDielectric(m) => m.pdf(wo, wi),
+            Material::Plastic(m) => m.pdf(wo, wi),
+            Material::RoughPlastic(m) => m.pdf(wo, wi),
+            Material::Dielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Mirror(_)
+            | Material::Null => 0.0,
         }
     }
 
@@ -140,6 +168,10 @@ impl Material {
             Material::Mirror(m) => m.sample(wo_o),
             Material::Conductor(m) => m.sample(wo_o, u),
             Material::Dielectric(m) => m.sample(wo_o, u_lobe, mode),
+            Material::RoughDielectric(m) => m.sample(wo_o, u_lobe, u, mode),
+            Material::Plastic(m) => m.sample(wo_o, u_lobe, u),
+            Material::RoughPlastic(m) => m.sample(wo_o, u_lobe, u),
+            Material::ThinDielectric(m) => m.sample(wo_o, u_lobe),
             Material::Null => None,
         }?;
         if flipped {
@@ -152,9 +184,29 @@ impl Material {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Material::Mirror(_) | Material::Dielectric(_) | Material::Null => true,
+            Material::Mirror(_)
+            | Material::Dielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Null => true,
             Material::Conductor(c) => c.is_smooth(),
-            Material::Diffuse(_) | Material::Phong(_) => false,
+            // Plastic's specular lobe is a delta, its diffuse lobe is not: it is sampled
+            // per lobe (`BsdfSample::delta`) and connects through the diffuse one.
+            Material::Diffuse(_)
+            | Material::Phong(_)
+            | Material::RoughDielectric(_)
+            | Material::Plastic(_)
+            | Material::RoughPlastic(_) => false,
+        }
+    }
+
+    /// Probability that `sample` picks a delta lobe from `wo`, for a BSDF that mixes
+    /// one with continuous lobes (plastic's coating); 0 for every other BSDF. Sampling
+    /// with `u_lobe` 0 picks that delta lobe where this is positive.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        match self {
+            Material::Plastic(m) => m.delta_probability(orient(m.two_sided, wo, Vec3::Z).0),
+            _ => 0.0,
         }
     }
 
@@ -164,10 +216,16 @@ impl Material {
     #[inline(always)]
     pub fn is_black_from(&self, wo: Vec3) -> bool {
         match self {
-            Material::Diffuse(_) | Material::Phong(_) | Material::Conductor(_) => {
-                orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0
-            }
-            Material::Mirror(_) | Material::Dielectric(_) | Material::Null => false,
+            Material::Diffuse(_)
+            | Material::Phong(_)
+            | Material::Conductor(_)
+            | Material::Plastic(_)
+            | Material::RoughPlastic(_) => orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0,
+            Material::Mirror(_)
+            | Material::Dielectric(_)
+            | Material::RoughDielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Null => false,
         }
     }
 
@@ -178,6 +236,10 @@ impl Material {
             Material::Phong(m) => m.kd() + m.ks(),
             Material::Mirror(m) => m.reflectance,
             Material::Dielectric(m) => m.specular_transmittance,
+            Material::RoughDielectric(m) => m.specular_transmittance,
+            Material::ThinDielectric(m) => m.specular_transmittance,
+            Material::Plastic(Plastic { coating, .. })
+            | Material::RoughPlastic(RoughPlastic { coating, .. }) => coating.diffuse_reflectance,
             Material::Conductor(m) => m.normal_reflectance(),
             Material::Null => Rgb::ONE,
         }

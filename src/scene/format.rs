@@ -176,10 +176,141 @@ pub enum MaterialDesc {
         #[serde(default)]
         two_sided: bool,
     },
+    /// Rough metal, as Mitsuba 3's `roughconductor`: a microfacet `distribution`
+    /// (`beckmann` or `ggx`) of roughness `alpha`, or `alpha_u` and `alpha_v` (along
+    /// the shading frame's two tangents) for an anisotropic one. `eta` and `k` default
+    /// to Mitsuba's material "none", a perfect reflector (eta 0, k 1).
+    #[serde(rename = "roughconductor")]
+    RoughConductor {
+        #[serde(default)]
+        distribution: DistributionDesc,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_u: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_v: Option<f32>,
+        #[serde(default)]
+        eta: V3,
+        #[serde(default = "one3")]
+        k: V3,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Rough dielectric interface, as Mitsuba 3's `roughdielectric` (Walter et al.
+    /// 2007): the roughness parameters of `roughconductor`, the IORs of `dielectric`.
+    #[serde(rename = "roughdielectric")]
+    RoughDielectric {
+        #[serde(default)]
+        distribution: DistributionDesc,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_u: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_v: Option<f32>,
+        #[serde(default = "default_int_ior")]
+        int_ior: f32,
+        #[serde(default = "default_ext_ior")]
+        ext_ior: f32,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default = "one3")]
+        specular_transmittance: V3,
+    },
+    /// Smooth plastic, as Mitsuba 3's `plastic`: a dielectric coating (`int_ior`,
+    /// default polypropylene 1.49, over `ext_ior`) on a Lambertian base of
+    /// `diffuse_reflectance`, with the internal reflections of the coating's underside;
+    /// `nonlinear` lets the base's colour tint them too. One-sided unless `two_sided`.
+    Plastic {
+        #[serde(default = "half3")]
+        diffuse_reflectance: V3,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default = "default_plastic_ior")]
+        int_ior: f32,
+        #[serde(default = "default_ext_ior")]
+        ext_ior: f32,
+        #[serde(default)]
+        nonlinear: bool,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Rough plastic, as Mitsuba 3's `roughplastic`: `plastic` with a rough coating of
+    /// isotropic roughness `alpha` (default 0.1) and `distribution` (default
+    /// `beckmann`).
+    #[serde(rename = "roughplastic")]
+    RoughPlastic {
+        #[serde(default)]
+        distribution: DistributionDesc,
+        #[serde(default = "default_alpha")]
+        alpha: f32,
+        #[serde(default = "half3")]
+        diffuse_reflectance: V3,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default = "default_plastic_ior")]
+        int_ior: f32,
+        #[serde(default = "default_ext_ior")]
+        ext_ior: f32,
+        #[serde(default)]
+        nonlinear: bool,
+        #[serde(default)]
+        two_sided: bool,
+    },
+    /// Thin dielectric sheet, as Mitsuba 3's `thindielectric`: reflects with the
+    /// reflectance of both faces and their inter-reflections, transmits without bending.
+    #[serde(rename = "thindielectric")]
+    ThinDielectric {
+        #[serde(default = "default_int_ior")]
+        int_ior: f32,
+        #[serde(default = "default_ext_ior")]
+        ext_ior: f32,
+        #[serde(default = "one3")]
+        specular_reflectance: V3,
+        #[serde(default = "one3")]
+        specular_transmittance: V3,
+    },
     /// Index-matched boundary: rays pass straight through; only the medium changes.
     Null {},
 }
 
+/// Microfacet distribution of the rough materials (Mitsuba 3's default: Beckmann).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DistributionDesc {
+    #[default]
+    Beckmann,
+    Ggx,
+}
+
+/// Mitsuba 3's default roughness of the rough materials.
+pub const DEFAULT_ALPHA: f32 = 0.1;
+
+/// The (alpha_u, alpha_v) a rough material's `alpha`, `alpha_u` and `alpha_v` give
+/// (after validation: `alpha` alone, both of the others, or none).
+pub fn alphas(alpha: Option<f32>, alpha_u: Option<f32>, alpha_v: Option<f32>) -> (f32, f32) {
+    match (alpha, alpha_u, alpha_v) {
+        (_, Some(u), Some(v)) => (u, v),
+        (a, _, _) => {
+            let a = a.unwrap_or(DEFAULT_ALPHA);
+            (a, a)
+        }
+    }
+}
+
+fn half3() -> V3 {
+    [0.5; 3]
+}
+fn default_alpha() -> f32 {
+    DEFAULT_ALPHA
+}
+/// Polypropylene, Mitsuba 3's default interior of its plastics.
+fn default_plastic_ior() -> f32 {
+    1.49
+}
 fn one3() -> V3 {
     [1.0; 3]
 }

@@ -9,7 +9,11 @@ use crate::camera::Camera;
 use crate::geometry::{Accel, Prim, PrimMeta};
 use crate::light::DirectionalLight;
 use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
-use crate::material::{Conductor, Dielectric, Diffuse, Material, Mirror, Phong};
+use crate::material::microfacet::{Distribution, Microfacet};
+use crate::material::{
+    Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Phong, Plastic, RoughDielectric,
+    RoughPlastic, ThinDielectric,
+};
 use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -85,12 +89,127 @@ fn material(m: &MaterialDesc) -> Material {
         } => Material::Conductor(Conductor {
             eta: rgb(*eta),
             k: rgb(*k),
-            alpha: *roughness,
+            distribution: Microfacet::new(Distribution::Ggx, *roughness, *roughness),
             specular_reflectance: rgb(*specular_reflectance),
             two_sided: *two_sided,
         }),
+        MaterialDesc::RoughConductor {
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+            eta,
+            k,
+            specular_reflectance,
+            two_sided,
+        } => Material::Conductor(Conductor {
+            eta: rgb(*eta),
+            k: rgb(*k),
+            distribution: microfacet(*distribution, *alpha, *alpha_u, *alpha_v),
+            specular_reflectance: rgb(*specular_reflectance),
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::RoughDielectric {
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => {
+            let distribution = microfacet(*distribution, *alpha, *alpha_u, *alpha_v);
+            let (eta, r, t) = (
+                int_ior / ext_ior,
+                rgb(*specular_reflectance),
+                rgb(*specular_transmittance),
+            );
+            // Below the smooth threshold the lobes are Dirac deltas: the smooth
+            // interface renders the same image without the lobes' float trouble.
+            if distribution.is_smooth() {
+                Material::Dielectric(Dielectric {
+                    eta,
+                    specular_reflectance: r,
+                    specular_transmittance: t,
+                })
+            } else {
+                Material::RoughDielectric(RoughDielectric {
+                    eta,
+                    distribution,
+                    specular_reflectance: r,
+                    specular_transmittance: t,
+                })
+            }
+        }
+        MaterialDesc::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            two_sided,
+        } => Material::Plastic(Plastic {
+            coating: Coating {
+                diffuse_reflectance: rgb(*diffuse_reflectance),
+                specular_reflectance: rgb(*specular_reflectance),
+                eta: int_ior / ext_ior,
+                nonlinear: *nonlinear,
+            },
+            two_sided: *two_sided,
+        }),
+        MaterialDesc::RoughPlastic {
+            distribution,
+            alpha,
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            two_sided,
+        } => {
+            let coating = Coating {
+                diffuse_reflectance: rgb(*diffuse_reflectance),
+                specular_reflectance: rgb(*specular_reflectance),
+                eta: int_ior / ext_ior,
+                nonlinear: *nonlinear,
+            };
+            let d = microfacet(*distribution, Some(*alpha), None, None);
+            if d.is_smooth() {
+                Material::Plastic(Plastic {
+                    coating,
+                    two_sided: *two_sided,
+                })
+            } else {
+                Material::RoughPlastic(RoughPlastic::new(coating, d, *two_sided))
+            }
+        }
+        MaterialDesc::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => Material::ThinDielectric(ThinDielectric {
+            eta: int_ior / ext_ior,
+            specular_reflectance: rgb(*specular_reflectance),
+            specular_transmittance: rgb(*specular_transmittance),
+        }),
         MaterialDesc::Null {} => Material::Null,
     }
+}
+
+fn microfacet(
+    d: DistributionDesc,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+) -> Microfacet {
+    let kind = match d {
+        DistributionDesc::Beckmann => Distribution::Beckmann,
+        DistributionDesc::Ggx => Distribution::Ggx,
+    };
+    let (au, av) = alphas(alpha, alpha_u, alpha_v);
+    Microfacet::new(kind, au, av)
 }
 
 const CUBE_POSITIONS: [[f32; 3]; 8] = [

@@ -229,18 +229,18 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             ext_ior,
             specular_reflectance,
             specular_transmittance,
-        } => {
-            positive(&format!("{path}.int_ior"), *int_ior)?;
-            positive(&format!("{path}.ext_ior"), *ext_ior)?;
-            unit3(
-                &format!("{path}.specular_reflectance"),
-                *specular_reflectance,
-            )?;
-            unit3(
-                &format!("{path}.specular_transmittance"),
-                *specular_transmittance,
-            )
         }
+        | MaterialDesc::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => interface(
+            path,
+            [*int_ior, *ext_ior],
+            *specular_reflectance,
+            *specular_transmittance,
+        ),
         MaterialDesc::Conductor {
             eta,
             k,
@@ -265,7 +265,123 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
                 *specular_reflectance,
             )
         }
+        MaterialDesc::RoughConductor {
+            alpha,
+            alpha_u,
+            alpha_v,
+            eta,
+            k,
+            specular_reflectance,
+            ..
+        } => {
+            roughness(path, *alpha, *alpha_u, *alpha_v)?;
+            non_negative3(&format!("{path}.eta"), *eta)?;
+            non_negative3(&format!("{path}.k"), *k)?;
+            if (0..3).any(|c| eta[c] == 0.0 && k[c] == 0.0) {
+                return Err(SceneError::new(
+                    format!("{path}.k"),
+                    "eta and k are both zero in a channel (no such conductor)",
+                ));
+            }
+            unit3(
+                &format!("{path}.specular_reflectance"),
+                *specular_reflectance,
+            )
+        }
+        MaterialDesc::RoughDielectric {
+            alpha,
+            alpha_u,
+            alpha_v,
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+            ..
+        } => {
+            roughness(path, *alpha, *alpha_u, *alpha_v)?;
+            interface(
+                path,
+                [*int_ior, *ext_ior],
+                *specular_reflectance,
+                *specular_transmittance,
+            )
+        }
+        MaterialDesc::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            ..
+        } => coating(
+            path,
+            [*int_ior, *ext_ior],
+            *diffuse_reflectance,
+            *specular_reflectance,
+        ),
+        MaterialDesc::RoughPlastic {
+            alpha,
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            ..
+        } => {
+            roughness(path, Some(*alpha), None, None)?;
+            coating(
+                path,
+                [*int_ior, *ext_ior],
+                *diffuse_reflectance,
+                *specular_reflectance,
+            )
+        }
         MaterialDesc::Null {} => Ok(()),
+    }
+}
+
+/// A dielectric interface's IORs and the colours of its two lobes.
+fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: V3, t: V3) -> Result<()> {
+    positive(&format!("{path}.int_ior"), int_ior)?;
+    positive(&format!("{path}.ext_ior"), ext_ior)?;
+    unit3(&format!("{path}.specular_reflectance"), r)?;
+    unit3(&format!("{path}.specular_transmittance"), t)
+}
+
+/// A plastic's coating (IORs that differ, as Mitsuba requires) and base.
+fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: V3, specular: V3) -> Result<()> {
+    positive(&format!("{path}.int_ior"), int_ior)?;
+    positive(&format!("{path}.ext_ior"), ext_ior)?;
+    if int_ior == ext_ior {
+        return Err(SceneError::new(
+            format!("{path}.int_ior"),
+            "equals ext_ior: a coating needs an interface",
+        ));
+    }
+    unit3(&format!("{path}.diffuse_reflectance"), diffuse)?;
+    unit3(&format!("{path}.specular_reflectance"), specular)
+}
+
+/// A rough material's `alpha`, or `alpha_u` with `alpha_v`, each in [0, 10].
+fn roughness(path: &str, a: Option<f32>, u: Option<f32>, v: Option<f32>) -> Result<()> {
+    let given = [("alpha", a), ("alpha_u", u), ("alpha_v", v)];
+    for (key, x) in given {
+        if let Some(x) = x {
+            in_range(&format!("{path}.{key}"), x, 0.0, 10.0, "alpha in [0, 10]")?;
+        }
+    }
+    match (a, u, v) {
+        (Some(_), None, None) | (None, Some(_), Some(_)) | (None, None, None) => Ok(()),
+        (Some(_), _, _) => Err(SceneError::new(
+            format!("{path}.alpha"),
+            "give alpha, or alpha_u and alpha_v, not both",
+        )),
+        (None, Some(_), None) => Err(SceneError::new(
+            format!("{path}.alpha_v"),
+            "missing: alpha_u needs alpha_v",
+        )),
+        (None, None, Some(_)) => Err(SceneError::new(
+            format!("{path}.alpha_u"),
+            "missing: alpha_v needs alpha_u",
+        )),
     }
 }
 

@@ -20,9 +20,54 @@ pub fn sample_bsdf(
     rng: &mut Rng,
 ) -> Option<(Vec3, BsdfSample)> {
     let u_lobe = rng.next_f32();
+    sample_lobe(it, frame, wo, m, u_lobe, rng)
+}
+
+/// `sample_bsdf` with the lobe chosen by `u_lobe`; two random numbers.
+#[inline(always)]
+fn sample_lobe(
+    it: &Interaction,
+    frame: &Frame,
+    wo: Vec3,
+    m: &Material,
+    u_lobe: f32,
+    rng: &mut Rng,
+) -> Option<(Vec3, BsdfSample)> {
     let s = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance)?;
     let wi = frame.to_world(s.wi.into());
     ((wi.dot(it.ng) > 0.0) == (s.wi.z > 0.0)).then_some((wi, s))
+}
+
+/// What a camera path does at a non-delta surface where it would stop to estimate
+/// the BSDF's continuous lobes (a visible point, a gather of virtual lights).
+pub enum Stop {
+    /// Stop here, with the stop's estimate scaled by this factor.
+    Here(f32),
+    /// Follow the BSDF's delta lobe (plastic's coating) with this sample instead.
+    Follow(Option<(Vec3, BsdfSample)>),
+}
+
+/// Stops at a surface whose BSDF has only continuous lobes. Where a delta lobe is
+/// mixed in (probability p of being sampled), the path follows it with probability p
+/// (the sample's weight carries 1 / p) and otherwise stops with its estimate scaled by
+/// 1 / (1 - p): the delta lobe, which no density estimate or connection can reach,
+/// is kept without bias. Random numbers only where p > 0, so other scenes render as
+/// before.
+pub fn stop_or_follow_delta(
+    it: &Interaction,
+    frame: &Frame,
+    wo: Vec3,
+    m: &Material,
+    rng: &mut Rng,
+) -> Stop {
+    let p = m.delta_probability(wo);
+    if p <= 0.0 {
+        return Stop::Here(1.0);
+    }
+    if rng.next_f32() >= p {
+        return Stop::Here(1.0 / (1.0 - p));
+    }
+    Stop::Follow(sample_lobe(it, frame, wo, m, 0.0, rng))
 }
 
 /// Russian roulette after `rr_depth` scattering events, with survival the largest

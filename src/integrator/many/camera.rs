@@ -7,7 +7,7 @@
 use super::gather::{At, CamSeg, Gather};
 use crate::geometry::{spawn_ray, Ray};
 use crate::integrator::bidir::extent;
-use crate::integrator::common::camera::{roulette, sample_bsdf};
+use crate::integrator::common::camera::{roulette, sample_bsdf, stop_or_follow_delta, Stop};
 use crate::integrator::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;
 use crate::math::{Frame, Rgb, Rng};
@@ -85,14 +85,31 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
         }
         let frame = Frame::from_normal(it.ns);
         let wo = frame.to_local(-ray.d);
+        // The gather estimates the continuous lobes; a delta lobe mixed in (plastic's
+        // coating) is followed instead with its sampling probability.
+        let mut followed = None;
         if !m.is_delta() {
-            l += walk.beta * g.surface(&it, frame, wo, m, walk.medium, j, rng, stats);
-            break;
+            match stop_or_follow_delta(&it, &frame, wo, m, rng) {
+                Stop::Here(scale) => {
+                    let beta = if scale == 1.0 {
+                        walk.beta
+                    } else {
+                        walk.beta * scale
+                    };
+                    l += beta * g.surface(&it, frame, wo, m, walk.medium, j, rng, stats);
+                    break;
+                }
+                Stop::Follow(s) => followed = Some(s),
+            }
         }
         if j >= g.max_depth {
             break;
         }
-        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
+        let next = match followed {
+            Some(s) => s,
+            None => sample_bsdf(&it, &frame, wo, m, rng),
+        };
+        let Some((wi, s)) = next else {
             break;
         };
         walk.beta *= Rgb::from(s.weight);

@@ -48,7 +48,7 @@ use crate::film::{is_valid_sample, Film};
 use crate::geometry::spawn_ray;
 use crate::integrator::accel::HashGrid;
 use crate::integrator::accel::PointBvh;
-use crate::integrator::common::camera::sample_bsdf;
+use crate::integrator::common::camera::{sample_bsdf, stop_or_follow_delta, Stop};
 use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::medium_walk::{MediumWalk, Step};
 use crate::integrator::common::nee::{direct_unweighted, Origin};
@@ -383,31 +383,46 @@ impl PhotonMapper {
             }
             let frame = Frame::from_normal(it.ns);
             let wo = frame.to_local(-ray.d);
-            if !m.is_delta() {
-                let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
-                // Light sampling alone: the camera path stops here, so no BSDF
-                // sample can find the light.
-                let at = Origin::Surface {
-                    it: &it,
-                    frame: &frame,
-                    wo,
-                    m,
-                };
-                let medium = walk.medium;
-                out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
-                let vp = VisiblePoint {
-                    p: it.p,
-                    ng: it.ng,
-                    frame,
-                    wo,
-                    beta,
-                    material: scene.shapes[it.shape as usize].material,
-                    depth,
-                };
-                out.vp = Some(vp);
-                return out;
-            }
-            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, &mut rng) else {
+            // A visible point estimates the continuous lobes; a delta lobe mixed in
+            // (plastic's coating) is followed instead with its sampling probability.
+            let stop = if m.is_delta() {
+                None
+            } else {
+                Some(stop_or_follow_delta(&it, &frame, wo, m, &mut rng))
+            };
+            let followed = match stop {
+                Some(Stop::Here(scale)) => {
+                    let beta = if scale == 1.0 { beta } else { beta * scale };
+                    let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
+                    // Light sampling alone: the camera path stops here, so no BSDF
+                    // sample can find the light.
+                    let at = Origin::Surface {
+                        it: &it,
+                        frame: &frame,
+                        wo,
+                        m,
+                    };
+                    let medium = walk.medium;
+                    out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
+                    out.vp = Some(VisiblePoint {
+                        p: it.p,
+                        ng: it.ng,
+                        frame,
+                        wo,
+                        beta,
+                        material: scene.shapes[it.shape as usize].material,
+                        depth,
+                    });
+                    return out;
+                }
+                Some(Stop::Follow(s)) => Some(s),
+                None => None,
+            };
+            let next = match followed {
+                Some(s) => s,
+                None => sample_bsdf(&it, &frame, wo, m, &mut rng),
+            };
+            let Some((wi, s)) = next else {
                 return out;
             };
             walk.beta *= Rgb::from(s.weight);

@@ -4,7 +4,7 @@ use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{MaterialDesc, V3};
+use crate::scene::format::{DistributionDesc, MaterialDesc, V3};
 
 /// Conductors Mitsuba names, as RGB (eta, k): the values of Mitsuba's spectral data
 /// reduced to linear sRGB that Tungsten and Mitsuba 0.6's RGB mode tabulate.
@@ -109,11 +109,14 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 MaterialDesc::Diffuse { two_sided, .. }
                 | MaterialDesc::Phong { two_sided, .. }
                 | MaterialDesc::Mirror { two_sided, .. }
-                | MaterialDesc::Conductor { two_sided, .. } => *two_sided = true,
+                | MaterialDesc::Conductor { two_sided, .. }
+                | MaterialDesc::RoughConductor { two_sided, .. }
+                | MaterialDesc::Plastic { two_sided, .. }
+                | MaterialDesc::RoughPlastic { two_sided, .. } => *two_sided = true,
                 _ => {
                     return Err(inner.err(
                         "twosided applies to reflecting BSDFs only (diffuse, conductor, \
-                         roughconductor, plastic); remove the twosided wrapper",
+                         roughconductor, plastic, roughplastic); remove the twosided wrapper",
                     ))
                 }
             }
@@ -125,41 +128,33 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
             specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
         },
-        "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
-        "plastic" | "roughplastic" => {
-            let reflectance = p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
-            p.ignore(&[
-                "int_ior",
-                "ext_ior",
-                "specular_reflectance",
-                "nonlinear",
-                "alpha",
-                "distribution",
-                "sample_visible",
-            ]);
-            ctx.warn(
-                n,
-                "caustic has no plastic: substituted a diffuse material with its \
-                 diffuse_reflectance; the specular coating (highlights, Fresnel darkening) is \
-                 dropped",
-            );
-            MaterialDesc::Diffuse {
-                reflectance,
-                two_sided: false,
+        "roughdielectric" => {
+            let (distribution, alpha, alpha_u, alpha_v) = roughness(n, &p)?;
+            MaterialDesc::RoughDielectric {
+                distribution,
+                alpha,
+                alpha_u,
+                alpha_v,
+                int_ior: ior(&p, "int_ior", 1.5046)?,
+                ext_ior: ior(&p, "ext_ior", 1.000277)?,
+                specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
+                specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
             }
         }
+        "conductor" | "roughconductor" => conductor(n, &p)?,
+        "plastic" | "roughplastic" => plastic(n, &p)?,
         "null" => MaterialDesc::Null {},
-        "thindielectric" | "roughdielectric" => {
-            return Err(n.err(format!(
-                "caustic has no {} material (only a smooth dielectric); use \
-                 type=\"dielectric\" or convert the scene by hand",
-                n.kind()
-            )))
-        }
+        "thindielectric" => MaterialDesc::ThinDielectric {
+            int_ior: ior(&p, "int_ior", 1.5046)?,
+            ext_ior: ior(&p, "ext_ior", 1.000277)?,
+            specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
+            specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
+        },
         other => {
             return Err(n.err(format!(
                 "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
-                 dielectric, conductor, roughconductor, twosided, null (and plastic as diffuse)"
+                 dielectric, roughdielectric, thindielectric, conductor, roughconductor, \
+                 plastic, roughplastic, twosided, null"
             )))
         }
     };
@@ -179,7 +174,9 @@ fn ior(p: &Params, key: &str, default: f32) -> Result<f32> {
     Ok(p.float(key)?.map_or(default, |v| v as f32))
 }
 
-fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+/// A conductor: `conductor` (smooth; material "none" is a mirror) or `roughconductor`
+/// (material "none" is Mitsuba's eta 0, k 1: Fresnel 1 at every angle).
+fn conductor(n: &Node, p: &Params) -> Result<MaterialDesc> {
     let rough = n.kind() == "roughconductor";
     let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
     let named = p.string("material")?;
@@ -205,48 +202,90 @@ fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
                 two_sided: false,
             });
         }
-        (None, None, _) => {
-            return Err(n.err(
-                "a rough conductor of material \"none\" (a rough perfect mirror) is not \
-                 supported; give material=\"Al\" (or Au, Ag, Cu, Cr) or eta and k",
-            ))
-        }
+        (None, None, _) => ([0.0; 3], [1.0; 3]),
         _ => return Err(n.err("give either eta and k, or material, not both or one")),
     };
-    let mut roughness = 0.0;
-    if rough {
-        let alpha = p.float("alpha")?;
-        let (au, av) = (p.float("alpha_u")?, p.float("alpha_v")?);
-        roughness = match (alpha, au, av) {
-            (Some(a), None, None) => a,
-            (None, Some(u), Some(v)) if u == v => u,
-            (None, None, None) => 0.1,
-            _ => return Err(n.err("anisotropic roughness is not supported: give one alpha")),
-        } as f32;
-        let dist = p.string("distribution")?;
-        match dist.map_or("beckmann", |(_, s)| s) {
-            "ggx" => {}
-            "beckmann" => ctx.warn(
-                n,
-                format!(
-                    "the Beckmann distribution is rendered as GGX with the same alpha \
-                     ({roughness}): highlights with slightly longer tails; set \
-                     distribution=\"ggx\" to match exactly"
-                ),
-            ),
-            other => {
-                return Err(dist.expect("given").0.err(format!(
-                    "unknown distribution \"{other}\" (ggx or beckmann)"
-                )))
-            }
-        }
+    if !rough {
+        p.ignore(&["sample_visible"]);
+        return Ok(MaterialDesc::Conductor {
+            eta,
+            k,
+            roughness: 0.0,
+            specular_reflectance,
+            two_sided: false,
+        });
     }
-    p.ignore(&["sample_visible"]);
-    Ok(MaterialDesc::Conductor {
+    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p)?;
+    Ok(MaterialDesc::RoughConductor {
+        distribution,
+        alpha,
+        alpha_u,
+        alpha_v,
         eta,
         k,
-        roughness,
         specular_reflectance,
+        two_sided: false,
+    })
+}
+
+/// A rough BSDF's `distribution` and `alpha` or `alpha_u` / `alpha_v`, as given (the
+/// scene format has Mitsuba's defaults). `sample_visible` is read and not needed:
+/// caustic always samples visible normals, which changes the noise, not the image.
+type Roughness = (DistributionDesc, Option<f32>, Option<f32>, Option<f32>);
+
+fn roughness(n: &Node, p: &Params) -> Result<Roughness> {
+    p.ignore(&["sample_visible"]);
+    let distribution = match p.string("distribution")? {
+        None => DistributionDesc::Beckmann,
+        Some((_, "beckmann")) => DistributionDesc::Beckmann,
+        Some((_, "ggx")) => DistributionDesc::Ggx,
+        Some((d, other)) => {
+            return Err(d.err(format!(
+                "unknown distribution \"{other}\" (ggx or beckmann)"
+            )))
+        }
+    };
+    let f = |key| p.float(key).map(|v| v.map(|x| x as f32));
+    let (alpha, alpha_u, alpha_v) = (f("alpha")?, f("alpha_u")?, f("alpha_v")?);
+    match (alpha, alpha_u, alpha_v) {
+        (Some(_), None, None) | (None, Some(_), Some(_)) | (None, None, None) => {
+            Ok((distribution, alpha, alpha_u, alpha_v))
+        }
+        _ => Err(n.err("give alpha, or both alpha_u and alpha_v")),
+    }
+}
+
+/// `plastic` or `roughplastic` (isotropic only, as in Mitsuba 3).
+fn plastic(n: &Node, p: &Params) -> Result<MaterialDesc> {
+    let diffuse_reflectance = p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+    let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let int_ior = ior(p, "int_ior", 1.49)?;
+    let ext_ior = ior(p, "ext_ior", 1.000277)?;
+    let nonlinear = p.boolean("nonlinear")?.unwrap_or(false);
+    if n.kind() == "plastic" {
+        return Ok(MaterialDesc::Plastic {
+            diffuse_reflectance,
+            specular_reflectance,
+            int_ior,
+            ext_ior,
+            nonlinear,
+            two_sided: false,
+        });
+    }
+    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p)?;
+    if alpha_u.is_some() || alpha_v.is_some() {
+        return Err(n.err(
+            "roughplastic is isotropic (as in Mitsuba 3): give alpha, not alpha_u and alpha_v",
+        ));
+    }
+    Ok(MaterialDesc::RoughPlastic {
+        distribution,
+        alpha: alpha.unwrap_or(crate::scene::format::DEFAULT_ALPHA),
+        diffuse_reflectance,
+        specular_reflectance,
+        int_ior,
+        ext_ior,
+        nonlinear,
         two_sided: false,
     })
 }
