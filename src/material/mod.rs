@@ -11,6 +11,7 @@ pub mod fresnel;
 mod ggx;
 mod mirror;
 mod phong;
+pub mod texture;
 
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;

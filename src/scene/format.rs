@@ -158,6 +158,13 @@ pub enum MaterialDesc {
     Null {},
 }
 
+impl MaterialDesc {
+    /// Whether the material reads a texture, so that its shapes need (u, v).
+    pub fn reads_uv(&self) -> bool {
+        false
+    }
+}
+
 fn one3() -> V3 {
     [1.0; 3]
 }
@@ -428,6 +435,10 @@ pub enum GeometryDesc {
         indices: Vec<[u32; 3]>,
         #[serde(default)]
         normals: Option<Vec<V3>>,
+        /// Texture coordinates per vertex, Mitsuba's convention (v grows downwards
+        /// in the image).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        uvs: Option<Vec<[f32; 2]>>,
     },
     /// Wavefront OBJ file, relative to the scene file.
     Obj { filename: String },

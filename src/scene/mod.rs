@@ -9,17 +9,19 @@ pub mod load;
 mod media;
 pub mod mitsuba;
 mod shapes;
+mod uv;
 pub mod validate;
 
 pub use budget::CompileBudget;
 pub use error::SceneError;
 pub use format::SceneFile;
+pub use uv::TexCoords;
 
 use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::Material;
-use crate::math::{Rgb, Rng, Vec3};
+use crate::math::{Rgb, Rng, Vec2, Vec3};
 use crate::medium::Medium;
 use error::Result;
 use std::path::Path;
@@ -49,6 +51,8 @@ pub struct ShapeInfo {
     pub flip: bool,
     /// World-space vertex normals, for smooth shading of meshes.
     pub shading: Option<shapes::ShadingNormals>,
+    /// Texture coordinates, for shapes whose material reads a texture.
+    pub uvs: Option<TexCoords>,
     /// Medium on the side opposite the normal (index into `Scene::media`).
     pub interior: Option<u32>,
     /// Medium on the side the normal points to.
@@ -442,6 +446,16 @@ impl Scene {
                 }
             }
         }
+    }
+
+    /// The texture coordinates of a hit (zero on shapes whose material reads no
+    /// texture).
+    #[inline]
+    pub fn uv(&self, it: &Interaction) -> Vec2 {
+        self.shapes[it.shape as usize]
+            .uvs
+            .as_ref()
+            .map_or(Vec2::ZERO, |t| t.uv(it))
     }
 
     #[inline]

@@ -480,6 +480,7 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
             positions,
             indices,
             normals,
+            uvs,
         } => {
             for (i, p) in positions.iter().enumerate() {
                 finite3(&format!("{path}.positions[{i}]"), *p)?;
@@ -501,6 +502,20 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
                 }
                 for (i, v) in n.iter().enumerate() {
                     nonzero3(&format!("{path}.normals[{i}]"), *v)?;
+                }
+            }
+            if let Some(t) = uvs {
+                if t.len() != positions.len() {
+                    return Err(SceneError::new(
+                        format!("{path}.uvs"),
+                        format!("{} uvs for {} positions", t.len(), positions.len()),
+                    ));
+                }
+                if let Some(i) = t.iter().position(|c| !c.iter().all(|x| x.is_finite())) {
+                    return Err(SceneError::new(
+                        format!("{path}.uvs[{i}]"),
+                        "must be finite",
+                    ));
                 }
             }
             Ok(())
