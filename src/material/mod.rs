@@ -12,6 +12,7 @@ mod ggx;
 mod mirror;
 mod phong;
 pub mod texture;
+pub mod textured;
 
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;

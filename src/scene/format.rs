@@ -1,6 +1,7 @@
 //! The scene file format (JSON, `"format": 1`). These serde types are the contract with
 //! users: every field is documented here and in README.md. Unknown fields are errors.
 
+pub use super::param::{Param, TextureDesc};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -108,7 +109,7 @@ pub struct FilmDesc {
 pub enum MaterialDesc {
     /// Lambertian: reflectance / pi, one-sided unless `two_sided`.
     Diffuse {
-        reflectance: V3,
+        reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -124,8 +125,8 @@ pub enum MaterialDesc {
     },
     /// Perfect specular reflection.
     Mirror {
-        #[serde(default = "one3")]
-        reflectance: V3,
+        #[serde(default = "one_param")]
+        reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -136,10 +137,10 @@ pub enum MaterialDesc {
         int_ior: f32,
         #[serde(default = "default_ext_ior")]
         ext_ior: f32,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
-        #[serde(default = "one3")]
-        specular_transmittance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
+        #[serde(default = "one_param")]
+        specular_transmittance: Param,
     },
     /// Metal with complex IOR (eta, k) and GGX roughness `alpha` (0 = smooth).
     Conductor {
@@ -149,8 +150,8 @@ pub enum MaterialDesc {
         k: V3,
         #[serde(default)]
         roughness: f32,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -161,10 +162,59 @@ pub enum MaterialDesc {
 impl MaterialDesc {
     /// Whether the material reads a texture, so that its shapes need (u, v).
     pub fn reads_uv(&self) -> bool {
-        false
+        self.params().iter().any(|(_, p)| p.is_texture())
+    }
+
+    /// The parameters that may be textures, with their field names.
+    pub fn params(&self) -> Vec<(&'static str, &Param)> {
+        match self {
+            MaterialDesc::Diffuse { reflectance, .. }
+            | MaterialDesc::Mirror { reflectance, .. } => {
+                vec![("reflectance", reflectance)]
+            }
+            MaterialDesc::Dielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => vec![
+                ("specular_reflectance", specular_reflectance),
+                ("specular_transmittance", specular_transmittance),
+            ],
+            MaterialDesc::Conductor {
+                specular_reflectance,
+                ..
+            } => vec![("specular_reflectance", specular_reflectance)],
+            MaterialDesc::Phong { .. } | MaterialDesc::Null {} => Vec::new(),
+        }
+    }
+
+    /// [`params`](Self::params), to rewrite the file names inside.
+    pub fn params_mut(&mut self) -> Vec<(&'static str, &mut Param)> {
+        match self {
+            MaterialDesc::Diffuse { reflectance, .. }
+            | MaterialDesc::Mirror { reflectance, .. } => {
+                vec![("reflectance", reflectance)]
+            }
+            MaterialDesc::Dielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => vec![
+                ("specular_reflectance", specular_reflectance),
+                ("specular_transmittance", specular_transmittance),
+            ],
+            MaterialDesc::Conductor {
+                specular_reflectance,
+                ..
+            } => vec![("specular_reflectance", specular_reflectance)],
+            MaterialDesc::Phong { .. } | MaterialDesc::Null {} => Vec::new(),
+        }
     }
 }
 
+fn one_param() -> Param {
+    Param::grey(1.0)
+}
 fn one3() -> V3 {
     [1.0; 3]
 }

@@ -4,6 +4,7 @@
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
+use super::textures::Textures;
 use super::uv::{self, TexCoords};
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;
@@ -45,13 +46,19 @@ fn rgb(v: V3) -> Rgb {
     Rgb::from(v)
 }
 
+/// A parameter's constant; a texture's value is set per hit (`Textured`), and its
+/// template value here is overwritten at compile time.
+fn constant(p: &Param) -> Rgb {
+    p.constant().map_or(Rgb::ZERO, rgb)
+}
+
 fn material(m: &MaterialDesc) -> Material {
     match m {
         MaterialDesc::Diffuse {
             reflectance,
             two_sided,
         } => Material::Diffuse(Diffuse {
-            reflectance: rgb(*reflectance),
+            reflectance: constant(reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::Phong {
@@ -64,7 +71,7 @@ fn material(m: &MaterialDesc) -> Material {
             reflectance,
             two_sided,
         } => Material::Mirror(Mirror {
-            reflectance: rgb(*reflectance),
+            reflectance: constant(reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::Dielectric {
@@ -74,8 +81,8 @@ fn material(m: &MaterialDesc) -> Material {
             specular_transmittance,
         } => Material::Dielectric(Dielectric {
             eta: int_ior / ext_ior,
-            specular_reflectance: rgb(*specular_reflectance),
-            specular_transmittance: rgb(*specular_transmittance),
+            specular_reflectance: constant(specular_reflectance),
+            specular_transmittance: constant(specular_transmittance),
         }),
         MaterialDesc::Conductor {
             eta,
@@ -87,7 +94,7 @@ fn material(m: &MaterialDesc) -> Material {
             eta: rgb(*eta),
             k: rgb(*k),
             alpha: *roughness,
-            specular_reflectance: rgb(*specular_reflectance),
+            specular_reflectance: constant(specular_reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::Null {} => Material::Null,
@@ -525,7 +532,19 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         .enumerate()
         .map(|(i, k)| (k.as_str(), i as u32))
         .collect();
-    let materials: Vec<Material> = file.materials.values().map(material).collect();
+    let mut textures = Textures::new(base, budget);
+    let textured = (file.materials.iter())
+        .map(|(name, m)| textures.material(name, m))
+        .collect::<Result<Vec<_>>>()?;
+    // A textured parameter's template value is the texture's at the centre of
+    // (u, v): what the albedo estimate (`Material::albedo`) reads.
+    let materials: Vec<Material> = (file.materials.values().zip(&textured))
+        .map(|(m, t)| {
+            let m = material(m);
+            t.as_ref()
+                .map_or(m.clone(), |t| t.resolve(&m, Vec2::splat(0.5)))
+        })
+        .collect();
     let medium_names: BTreeMap<&str, u32> = file
         .media
         .keys()
@@ -602,6 +621,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     b.stats.bvh_build = accel.build_time;
     b.stats.bvh_threads = rayon::current_num_threads();
     b.stats.bvh_bytes = accel.memory_bytes();
+    b.stats.texture_bytes = textures.bytes;
     let camera = camera(file);
     let sphere = if accel.prim_count() > 0 {
         let (lo, hi) = (Vec3::from(accel.bounds.min), Vec3::from(accel.bounds.max));
@@ -633,6 +653,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         accel,
         shapes,
         materials,
+        textured,
         lights,
         env_lights,
         light_sampler,

@@ -86,13 +86,13 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
         let frame = Frame::from_normal(it.ns);
         let wo = frame.to_local(-ray.d);
         if !m.is_delta() {
-            l += walk.beta * g.surface(&it, frame, wo, m, walk.medium, j, rng, stats);
+            l += walk.beta * g.surface(&it, frame, wo, &m, walk.medium, j, rng, stats);
             break;
         }
         if j >= g.max_depth {
             break;
         }
-        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
+        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, rng) else {
             break;
         };
         walk.beta *= Rgb::from(s.weight);

@@ -233,6 +233,7 @@ struct VisiblePoint {
     /// Camera-path throughput up to here.
     beta: Rgb,
     material: u32,
+    uv: Vec2,
     /// Scattering events before this vertex.
     depth: u32,
 }
@@ -391,7 +392,7 @@ impl PhotonMapper {
                     it: &it,
                     frame: &frame,
                     wo,
-                    m,
+                    m: &m,
                 };
                 let medium = walk.medium;
                 out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
@@ -402,12 +403,13 @@ impl PhotonMapper {
                     wo,
                     beta,
                     material: scene.shapes[it.shape as usize].material,
+                    uv: scene.uv(&it),
                     depth,
                 };
                 out.vp = Some(vp);
                 return out;
             }
-            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, &mut rng) else {
+            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, &mut rng) else {
                 return out;
             };
             walk.beta *= Rgb::from(s.weight);
@@ -574,7 +576,7 @@ impl PhotonMapper {
         r: f32,
         acc: &mut Gathered,
     ) {
-        let m = &scene.materials[vp.material as usize];
+        let m = scene.material_at(vp.material, vp.uv);
         let r2 = r * r;
         let mut phi = Rgb::ZERO;
         map.grid.query_in(vp.p, &map.data, |ph, d2| {

@@ -4,7 +4,7 @@ use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{MaterialDesc, V3};
+use crate::scene::format::{MaterialDesc, Param, V3};
 
 /// Conductors Mitsuba names, as RGB (eta, k): the values of Mitsuba's spectral data
 /// reduced to linear sRGB that Tungsten and Mitsuba 0.6's RGB mode tabulate.
@@ -76,7 +76,7 @@ pub fn default_material(ctx: &mut Ctx) -> String {
     ctx.materials
         .entry(name.clone())
         .or_insert(MaterialDesc::Diffuse {
-            reflectance: [0.5; 3],
+            reflectance: Param::grey(0.5),
             two_sided: false,
         });
     name
@@ -89,7 +89,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
     let p = Params::new(n, ctx)?;
     let desc = match n.kind() {
         "diffuse" => MaterialDesc::Diffuse {
-            reflectance: p.color("reflectance")?.unwrap_or([0.5; 3]),
+            reflectance: p.param("reflectance", ctx)?.unwrap_or(Param::grey(0.5)),
             two_sided: false,
         },
         "twosided" => {
@@ -122,12 +122,18 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
         "dielectric" => MaterialDesc::Dielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
             ext_ior: ior(&p, "ext_ior", 1.000277)?,
-            specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
-            specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
+            specular_reflectance: p
+                .param("specular_reflectance", ctx)?
+                .unwrap_or(Param::grey(1.0)),
+            specular_transmittance: p
+                .param("specular_transmittance", ctx)?
+                .unwrap_or(Param::grey(1.0)),
         },
         "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
         "plastic" | "roughplastic" => {
-            let reflectance = p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+            let reflectance = p
+                .param("diffuse_reflectance", ctx)?
+                .unwrap_or(Param::grey(0.5));
             p.ignore(&[
                 "int_ior",
                 "ext_ior",
@@ -181,7 +187,9 @@ fn ior(p: &Params, key: &str, default: f32) -> Result<f32> {
 
 fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
     let rough = n.kind() == "roughconductor";
-    let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let specular_reflectance = p
+        .param("specular_reflectance", ctx)?
+        .unwrap_or(Param::grey(1.0));
     let named = p.string("material")?;
     let (eta, k) = match (p.color("eta")?, p.color("k")?, named) {
         (Some(eta), Some(k), None) => (eta, k),

@@ -12,6 +12,7 @@ mod params;
 mod sensor;
 mod serialized;
 mod shapes;
+mod texture;
 mod xml;
 
 use super::error::Result;
