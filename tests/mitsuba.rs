@@ -340,7 +340,7 @@ fn every_error_names_the_element_and_its_line() {
         ("<shapegroup/>", "s.xml:2:1: <shapegroup>", "unknown element"),
         // A feature caustic lacks.
         ("<shape type=\"sphere\">\n  <bsdf type=\"roughplastic\">\n    <float name=\"alpha_u\" value=\"0.1\"/>\n    <float name=\"alpha_v\" value=\"0.2\"/>\n  </bsdf>\n</shape>", "s.xml:3:3: <bsdf type=\"roughplastic\">", "roughplastic is isotropic"),
-        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <texture type=\"bitmap\" name=\"reflectance\">", "textures are not supported"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <texture type=\"bitmap\" name=\"reflectance\">", "needs a filename"),
         // Missing files.
         ("<shape type=\"obj\">\n  <string name=\"filename\" value=\"gone.obj\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "file \"gone.obj\" not found"),
         ("<include filename=\"gone.xml\"/>", "s.xml:2:1: <include>", "\"gone.xml\""),

@@ -155,7 +155,7 @@ fn direct_light_reaches_the_floor_only_through_the_openings() {
                     it: &it,
                     frame: &frame,
                     wo: Vec3::Z,
-                    m: scene.material(&it),
+                    m: &scene.material(&it),
                 };
                 let l = direct_unweighted(&scene, &at, scene.camera_medium, &mut rng, &mut stats);
                 assert!(l.x == l.y && l.y == l.z, "{name}: grey light gave {l}");

@@ -4,7 +4,6 @@ use super::memory::{Estimate, Facts};
 use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
-use crate::material::Material;
 use crate::math::Rgb;
 use crate::scene::Scene;
 
@@ -30,15 +29,14 @@ impl Integrator for DebugIntegrator {
                 let Some(it) = scene.intersect(&ray) else {
                     return Rgb::ZERO;
                 };
-                let m = scene.material(&it);
-                if matches!(m, Material::Null) {
+                if scene.is_null(&it) {
                     ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, ray.d);
                     stats.rays += 1;
                     continue;
                 }
                 return match self {
                     DebugIntegrator::Normals => (it.ns + Rgb::ONE) * 0.5,
-                    DebugIntegrator::Albedo => m.albedo(),
+                    DebugIntegrator::Albedo => scene.material(&it).albedo(),
                 };
             }
             Rgb::ZERO

@@ -249,12 +249,12 @@ impl PathKernel for PtPass<'_> {
         }
         let frame = Frame::from_normal(it.ns);
         let wo = frame.to_local(-p.ray.d);
-        let survival = self.t.albedo_survival(m, p.depth + 1);
+        let survival = self.t.albedo_survival(&m, p.depth + 1);
         let v = Vertex {
             it: &it,
             frame: &frame,
             wo,
-            m,
+            m: &m,
         };
         p.shadow = if !m.is_delta() && !scene.lights.is_empty() {
             self.t.direct(scene, v, p.beta, survival, rng, stats)

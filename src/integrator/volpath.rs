@@ -301,11 +301,11 @@ impl VolPath {
                     it: &it,
                     frame: &frame,
                     wo,
-                    m,
+                    m: &m,
                 };
                 l += walk.beta * self.direct(scene, &at, None, walk.medium, rng, stats);
             }
-            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
+            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, rng) else {
                 break;
             };
             walk.beta *= Rgb::from(s.weight);

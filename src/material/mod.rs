@@ -15,6 +15,8 @@ mod phong;
 mod plastic;
 mod rough_dielectric;
 mod rough_plastic;
+pub mod texture;
+pub mod textured;
 mod thin_dielectric;
 
 pub use coating::Coating;

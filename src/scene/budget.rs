@@ -13,18 +13,23 @@ use crate::geometry::Accel;
 pub struct CompileBudget {
     /// Triangles, parallelograms, spheres and disks in the whole scene.
     pub max_primitives: usize,
+    /// Decoded texture images, in bytes (8-bit images are kept as bytes, others as
+    /// f32).
+    pub max_texture_bytes: usize,
 }
 
 impl CompileBudget {
     /// As much as the BVH can hold: for scenes a user compiles on their own machine.
     pub const LOCAL: CompileBudget = CompileBudget {
         max_primitives: Accel::MAX_PRIMITIVES,
+        max_texture_bytes: usize::MAX,
     };
 
     /// For scenes a server compiles for its clients: 2^21 primitives (a 2M-triangle
     /// mesh), about 2 GiB at the compile's peak and 10 s of this 2-core machine.
     pub const SERVER: CompileBudget = CompileBudget {
         max_primitives: 1 << 21,
+        max_texture_bytes: 1 << 30,
     };
 
     /// Refuses the shape at `path` when it brings the scene to `total` primitives
@@ -39,6 +44,24 @@ impl CompileBudget {
                 "brings the scene to {total} primitives (triangles, parallelograms, spheres \
                  and disks), above the limit of {}",
                 self.max_primitives
+            ),
+        ))
+    }
+}
+
+impl CompileBudget {
+    /// Refuses the texture at `field` when it brings the scene's decoded images to
+    /// `total` bytes beyond the budget.
+    pub fn check_texture_bytes(&self, field: &str, total: usize) -> Result<()> {
+        if total <= self.max_texture_bytes {
+            return Ok(());
+        }
+        Err(SceneError::new(
+            field,
+            format!(
+                "brings the scene's decoded textures to {} MiB, above the limit of {} MiB",
+                total.div_ceil(1 << 20),
+                self.max_texture_bytes >> 20
             ),
         ))
     }
@@ -61,7 +84,14 @@ mod tests {
 
     fn compile(max_primitives: usize) -> crate::scene::error::Result<Scene> {
         let file = parse_scene(SCENE).unwrap();
-        Scene::compile_within(&file, None, &CompileBudget { max_primitives })
+        Scene::compile_within(
+            &file,
+            None,
+            &CompileBudget {
+                max_primitives,
+                ..CompileBudget::LOCAL
+            },
+        )
     }
 
     /// The shape that crosses the limit is named, with the count and the limit.

@@ -1,4 +1,4 @@
-//! The files a scene names: mesh files, environment maps, media grids, and the data
+//! The files a scene names: texture images, mesh files, environment maps, media grids, and the data
 //! file a raw grid's header names in turn. One list for whatever needs it: what an
 //! upload keeps, what `caustic import` rewrites or copies.
 
@@ -9,6 +9,11 @@ use std::path::{Path, PathBuf};
 /// (`shapes[2].filename`), in the scene's order.
 pub fn references_mut(scene: &mut SceneFile) -> Vec<(String, &mut String)> {
     let mut out = Vec::new();
+    for (name, m) in scene.materials.iter_mut() {
+        for (field, p) in m.params_mut() {
+            p.filenames_mut(format!("materials.{name}.{field}"), &mut out);
+        }
+    }
     for (i, s) in scene.shapes.iter_mut().enumerate() {
         if let GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } = &mut s.geometry {
             out.push((format!("shapes[{i}].filename"), filename));

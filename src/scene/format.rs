@@ -1,6 +1,7 @@
 //! The scene file format (JSON, `"format": 1`). These serde types are the contract with
 //! users: every field is documented here and in README.md. Unknown fields are errors.
 
+pub use super::param::{Param, TextureDesc};
 pub use crate::film::Filter;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -130,7 +131,7 @@ pub struct FilmDesc {
 pub enum MaterialDesc {
     /// Lambertian: reflectance / pi, one-sided unless `two_sided`.
     Diffuse {
-        reflectance: V3,
+        reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -146,8 +147,8 @@ pub enum MaterialDesc {
     },
     /// Perfect specular reflection.
     Mirror {
-        #[serde(default = "one3")]
-        reflectance: V3,
+        #[serde(default = "one_param")]
+        reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -158,10 +159,10 @@ pub enum MaterialDesc {
         int_ior: f32,
         #[serde(default = "default_ext_ior")]
         ext_ior: f32,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
-        #[serde(default = "one3")]
-        specular_transmittance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
+        #[serde(default = "one_param")]
+        specular_transmittance: Param,
     },
     /// Metal with complex IOR (eta, k) and GGX roughness `alpha` (0 = smooth).
     Conductor {
@@ -171,8 +172,8 @@ pub enum MaterialDesc {
         k: V3,
         #[serde(default)]
         roughness: f32,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
@@ -301,6 +302,61 @@ pub fn alphas(alpha: Option<f32>, alpha_u: Option<f32>, alpha_v: Option<f32>) ->
     }
 }
 
+impl MaterialDesc {
+    /// Whether the material reads a texture, so that its shapes need (u, v).
+    pub fn reads_uv(&self) -> bool {
+        self.params().iter().any(|(_, p)| p.is_texture())
+    }
+
+    /// The parameters that may be textures, with their field names.
+    pub fn params(&self) -> Vec<(&'static str, &Param)> {
+        match self {
+            MaterialDesc::Diffuse { reflectance, .. }
+            | MaterialDesc::Mirror { reflectance, .. } => {
+                vec![("reflectance", reflectance)]
+            }
+            MaterialDesc::Dielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => vec![
+                ("specular_reflectance", specular_reflectance),
+                ("specular_transmittance", specular_transmittance),
+            ],
+            MaterialDesc::Conductor {
+                specular_reflectance,
+                ..
+            } => vec![("specular_reflectance", specular_reflectance)],
+            // The rough and coated materials take constants only, so far.
+            _ => Vec::new(),
+        }
+    }
+
+    /// [`params`](Self::params), to rewrite the file names inside.
+    pub fn params_mut(&mut self) -> Vec<(&'static str, &mut Param)> {
+        match self {
+            MaterialDesc::Diffuse { reflectance, .. }
+            | MaterialDesc::Mirror { reflectance, .. } => {
+                vec![("reflectance", reflectance)]
+            }
+            MaterialDesc::Dielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => vec![
+                ("specular_reflectance", specular_reflectance),
+                ("specular_transmittance", specular_transmittance),
+            ],
+            MaterialDesc::Conductor {
+                specular_reflectance,
+                ..
+            } => vec![("specular_reflectance", specular_reflectance)],
+            // The rough and coated materials take constants only, so far.
+            _ => Vec::new(),
+        }
+    }
+}
+
 fn half3() -> V3 {
     [0.5; 3]
 }
@@ -310,6 +366,9 @@ fn default_alpha() -> f32 {
 /// Polypropylene, Mitsuba 3's default interior of its plastics.
 fn default_plastic_ior() -> f32 {
     1.49
+}
+fn one_param() -> Param {
+    Param::grey(1.0)
 }
 fn one3() -> V3 {
     [1.0; 3]
@@ -581,6 +640,10 @@ pub enum GeometryDesc {
         indices: Vec<[u32; 3]>,
         #[serde(default)]
         normals: Option<Vec<V3>>,
+        /// Texture coordinates per vertex, Mitsuba's convention (v grows downwards
+        /// in the image).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        uvs: Option<Vec<[f32; 2]>>,
     },
     /// Wavefront OBJ file, relative to the scene file.
     Obj { filename: String },

@@ -3,7 +3,7 @@
 
 use super::error::{Result, SceneError};
 use super::format::{Scale, SceneFile, TransformDesc};
-use crate::math::{Mat4, Quat, Vec3};
+use crate::math::{Mat4, Quat, Vec2, Vec3};
 use ply_rs::ply::{Property, PropertyAccess};
 use std::io::BufRead;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -121,10 +121,12 @@ pub fn transform_matrix(t: Option<&TransformDesc>) -> Mat4 {
     m
 }
 
-/// Triangle soup with optional per-vertex normals.
+/// Triangle soup with optional per-vertex normals and texture coordinates.
 pub struct MeshData {
     pub positions: Vec<Vec3>,
     pub normals: Option<Vec<Vec3>>,
+    /// Mitsuba's convention: v grows downwards in the image (OBJ's `vt` is flipped).
+    pub uvs: Option<Vec<Vec2>>,
     pub indices: Vec<[u32; 3]>,
 }
 
@@ -138,6 +140,9 @@ impl MeshData {
         }
         if self.normals.as_ref().is_some_and(|ns| ns.len() != n) {
             return Err(err("normals do not match the vertices".into()));
+        }
+        if self.uvs.as_ref().is_some_and(|uvs| uvs.len() != n) {
+            return Err(err("texture coordinates do not match the vertices".into()));
         }
         Ok(self)
     }
@@ -183,6 +188,7 @@ pub fn parse_obj(mut reader: impl std::io::BufRead, field: &str, name: &str) -> 
     let mut out = MeshData {
         positions: Vec::new(),
         normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
         indices: Vec::new(),
     };
     for m in models {
@@ -203,6 +209,17 @@ fn append_model(out: &mut MeshData, mesh: tobj::Mesh) {
                 .map(|c| Vec3::new(c[0], c[1], c[2])),
         ),
         _ => out.normals = None,
+    }
+    // OBJ's v grows upwards in the image, Mitsuba's downwards: flipped on load, as
+    // Mitsuba's own OBJ reader does.
+    let has_uvs = 2 * mesh.positions.len() == 3 * mesh.texcoords.len();
+    match (&mut out.uvs, has_uvs) {
+        (Some(uv), true) => uv.extend(
+            mesh.texcoords
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], 1.0 - c[1])),
+        ),
+        _ => out.uvs = None,
     }
     out.positions.extend(
         mesh.positions
@@ -320,6 +337,7 @@ impl PropertyAccess for PlySkip {
 struct PlyVertex {
     p: [Option<f32>; 3],
     n: [Option<f32>; 3],
+    uv: [Option<f32>; 2],
 }
 
 impl PropertyAccess for PlyVertex {
@@ -334,6 +352,9 @@ impl PropertyAccess for PlyVertex {
             "nx" => &mut self.n[0],
             "ny" => &mut self.n[1],
             "nz" => &mut self.n[2],
+            // The names Mitsuba's PLY reader takes for texture coordinates.
+            "u" | "s" | "texture_u" | "texture_s" => &mut self.uv[0],
+            "v" | "t" | "texture_v" | "texture_t" => &mut self.uv[1],
             _ => return,
         };
         *slot = ply_number(&value);
@@ -383,6 +404,8 @@ struct PlyMesh {
     positions: Vec<Vec3>,
     /// `None` from the first vertex without a full normal on.
     normals: Option<Vec<Vec3>>,
+    /// `None` from the first vertex without both texture coordinates on.
+    uvs: Option<Vec<Vec2>>,
     indices: Vec<[u32; 3]>,
 }
 
@@ -391,6 +414,7 @@ impl PlyMesh {
         PlyMesh {
             positions: Vec::new(),
             normals: Some(Vec::new()),
+            uvs: Some(Vec::new()),
             indices: Vec::new(),
         }
     }
@@ -403,6 +427,10 @@ impl PlyMesh {
         match (v.n, &mut self.normals) {
             ([Some(a), Some(b), Some(c)], Some(n)) => n.push(Vec3::new(a, b, c)),
             _ => self.normals = None,
+        }
+        match (v.uv, &mut self.uvs) {
+            ([Some(u), Some(w)], Some(uv)) => uv.push(Vec2::new(u, w)),
+            _ => self.uvs = None,
         }
         Ok(())
     }
@@ -420,6 +448,7 @@ impl PlyMesh {
         MeshData {
             positions: self.positions,
             normals: self.normals,
+            uvs: self.uvs,
             indices: self.indices,
         }
     }
@@ -570,5 +599,38 @@ mod tests {
         bytes.extend([0u8; 12]);
         let mesh = parse(&bytes).unwrap();
         assert_eq!(mesh.positions, [Vec3::ZERO]);
+    }
+
+    /// Mitsuba 3.9 read `vt 0.1 0.2` as (0.1, 0.8) (OBJ's v flipped) and a PLY's
+    /// `u v`, `s t` or `texture_u texture_v` as written.
+    #[test]
+    fn texture_coordinates_as_mitsuba_reads_them() {
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0.1 0.2\nvt 0.9 0.2\nvt 0.9 0.7\nf 1/1 2/2 3/3\n";
+        let m = parse_obj(obj.as_bytes(), "f", "t.obj").unwrap();
+        let uvs = m.uvs.unwrap();
+        let want = [[0.1, 0.8], [0.9, 0.8], [0.9, 0.3]];
+        for (got, want) in uvs.iter().zip(want) {
+            assert!(
+                (*got - Vec2::from(want)).abs().max_element() < 1e-6,
+                "{uvs:?}"
+            );
+        }
+        let bare = parse_obj(
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n".as_bytes(),
+            "f",
+            "t.obj",
+        );
+        assert!(bare.unwrap().uvs.is_none());
+        for (u, v) in [("u", "v"), ("s", "t"), ("texture_u", "texture_v")] {
+            let ply = format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nproperty float {u}\nproperty float {v}\nelement face 1\n\
+                 property list uchar int vertex_indices\nend_header\n0 0 0 0.1 0.2\n\
+                 1 0 0 0.9 0.2\n1 1 0 0.9 0.7\n3 0 1 2\n"
+            );
+            let m = parse_ply(ply.as_bytes(), "f", "t.ply").unwrap();
+            let uvs = m.uvs.unwrap();
+            assert_eq!(uvs[2], Vec2::new(0.9, 0.7), "{u} {v}");
+        }
     }
 }

@@ -8,20 +8,26 @@ pub mod format;
 pub mod load;
 mod media;
 pub mod mitsuba;
+mod param;
 mod shapes;
+mod textures;
+mod uv;
 pub mod validate;
 
 pub use budget::CompileBudget;
 pub use error::SceneError;
 pub use format::SceneFile;
+pub use uv::TexCoords;
 
 use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
+use crate::material::textured::Textured;
 use crate::material::Material;
-use crate::math::{Rgb, Rng, Vec3};
+use crate::math::{Rgb, Rng, Vec2, Vec3};
 use crate::medium::Medium;
 use error::Result;
+use std::borrow::Cow;
 use std::path::Path;
 use std::time::Duration;
 
@@ -31,7 +37,7 @@ pub const MAX_NULL_CROSSINGS: u32 = 256;
 
 /// What [`Scene::next_scattering`] found.
 pub enum Surfacing<'a> {
-    Hit(Interaction, &'a Material),
+    Hit(Interaction, Cow<'a, Material>),
     /// Left the scene (environment lights apply).
     Escaped,
     /// Crossed more than MAX_NULL_CROSSINGS null boundaries.
@@ -49,6 +55,8 @@ pub struct ShapeInfo {
     pub flip: bool,
     /// World-space vertex normals, for smooth shading of meshes.
     pub shading: Option<shapes::ShadingNormals>,
+    /// Texture coordinates, for shapes whose material reads a texture.
+    pub uvs: Option<TexCoords>,
     /// Medium on the side opposite the normal (index into `Scene::media`).
     pub interior: Option<u32>,
     /// Medium on the side the normal points to.
@@ -77,6 +85,8 @@ pub struct SceneStats {
     /// Threads of the rayon pool the BVH was built on (a server's: its `--workers`).
     pub bvh_threads: usize,
     pub bvh_bytes: usize,
+    /// Decoded texture images.
+    pub texture_bytes: usize,
 }
 
 /// The rest of shadow segment `r` after it crosses the null boundary at `it`: from
@@ -107,6 +117,8 @@ pub struct Scene {
     pub accel: Accel,
     pub shapes: Vec<ShapeInfo>,
     pub materials: Vec<Material>,
+    /// The textures of each material (index as `materials`; None: all constant).
+    pub textured: Vec<Option<Textured>>,
     pub lights: Vec<Light>,
     /// Lights seen by rays that leave the scene (constant and map environments).
     pub env_lights: Vec<u32>,
@@ -201,8 +213,8 @@ impl Scene {
             let Some(it) = self.intersect(ray) else {
                 return Surfacing::Escaped;
             };
-            let m = self.material(&it);
-            if !matches!(m, Material::Null) {
+            if !self.is_null(&it) {
+                let m = self.material(&it);
                 return Surfacing::Hit(it, m);
             }
             *ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, ray.d);
@@ -282,7 +294,7 @@ impl Scene {
                 return true;
             };
             let it = self.accel.interaction(&r, &hit);
-            if !matches!(self.material(&it), Material::Null) {
+            if !self.is_null(&it) {
                 return false;
             }
             r = beyond(&it, &r, end);
@@ -395,7 +407,7 @@ impl Scene {
                 return (tr, depth);
             };
             let it = self.interaction(&r, &hit);
-            if !matches!(self.material(&it), Material::Null) {
+            if !self.is_null(&it) {
                 return (Rgb::ZERO, depth);
             }
             medium = self.medium_after(&it, r.d, medium);
@@ -447,9 +459,41 @@ impl Scene {
         }
     }
 
+    /// The texture coordinates of a hit (zero on shapes whose material reads no
+    /// texture).
     #[inline]
-    pub fn material(&self, it: &Interaction) -> &Material {
-        &self.materials[self.shapes[it.shape as usize].material as usize]
+    pub fn uv(&self, it: &Interaction) -> Vec2 {
+        self.shapes[it.shape as usize]
+            .uvs
+            .as_ref()
+            .map_or(Vec2::ZERO, |t| t.uv(it))
+    }
+
+    /// Whether the surface hit is an index-matched (`null`) boundary.
+    #[inline(always)]
+    pub fn is_null(&self, it: &Interaction) -> bool {
+        let m = self.shapes[it.shape as usize].material;
+        matches!(self.materials[m as usize], Material::Null)
+    }
+
+    /// The material at a hit, its textures evaluated there.
+    #[inline(always)]
+    pub fn material(&self, it: &Interaction) -> Cow<'_, Material> {
+        let s = &self.shapes[it.shape as usize];
+        match &s.uvs {
+            None => Cow::Borrowed(&self.materials[s.material as usize]),
+            Some(t) => self.material_at(s.material, t.uv(it)),
+        }
+    }
+
+    /// Material `index` at texture coordinates `uv` (for stored vertices).
+    #[inline]
+    pub fn material_at(&self, index: u32, uv: Vec2) -> Cow<'_, Material> {
+        let m = &self.materials[index as usize];
+        match &self.textured[index as usize] {
+            None => Cow::Borrowed(m),
+            Some(t) => Cow::Owned(t.resolve(m, uv)),
+        }
     }
 
     /// The area light of the shape that was hit, with its index.

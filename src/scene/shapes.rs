@@ -4,6 +4,8 @@
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
+use super::textures::Textures;
+use super::uv::{self, TexCoords};
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;
 use crate::geometry::{Accel, Prim, PrimMeta};
@@ -48,13 +50,19 @@ fn rgb(v: V3) -> Rgb {
     Rgb::from(v)
 }
 
+/// A parameter's constant; a texture's value is set per hit (`Textured`), and its
+/// template value here is overwritten at compile time.
+fn constant(p: &Param) -> Rgb {
+    p.constant().map_or(Rgb::ZERO, rgb)
+}
+
 fn material(m: &MaterialDesc) -> Material {
     match m {
         MaterialDesc::Diffuse {
             reflectance,
             two_sided,
         } => Material::Diffuse(Diffuse {
-            reflectance: rgb(*reflectance),
+            reflectance: constant(reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::Phong {
@@ -67,7 +75,7 @@ fn material(m: &MaterialDesc) -> Material {
             reflectance,
             two_sided,
         } => Material::Mirror(Mirror {
-            reflectance: rgb(*reflectance),
+            reflectance: constant(reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::Dielectric {
@@ -77,8 +85,8 @@ fn material(m: &MaterialDesc) -> Material {
             specular_transmittance,
         } => Material::Dielectric(Dielectric {
             eta: int_ior / ext_ior,
-            specular_reflectance: rgb(*specular_reflectance),
-            specular_transmittance: rgb(*specular_transmittance),
+            specular_reflectance: constant(specular_reflectance),
+            specular_transmittance: constant(specular_transmittance),
         }),
         MaterialDesc::Conductor {
             eta,
@@ -90,7 +98,7 @@ fn material(m: &MaterialDesc) -> Material {
             eta: rgb(*eta),
             k: rgb(*k),
             distribution: Microfacet::new(Distribution::Ggx, *roughness, *roughness),
-            specular_reflectance: rgb(*specular_reflectance),
+            specular_reflectance: constant(specular_reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::RoughConductor {
@@ -239,6 +247,13 @@ const CUBE_INDICES: [[u32; 3]; 12] = [
     [1, 6, 5],
 ];
 
+/// One shape's primitives with what hits on them need.
+struct BuiltShape {
+    prims: Vec<Prim>,
+    shading: Option<ShadingNormals>,
+    uvs: Option<TexCoords>,
+}
+
 /// Builds the primitives of every shape; returns them with the per-shape info.
 struct Builder<'a> {
     base: Option<&'a Path>,
@@ -249,7 +264,9 @@ struct Builder<'a> {
 }
 
 impl Builder<'_> {
-    fn mesh(&mut self, path: &str, g: &GeometryDesc) -> Result<MeshData> {
+    /// The mesh of a shape; `uv` asks for Mitsuba's texture coordinates where the
+    /// geometry defines them (the cube then takes Mitsuba's layout of 24 vertices).
+    fn mesh(&mut self, path: &str, g: &GeometryDesc, uv: bool) -> Result<MeshData> {
         let v = |a: &[V3]| a.iter().map(|p| Vec3::from(*p)).collect::<Vec<_>>();
         Ok(match g {
             GeometryDesc::Rectangle { corners } => {
@@ -262,21 +279,29 @@ impl Builder<'_> {
                 MeshData {
                     positions: v(&c),
                     normals: None,
+                    // Mitsuba's rectangle: (u, v) = ((x + 1) / 2, (y + 1) / 2).
+                    uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]),
                     indices: vec![[0, 1, 2], [0, 2, 3]],
                 }
             }
+            GeometryDesc::Cube {} if uv => uv::cube_mesh(),
             GeometryDesc::Cube {} => MeshData {
                 positions: v(&CUBE_POSITIONS),
                 normals: None,
+                uvs: None,
                 indices: CUBE_INDICES.to_vec(),
             },
             GeometryDesc::Mesh {
                 positions,
                 indices,
                 normals,
+                uvs,
             } => MeshData {
                 positions: v(positions),
                 normals: normals.as_ref().map(|n| v(n)),
+                uvs: uvs
+                    .as_ref()
+                    .map(|t| t.iter().map(|&c| Vec2::from(c)).collect()),
                 indices: indices.clone(),
             },
             GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } => {
@@ -295,18 +320,15 @@ impl Builder<'_> {
         })
     }
 
-    /// Adds one shape's primitives; returns them (for an area light) and its normals.
-    fn shape(
-        &mut self,
-        index: u32,
-        path: &str,
-        s: &ShapeDesc,
-    ) -> Result<(Vec<Prim>, Option<ShadingNormals>)> {
+    /// Adds one shape's primitives; returns them (for an area light) with its
+    /// normals and, when `uv` asks for them, its texture coordinates.
+    fn shape(&mut self, index: u32, path: &str, s: &ShapeDesc, uv: bool) -> Result<BuiltShape> {
         let m = transform_matrix(s.common.transform.as_ref());
         let mirrored = m.determinant() < 0.0;
         let lin = Mat3::from_mat4(m);
         let prims: Vec<Prim>;
         let mut shading = None;
+        let uvs;
         match &s.geometry {
             GeometryDesc::Sphere { center, radius } => {
                 let scale = similarity_scale(lin).ok_or_else(|| {
@@ -320,6 +342,10 @@ impl Builder<'_> {
                     c: c.into(),
                     r: radius * scale,
                 }];
+                uvs = uv.then(|| TexCoords::Sphere {
+                    center: c,
+                    to_object: (lin * (1.0 / scale)).transpose(),
+                });
                 self.stats.spheres += 1;
             }
             GeometryDesc::Disk {} => {
@@ -332,13 +358,15 @@ impl Builder<'_> {
                     u: u.into(),
                     v: v.into(),
                 }];
+                uvs = uv.then_some(TexCoords::Disk { swapped: mirrored });
                 self.stats.disks += 1;
             }
             g => {
-                let mesh = self.mesh(path, g)?;
-                let (p, n) = self.triangles(&m, mirrored, mesh);
-                prims = p;
-                shading = n;
+                let mesh = self.mesh(path, g, uv)?;
+                let built = self.triangles(&m, mirrored, mesh, uv);
+                prims = built.prims;
+                shading = built.shading;
+                uvs = built.uvs;
             }
         }
         self.budget
@@ -350,18 +378,18 @@ impl Builder<'_> {
                 local: k as u32,
             });
         }
-        Ok((prims, shading))
+        Ok(BuiltShape {
+            prims,
+            shading,
+            uvs,
+        })
     }
 
     /// World-space triangles; degenerate ones are dropped and counted. Without shading
     /// normals (which are interpolated per triangle), consecutive triangles that form a
-    /// parallelogram become one [`Prim::Quad`].
-    fn triangles(
-        &mut self,
-        m: &Mat4,
-        mirrored: bool,
-        mesh: MeshData,
-    ) -> (Vec<Prim>, Option<ShadingNormals>) {
+    /// parallelogram (in (u, v) too, when `uv` asks for texture coordinates) become one
+    /// [`Prim::Quad`].
+    fn triangles(&mut self, m: &Mat4, mirrored: bool, mesh: MeshData, uv: bool) -> BuiltShape {
         let pos: Vec<Vec3> = mesh
             .positions
             .iter()
@@ -383,12 +411,40 @@ impl Builder<'_> {
             kept.push([a, b, c]);
         }
         self.stats.triangles += kept.len();
+        let vertex_uvs = mesh.uvs.as_deref().filter(|_| uv);
+        let uvs = |corners: &[[u32; 3]]| match vertex_uvs {
+            Some(t) => TexCoords::Mesh(
+                corners
+                    .iter()
+                    .map(|c| uv::corner_map(c.map(|i| t[i as usize])))
+                    .collect(),
+            ),
+            // Mitsuba's rule for a mesh without texture coordinates: each
+            // triangle's barycentrics.
+            None => TexCoords::Mesh(vec![
+                uv::corner_map([Vec2::ZERO, Vec2::X, Vec2::Y]);
+                corners.len()
+            ]),
+        };
         let Some(ns) = mesh.normals else {
-            let prims = merge_parallelograms(&kept, &pos);
+            let may_merge = !uv || vertex_uvs.is_some();
+            let (prims, corners) = if may_merge {
+                merge_parallelograms(&kept, &pos, vertex_uvs)
+            } else {
+                (
+                    kept.iter().map(|&t| triangle(t, &pos)).collect(),
+                    kept.clone(),
+                )
+            };
             self.stats.quads += kept.len() - prims.len();
-            return (prims, None);
+            return BuiltShape {
+                prims,
+                shading: None,
+                uvs: uv.then(|| uvs(&corners)),
+            };
         };
         let prims = kept.iter().map(|&t| triangle(t, &pos)).collect();
+        let tex = uv.then(|| uvs(&kept));
         let shading = ShadingNormals {
             normals: ns
                 .iter()
@@ -396,7 +452,11 @@ impl Builder<'_> {
                 .collect(),
             indices: kept,
         };
-        (prims, Some(shading))
+        BuiltShape {
+            prims,
+            shading: Some(shading),
+            uvs: tex,
+        }
     }
 }
 
@@ -410,32 +470,47 @@ fn triangle([a, b, c]: [u32; 3], pos: &[Vec3]) -> Prim {
 }
 
 /// Triangles in mesh order, each pair of consecutive ones that forms a parallelogram
-/// (how rectangles, cubes and most quad meshes are split) as one [`Prim::Quad`].
-fn merge_parallelograms(tris: &[[u32; 3]], pos: &[Vec3]) -> Vec<Prim> {
+/// (how rectangles, cubes and most quad meshes are split) as one [`Prim::Quad`]; with
+/// each primitive, its corners in the order it is parametrised (p0, the ends of e1
+/// and e2). With texture coordinates, a pair merges only where they form a
+/// parallelogram as well.
+fn merge_parallelograms(
+    tris: &[[u32; 3]],
+    pos: &[Vec3],
+    uvs: Option<&[Vec2]>,
+) -> (Vec<Prim>, Vec<[u32; 3]>) {
     let mut prims = Vec::with_capacity(tris.len());
+    let mut corners = Vec::with_capacity(tris.len());
     let mut i = 0;
     while i < tris.len() {
         match tris
             .get(i + 1)
-            .and_then(|&next| parallelogram(tris[i], next, pos))
+            .and_then(|&next| parallelogram(tris[i], next, pos, uvs))
         {
-            Some(q) => {
+            Some((q, c)) => {
                 prims.push(q);
+                corners.push(c);
                 i += 2;
             }
             None => {
                 prims.push(triangle(tris[i], pos));
+                corners.push(tris[i]);
                 i += 1;
             }
         }
     }
-    prims
+    (prims, corners)
 }
 
 /// The parallelogram made of two triangles that share an edge, traverse it in
 /// opposite directions (consistent winding), and whose far corners are reflections of
 /// each other through the edge's midpoint, to within rounding of the vertex positions.
-fn parallelogram(t1: [u32; 3], t2: [u32; 3], pos: &[Vec3]) -> Option<Prim> {
+fn parallelogram(
+    t1: [u32; 3],
+    t2: [u32; 3],
+    pos: &[Vec3],
+    uvs: Option<&[Vec2]>,
+) -> Option<(Prim, [u32; 3])> {
     // Rotate each triangle to start at its vertex off the shared edge.
     let own = |t: [u32; 3], other: [u32; 3]| {
         let k = (0..3).find(|&k| !other.contains(&t[k]))?;
@@ -452,10 +527,21 @@ fn parallelogram(t1: [u32; 3], t2: [u32; 3], pos: &[Vec3]) -> Option<Prim> {
         .map(|q| q.abs().max_element())
         .fold(0.0f32, f32::max);
     let gap = (p(s) + p(t) - p(a) - p(b)).abs().max_element();
-    (gap <= 8.0 * f32::EPSILON * scale).then(|| Prim::Quad {
-        p0: p(a).into(),
-        e1: (p(s) - p(a)).into(),
-        e2: (p(t) - p(a)).into(),
+    let flat_uv = uvs.is_none_or(|uv| {
+        let q = |i: u32| uv[i as usize];
+        let scale = [q(a), q(s), q(t), q(b)]
+            .iter()
+            .map(|c| c.abs().max_element())
+            .fold(0.0f32, f32::max);
+        (q(s) + q(t) - q(a) - q(b)).abs().max_element() <= 8.0 * f32::EPSILON * scale
+    });
+    (gap <= 8.0 * f32::EPSILON * scale && flat_uv).then(|| {
+        let quad = Prim::Quad {
+            p0: p(a).into(),
+            e1: (p(s) - p(a)).into(),
+            e2: (p(t) - p(a)).into(),
+        };
+        (quad, [a, s, t])
     })
 }
 
@@ -565,7 +651,19 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         .enumerate()
         .map(|(i, k)| (k.as_str(), i as u32))
         .collect();
-    let materials: Vec<Material> = file.materials.values().map(material).collect();
+    let mut textures = Textures::new(base, budget);
+    let textured = (file.materials.iter())
+        .map(|(name, m)| textures.material(name, m))
+        .collect::<Result<Vec<_>>>()?;
+    // A textured parameter's template value is the texture's at the centre of
+    // (u, v): what the albedo estimate (`Material::albedo`) reads.
+    let materials: Vec<Material> = (file.materials.values().zip(&textured))
+        .map(|(m, t)| {
+            let m = material(m);
+            t.as_ref()
+                .map_or(m.clone(), |t| t.resolve(&m, Vec2::splat(0.5)))
+        })
+        .collect();
     let medium_names: BTreeMap<&str, u32> = file
         .media
         .keys()
@@ -589,7 +687,12 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let mut lights = Vec::new();
     for (i, s) in file.shapes.iter().enumerate() {
         let path = format!("shapes[{i}]");
-        let (prims, shading) = b.shape(i as u32, &path, s)?;
+        let uv = file.materials[&s.common.material].reads_uv();
+        let BuiltShape {
+            prims,
+            shading,
+            uvs,
+        } = b.shape(i as u32, &path, s, uv)?;
         let mut light_index = None;
         if let Some(e) = &s.common.emission {
             if e.radiance.iter().any(|&x| x > 0.0) && !prims.is_empty() {
@@ -609,6 +712,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
             light: light_index,
             flip: s.common.flip_normals,
             shading,
+            uvs,
             interior: medium_ref(&s.common.interior),
             exterior: medium_ref(&s.common.exterior),
         });
@@ -636,6 +740,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     b.stats.bvh_build = accel.build_time;
     b.stats.bvh_threads = rayon::current_num_threads();
     b.stats.bvh_bytes = accel.memory_bytes();
+    b.stats.texture_bytes = textures.bytes;
     let camera = camera(file);
     let sphere = if accel.prim_count() > 0 {
         let (lo, hi) = (Vec3::from(accel.bounds.min), Vec3::from(accel.bounds.max));
@@ -667,6 +772,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         accel,
         shapes,
         materials,
+        textured,
         lights,
         env_lights,
         light_sampler,
@@ -728,7 +834,8 @@ mod tests {
     use super::*;
 
     fn quads(tris: &[[u32; 3]], pos: &[Vec3]) -> usize {
-        merge_parallelograms(tris, pos)
+        merge_parallelograms(tris, pos, None)
+            .0
             .iter()
             .filter(|p| matches!(p, Prim::Quad { .. }))
             .count()
@@ -744,7 +851,8 @@ mod tests {
         ];
         // A fan split and the other diagonal both merge, with the front side kept.
         for tris in [[[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]] {
-            let prims = merge_parallelograms(&tris, &skew);
+            let (prims, corners) = merge_parallelograms(&tris, &skew, None);
+            assert_eq!(corners.len(), 1);
             assert_eq!(prims.len(), 1, "{tris:?}");
             let n = prims[0].flat_normal();
             assert!(n.z > 0.99, "{tris:?}: normal {n}");
@@ -765,6 +873,31 @@ mod tests {
         assert_eq!(quads(&[[0, 1, 2], [2, 4, 3]], &pos), 0);
         // A cube merges into six faces.
         let cube: Vec<Vec3> = CUBE_POSITIONS.iter().map(|p| Vec3::from(*p)).collect();
-        assert_eq!(merge_parallelograms(&CUBE_INDICES, &cube).len(), 6);
+        assert_eq!(merge_parallelograms(&CUBE_INDICES, &cube, None).0.len(), 6);
+        // Mitsuba's cube with its (u, v) merges too, each face's map a unit square.
+        let m = uv::cube_mesh();
+        let (prims, corners) = merge_parallelograms(&m.indices, &m.positions, m.uvs.as_deref());
+        assert_eq!(prims.len(), 6);
+        let t = m.uvs.unwrap();
+        for c in corners {
+            let [o, a, b] = uv::corner_map(c.map(|i| t[i as usize]));
+            let far = o + a + b;
+            assert!(
+                a.abs().max_element() == 1.0 && b.abs().max_element() == 1.0,
+                "{a} {b}"
+            );
+            assert!(
+                far.cmpge(Vec2::ZERO).all() && far.cmple(Vec2::ONE).all(),
+                "{far}"
+            );
+        }
+        // Texture coordinates that do not form a parallelogram keep two triangles.
+        let uvs = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::new(0.0, 2.0)];
+        assert_eq!(
+            merge_parallelograms(&[[0, 1, 2], [0, 2, 3]], &skew, Some(&uvs))
+                .0
+                .len(),
+            2
+        );
     }
 }

@@ -34,6 +34,56 @@ fn unit3(path: &str, v: V3) -> Result<()> {
     }
 }
 
+/// A reflectance: a constant within [0, 1], or a texture (whose values are used as
+/// the images give them, as in Mitsuba).
+fn unit_param(path: &str, p: &Param) -> Result<()> {
+    match p {
+        Param::Value(v) => unit3(path, *v),
+        Param::Texture(t) => validate_texture(path, t),
+    }
+}
+
+fn validate_texture(path: &str, t: &TextureDesc) -> Result<()> {
+    let to_uv = |rows: &Option<[[f32; 3]; 2]>| match rows {
+        Some(r) if !r.iter().flatten().all(|x| x.is_finite()) => Err(SceneError::new(
+            format!("{path}.to_uv"),
+            format!("{r:?} is not finite"),
+        )),
+        _ => Ok(()),
+    };
+    let inner = |field: &str, p: &Param| match p {
+        Param::Value(v) => non_negative3(&format!("{path}.{field}"), *v),
+        Param::Texture(t) => validate_texture(&format!("{path}.{field}"), t),
+    };
+    match t {
+        TextureDesc::Bitmap {
+            filename, to_uv: r, ..
+        } => {
+            super::load::check_relative(&format!("{path}.filename"), filename)?;
+            to_uv(r)
+        }
+        TextureDesc::Checkerboard {
+            color0,
+            color1,
+            to_uv: r,
+        } => {
+            inner("color0", color0)?;
+            inner("color1", color1)?;
+            to_uv(r)
+        }
+        TextureDesc::Scale { texture, scale } => {
+            inner("texture", texture)?;
+            match scale {
+                Param::Value(v) => non_negative3(&format!("{path}.scale"), *v),
+                Param::Texture(_) => Err(SceneError::new(
+                    format!("{path}.scale"),
+                    "must be a number or an [r, g, b] array",
+                )),
+            }
+        }
+    }
+}
+
 fn in_range(path: &str, x: f32, lo: f32, hi: f32, what: &str) -> Result<()> {
     if x.is_finite() && x >= lo && x <= hi {
         Ok(())
@@ -205,7 +255,7 @@ fn validate_camera(scene: &SceneFile) -> Result<()> {
 fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
     match m {
         MaterialDesc::Diffuse { reflectance, .. } => {
-            unit3(&format!("{path}.reflectance"), *reflectance)
+            unit_param(&format!("{path}.reflectance"), reflectance)
         }
         MaterialDesc::Phong {
             kd, ks, exponent, ..
@@ -222,15 +272,26 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             in_range(&format!("{path}.exponent"), *exponent, 0.0, 1e6, "0..=1e6")
         }
         MaterialDesc::Mirror { reflectance, .. } => {
-            unit3(&format!("{path}.reflectance"), *reflectance)
+            unit_param(&format!("{path}.reflectance"), reflectance)
         }
         MaterialDesc::Dielectric {
             int_ior,
             ext_ior,
             specular_reflectance,
             specular_transmittance,
+        } => {
+            positive(&format!("{path}.int_ior"), *int_ior)?;
+            positive(&format!("{path}.ext_ior"), *ext_ior)?;
+            unit_param(
+                &format!("{path}.specular_reflectance"),
+                specular_reflectance,
+            )?;
+            unit_param(
+                &format!("{path}.specular_transmittance"),
+                specular_transmittance,
+            )
         }
-        | MaterialDesc::ThinDielectric {
+        MaterialDesc::ThinDielectric {
             int_ior,
             ext_ior,
             specular_reflectance,
@@ -260,9 +321,9 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
                 1.0,
                 "GGX alpha in [0, 1]",
             )?;
-            unit3(
+            unit_param(
                 &format!("{path}.specular_reflectance"),
-                *specular_reflectance,
+                specular_reflectance,
             )
         }
         MaterialDesc::RoughConductor {
@@ -626,6 +687,7 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
             positions,
             indices,
             normals,
+            uvs,
         } => {
             for (i, p) in positions.iter().enumerate() {
                 finite3(&format!("{path}.positions[{i}]"), *p)?;
@@ -647,6 +709,20 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
                 }
                 for (i, v) in n.iter().enumerate() {
                     nonzero3(&format!("{path}.normals[{i}]"), *v)?;
+                }
+            }
+            if let Some(t) = uvs {
+                if t.len() != positions.len() {
+                    return Err(SceneError::new(
+                        format!("{path}.uvs"),
+                        format!("{} uvs for {} positions", t.len(), positions.len()),
+                    ));
+                }
+                if let Some(i) = t.iter().position(|c| !c.iter().all(|x| x.is_finite())) {
+                    return Err(SceneError::new(
+                        format!("{path}.uvs[{i}]"),
+                        "must be finite",
+                    ));
                 }
             }
             Ok(())

@@ -16,7 +16,7 @@ use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimat
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
-use crate::math::{gamma, Frame, Rgb, Rng, Vec3};
+use crate::math::{gamma, Frame, Rgb, Rng, Vec2, Vec3};
 use rayon::prelude::*;
 
 /// `LightVertex::material` of a scattering point in a medium.
@@ -38,6 +38,8 @@ pub(crate) struct LightVertex {
     pub throughput: Rgb,
     /// The surface's material, or MEDIUM_VERTEX.
     pub material: u32,
+    /// Texture coordinates of a surface vertex (zero where no texture is read).
+    pub uv: Vec2,
     /// The medium the light arrived in (NO_MEDIUM: vacuum): a medium vertex's own,
     /// and at a surface the one on the side `wo` points to.
     pub medium: u32,
@@ -104,7 +106,7 @@ impl LightVertex {
         }
         let frame = Frame::from_normal(self.ns);
         Scatterer::Surface(Surface {
-            m: &pass.scene.materials[self.material as usize],
+            m: pass.scene.material_at(self.material, self.uv),
             frame,
             ng: self.ng,
             wo: frame.to_local(self.wo),
@@ -643,14 +645,21 @@ fn stored<M: Media>(
     d: Vec3,
     scene: &crate::scene::Scene,
 ) -> LightVertex {
-    let (p_err, ng, ns, material) = match v {
+    let (p_err, ng, ns, material, uv) = match v {
         Vertex::Surface { it, .. } => (
             it.p_err,
             it.ng,
             it.ns,
             scene.shapes[it.shape as usize].material,
+            scene.uv(it),
         ),
-        Vertex::Medium { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, MEDIUM_VERTEX),
+        Vertex::Medium { .. } => (
+            Vec3::ZERO,
+            Vec3::ZERO,
+            Vec3::ZERO,
+            MEDIUM_VERTEX,
+            Vec2::ZERO,
+        ),
     };
     LightVertex {
         p: v.p(),
@@ -660,6 +669,7 @@ fn stored<M: Media>(
         wo: -d,
         throughput: walk.throughput,
         material,
+        uv,
         medium: walk.medium.unwrap_or(NO_MEDIUM),
         cont: v.cont(),
         len: walk.len,

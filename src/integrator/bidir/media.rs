@@ -17,10 +17,11 @@ use crate::integrator::RenderStats;
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};
+use std::borrow::Cow;
 
 /// What a subpath meets next along its ray.
 pub(crate) enum Event<'a> {
-    Surface(Interaction, &'a Material),
+    Surface(Interaction, Cow<'a, Material>),
     /// A real scattering event at a point in medium `.1`.
     Medium(Vec3, u32),
     /// Left the scene (environment lights apply).

@@ -16,6 +16,7 @@ use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::material::{Material, Mode};
 use crate::math::{Frame, Rgb, Rng, Vec3};
 use crate::medium::Phase;
+use std::borrow::Cow;
 use std::convert::Infallible;
 
 /// Whether a scene has media, as a type (see the module notes).
@@ -178,18 +179,19 @@ impl<'a, M: Media> Vertex<'a, M> {
     /// A surface reached along `d`; None when it is met too grazingly for the MIS
     /// quantities, which divide by the cosine.
     #[inline(always)]
-    pub fn surface(pass: &Pass, it: Interaction, m: &'a Material, d: Vec3) -> Option<Self> {
+    pub fn surface(pass: &Pass, it: Interaction, m: Cow<'a, Material>, d: Vec3) -> Option<Self> {
         let cos_in = it.ns.dot(d).abs();
         if cos_in < MIN_COS {
             return None;
         }
         let frame = Frame::from_normal(it.ns);
+        let cont = pass.continuation(&m);
         let s = Surface {
             m,
             frame,
             ng: it.ng,
             wo: frame.to_local(-d),
-            cont: pass.continuation(m),
+            cont,
         };
         Some(Vertex::Surface { it, s, cos_in })
     }

@@ -6,13 +6,14 @@ use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::material::{Material, Mode};
 use crate::math::{Frame, Rgb, Rng, Vec3};
+use std::borrow::Cow;
 
 /// Cosines below this end a path: the MIS quantities divide by them.
 pub(crate) const MIN_COS: f32 = 1e-6;
 
 /// The shading context of a non-specular vertex, for evaluating connections.
 pub(crate) struct Surface<'a> {
-    pub m: &'a Material,
+    pub m: Cow<'a, Material>,
     pub frame: Frame,
     pub ng: Vec3,
     /// Towards the previous vertex, local frame.

@@ -144,11 +144,11 @@ pub fn li<G: MediumGather>(
                 it: &it,
                 frame: &frame,
                 wo,
-                m,
+                m: &m,
             };
             l += walk.beta * direct_unweighted(scene, &at, walk.medium, rng, stats);
         }
-        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, m, rng) else {
+        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, rng) else {
             break;
         };
         walk.beta *= Rgb::from(s.weight);

@@ -21,6 +21,7 @@ use crate::material::Material;
 use crate::math::{Rgb, Rng};
 use crate::medium::Flight;
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use std::borrow::Cow;
 
 /// The part of a ray inside one medium: from `ray.o` along the unit `ray.d` for
 /// `tmax` (infinite when the ray leaves the scene), entered with throughput `beta`.
@@ -35,7 +36,7 @@ pub struct Segment {
 /// What the walk meets next.
 pub enum Step<'a> {
     /// A surface that scatters (null boundaries are crossed, never returned).
-    Surface(Interaction, &'a Material),
+    Surface(Interaction, Cow<'a, Material>),
     /// A real scattering event at distance `t` on `seg`; the throughput already holds
     /// the flight's `weight` (sigma_s T / pdf).
     Scatter { seg: Segment, t: f32, weight: Rgb },
@@ -129,8 +130,8 @@ impl MediumWalk {
                 return Step::Escaped;
             };
             let it = scene.interaction(ray, &hit);
-            let m = scene.material(&it);
-            if !matches!(m, Material::Null) {
+            if !scene.is_null(&it) {
+                let m = scene.material(&it);
                 return Step::Surface(it, m);
             }
             self.medium = scene.medium_after(&it, ray.d, self.medium);
@@ -177,7 +178,7 @@ pub fn seen_emission(
             return tr * scene.env_radiance(ray.d);
         };
         let it = scene.interaction(&ray, &hit);
-        if !matches!(scene.material(&it), Material::Null) {
+        if !scene.is_null(&it) {
             return match scene.area_light(&it) {
                 Some((_, area)) => tr * area.le(it.ng, -ray.d),
                 None => Rgb::ZERO,

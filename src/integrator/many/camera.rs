@@ -89,14 +89,14 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
         // coating) is followed instead with its sampling probability.
         let mut followed = None;
         if !m.is_delta() {
-            match stop_or_follow_delta(&it, &frame, wo, m, rng) {
+            match stop_or_follow_delta(&it, &frame, wo, &m, rng) {
                 Stop::Here(scale) => {
                     let beta = if scale == 1.0 {
                         walk.beta
                     } else {
                         walk.beta * scale
                     };
-                    l += beta * g.surface(&it, frame, wo, m, walk.medium, j, rng, stats);
+                    l += beta * g.surface(&it, frame, wo, &m, walk.medium, j, rng, stats);
                     break;
                 }
                 Stop::Follow(s) => followed = Some(s),
@@ -107,7 +107,7 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
         }
         let next = match followed {
             Some(s) => s,
-            None => sample_bsdf(&it, &frame, wo, m, rng),
+            None => sample_bsdf(&it, &frame, wo, &m, rng),
         };
         let Some((wi, s)) = next else {
             break;

@@ -637,7 +637,7 @@ impl Gather<'_> {
                 if rw <= 0.0 || rw.is_nan() {
                     return Rgb::ZERO;
                 }
-                let l = self.surface(&it, frame, wo, m, walk.medium, j + 1, rng, stats);
+                let l = self.surface(&it, frame, wo, &m, walk.medium, j + 1, rng, stats);
                 return walk.beta * l * rw;
             }
             Step::Scatter { seg, t, .. } => (seg.ray.at(t), 1.0, seg.medium),
@@ -674,7 +674,8 @@ fn vpl_eval(scene: &Scene, y: &Vpl, v: Vec3) -> Option<(Rgb, f32)> {
                 return None;
             }
             let wo = frame.to_local(y.wo);
-            let f = scene.materials[mi as usize]
+            let f = scene
+                .material_at(mi, y.uv)
                 .eval_pdfs(wo, wi, Mode::Importance)
                 .0;
             (f != Rgb::ZERO).then_some((f, wi.z.abs()))

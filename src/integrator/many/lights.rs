@@ -7,7 +7,7 @@ use crate::integrator::bidir::{extent, LightSegment, LightStore, LightVertex};
 use crate::integrator::common::Stream;
 use crate::integrator::memory::{array, refilled};
 use crate::integrator::vrl::Segment;
-use crate::math::{max_component, Rgb, Vec3};
+use crate::math::{max_component, Rgb, Vec2, Vec3};
 use crate::scene::Scene;
 
 /// A virtual point light: a stored light-subpath vertex, its power already divided by
@@ -23,6 +23,8 @@ pub(super) struct Vpl {
     pub beta: Rgb,
     /// The surface's material; None at a scattering point in a medium.
     pub material: Option<u32>,
+    /// Texture coordinates at a surface.
+    pub uv: Vec2,
     /// The medium a medium vertex scatters in, or at a surface the one on `wo`'s side.
     pub medium: Option<u32>,
     /// Segments from the light to the vertex.
@@ -40,6 +42,7 @@ impl Vpl {
             wo: v.wo,
             beta: v.throughput * inv_paths,
             material: scatters.is_none().then_some(v.material),
+            uv: v.uv,
             medium: scatters.or(v.arrival_medium()),
             len: v.len,
         }

@@ -233,6 +233,7 @@ struct VisiblePoint {
     /// Camera-path throughput up to here.
     beta: Rgb,
     material: u32,
+    uv: Vec2,
     /// Scattering events before this vertex.
     depth: u32,
 }
@@ -388,7 +389,7 @@ impl PhotonMapper {
             let stop = if m.is_delta() {
                 None
             } else {
-                Some(stop_or_follow_delta(&it, &frame, wo, m, &mut rng))
+                Some(stop_or_follow_delta(&it, &frame, wo, &m, &mut rng))
             };
             let followed = match stop {
                 Some(Stop::Here(scale)) => {
@@ -400,7 +401,7 @@ impl PhotonMapper {
                         it: &it,
                         frame: &frame,
                         wo,
-                        m,
+                        m: &m,
                     };
                     let medium = walk.medium;
                     out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
@@ -411,6 +412,7 @@ impl PhotonMapper {
                         wo,
                         beta,
                         material: scene.shapes[it.shape as usize].material,
+                        uv: scene.uv(&it),
                         depth,
                     });
                     return out;
@@ -420,7 +422,7 @@ impl PhotonMapper {
             };
             let next = match followed {
                 Some(s) => s,
-                None => sample_bsdf(&it, &frame, wo, m, &mut rng),
+                None => sample_bsdf(&it, &frame, wo, &m, &mut rng),
             };
             let Some((wi, s)) = next else {
                 return out;
@@ -589,7 +591,7 @@ impl PhotonMapper {
         r: f32,
         acc: &mut Gathered,
     ) {
-        let m = &scene.materials[vp.material as usize];
+        let m = scene.material_at(vp.material, vp.uv);
         let r2 = r * r;
         let mut phi = Rgb::ZERO;
         map.grid.query_in(vp.p, &map.data, |ph, d2| {

@@ -117,7 +117,7 @@ impl Vpm {
                     if walk.depth + 3 > self.s.max_depth {
                         return;
                     }
-                    let Some((wi, weight)) = photon_bounce(&it, m, -ray.d, rng) else {
+                    let Some((wi, weight)) = photon_bounce(&it, &m, -ray.d, rng) else {
                         return;
                     };
                     if !walk.scatter(weight, rng) {

@@ -80,6 +80,7 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         .map_err(RemoteError::nats)?;
     let budget = CompileBudget {
         max_primitives: opts.max_primitives,
+        ..CompileBudget::SERVER
     };
     let store = SceneStore::new(&opts.cache_dir, opts.max_scene, pool.clone())
         .map_err(RemoteError::nats)?

@@ -131,6 +131,7 @@ impl Service {
         );
         let budget = CompileBudget {
             max_primitives: config.max_primitives,
+            ..CompileBudget::SERVER
         };
         let scenes = SceneStore::new(dir, config.max_upload, pool.clone())?.with_budget(budget);
         let scenes = Arc::new(scenes);

@@ -4,7 +4,7 @@ use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{DistributionDesc, MaterialDesc, V3};
+use crate::scene::format::{DistributionDesc, MaterialDesc, Param, V3};
 
 /// Conductors Mitsuba names, as RGB (eta, k): the values of Mitsuba's spectral data
 /// reduced to linear sRGB that Tungsten and Mitsuba 0.6's RGB mode tabulate.
@@ -76,7 +76,7 @@ pub fn default_material(ctx: &mut Ctx) -> String {
     ctx.materials
         .entry(name.clone())
         .or_insert(MaterialDesc::Diffuse {
-            reflectance: [0.5; 3],
+            reflectance: Param::grey(0.5),
             two_sided: false,
         });
     name
@@ -89,7 +89,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
     let p = Params::new(n, ctx)?;
     let desc = match n.kind() {
         "diffuse" => MaterialDesc::Diffuse {
-            reflectance: p.color("reflectance")?.unwrap_or([0.5; 3]),
+            reflectance: p.param("reflectance", ctx)?.unwrap_or(Param::grey(0.5)),
             two_sided: false,
         },
         "twosided" => {
@@ -125,8 +125,12 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
         "dielectric" => MaterialDesc::Dielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
             ext_ior: ior(&p, "ext_ior", 1.000277)?,
-            specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
-            specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
+            specular_reflectance: p
+                .param("specular_reflectance", ctx)?
+                .unwrap_or(Param::grey(1.0)),
+            specular_transmittance: p
+                .param("specular_transmittance", ctx)?
+                .unwrap_or(Param::grey(1.0)),
         },
         "roughdielectric" => {
             let (distribution, alpha, alpha_u, alpha_v) = roughness(n, &p)?;
@@ -141,7 +145,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
             }
         }
-        "conductor" | "roughconductor" => conductor(n, &p)?,
+        "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
         "plastic" | "roughplastic" => plastic(n, &p)?,
         "null" => MaterialDesc::Null {},
         "thindielectric" => MaterialDesc::ThinDielectric {
@@ -176,9 +180,11 @@ fn ior(p: &Params, key: &str, default: f32) -> Result<f32> {
 
 /// A conductor: `conductor` (smooth; material "none" is a mirror) or `roughconductor`
 /// (material "none" is Mitsuba's eta 0, k 1: Fresnel 1 at every angle).
-fn conductor(n: &Node, p: &Params) -> Result<MaterialDesc> {
+fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
     let rough = n.kind() == "roughconductor";
-    let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let specular_reflectance = p
+        .param("specular_reflectance", ctx)?
+        .unwrap_or(Param::grey(1.0));
     let named = p.string("material")?;
     let (eta, k) = match (p.color("eta")?, p.color("k")?, named) {
         (Some(eta), Some(k), None) => (eta, k),
@@ -215,6 +221,12 @@ fn conductor(n: &Node, p: &Params) -> Result<MaterialDesc> {
             two_sided: false,
         });
     }
+    let Param::Value(specular_reflectance) = specular_reflectance else {
+        return Err(n.err(
+            "a textured specular_reflectance is supported on smooth conductors only; give an \
+             <rgb>",
+        ));
+    };
     let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p)?;
     Ok(MaterialDesc::RoughConductor {
         distribution,

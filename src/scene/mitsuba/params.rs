@@ -4,7 +4,7 @@
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{Rotation, Scale, TransformDesc, V3};
+use crate::scene::format::{Param, Rotation, Scale, TransformDesc, V3};
 use glam::{DMat4, DVec3, DVec4};
 use std::cell::Cell;
 
@@ -141,6 +141,17 @@ impl<'a> Params<'a> {
     }
 
     /// A colour: `<rgb>`, a `<spectrum>` with one value, or a `<float>` (grey).
+    /// A colour or a texture (nested, or a reference in slot `name`).
+    pub fn param(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Param>> {
+        let texture =
+            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture");
+        if let Some((_, n, used)) = texture {
+            used.set(true);
+            return super::texture::texture(n, ctx).map(Some);
+        }
+        Ok(self.color(name)?.map(Param::Value))
+    }
+
     pub fn color(&self, name: &str) -> Result<Option<V3>> {
         self.texture_in(name)?;
         let Some(n) = self.prop(name) else {

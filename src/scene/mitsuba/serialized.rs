@@ -57,6 +57,7 @@ pub fn shape(n: &Node, p: &Params, ctx: &mut Ctx) -> Result<GeometryDesc> {
         positions: mesh.positions,
         indices: mesh.indices,
         normals,
+        uvs: None,
     })
 }
 

@@ -10,6 +10,8 @@ pub const TARGETS: &[&str] = &[
     "bundle",
     "exr",
     "hdr",
+    "png",
+    "jpeg",
     "obj",
     "ply",
     "vol",
@@ -26,6 +28,9 @@ pub fn run(target: &str, data: &[u8]) -> Option<String> {
         "bundle" => bundle(data),
         "exr" => outcome(film::decode_exr(data)),
         "hdr" => outcome(film::decode_hdr(data)),
+        // Textures: sRGB-decoded 8-bit images through the `image` crate, with the size
+        // checked before decoding.
+        "png" | "jpeg" => outcome(caustic::material::texture::decode(data, "fuzz", false)),
         "obj" => outcome(load::parse_obj(data, "shapes[0]", "fuzz.obj")),
         "ply" => outcome(load::parse_ply(data, "shapes[0]", "fuzz.ply")),
         "vol" => outcome(grid_io::decode_vol(data)),

@@ -1,0 +1,88 @@
+//! `<texture>` plugins (`bitmap`, `checkerboard`, and 0.x's `scale`) as scene-format
+//! textures, for any parameter a converter reads with [`Params::param`].
+
+use super::params::{Params, Xf};
+use super::xml::Node;
+use super::Ctx;
+use crate::material::texture::{Filter, Wrap};
+use crate::scene::error::Result;
+use crate::scene::format::{Param, TextureDesc};
+
+/// The texture of element `n`.
+pub fn texture<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<Param> {
+    let p = Params::new(n, ctx)?;
+    let t = match n.kind() {
+        "bitmap" => bitmap(n, &p, ctx)?,
+        "checkerboard" => TextureDesc::Checkerboard {
+            color0: p.param("color0", ctx)?.unwrap_or(Param::grey(0.4)),
+            color1: p.param("color1", ctx)?.unwrap_or(Param::grey(0.2)),
+            to_uv: to_uv(&p)?,
+        },
+        // Mitsuba 0.x: a nested texture times a factor.
+        "scale" => {
+            let inner = p
+                .object(&["texture"], None)?
+                .ok_or_else(|| n.err("needs a nested <texture>"))?;
+            TextureDesc::Scale {
+                texture: texture(inner, ctx)?,
+                scale: p
+                    .param("scale", ctx)?
+                    .filter(|s| !s.is_texture())
+                    .unwrap_or(Param::grey(1.0)),
+            }
+        }
+        other => {
+            return Err(n.err(format!(
+                "unknown or unsupported texture plugin \"{other}\": caustic imports bitmap, \
+                 checkerboard and scale"
+            )))
+        }
+    };
+    p.finish(&format!("the {} texture", n.kind()))?;
+    Ok(Param::Texture(Box::new(t)))
+}
+
+fn bitmap<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<TextureDesc> {
+    let (fnode, name) = p
+        .string("filename")?
+        .ok_or_else(|| n.err("needs a filename"))?;
+    let filename = ctx.file_ref(fnode, name)?;
+    let filter = match p.string("filter_type")? {
+        None => Filter::Bilinear,
+        Some((_, "bilinear")) => Filter::Bilinear,
+        Some((_, "nearest")) => Filter::Nearest,
+        Some((m, other)) => {
+            return Err(m.err(format!(
+                "unknown filter_type \"{other}\" (bilinear or nearest)"
+            )))
+        }
+    };
+    let wrap = match p.string("wrap_mode")? {
+        None => Wrap::Repeat,
+        Some((_, "repeat")) => Wrap::Repeat,
+        Some((_, "mirror")) => Wrap::Mirror,
+        Some((_, "clamp")) => Wrap::Clamp,
+        Some((m, other)) => {
+            return Err(m.err(format!(
+                "unknown wrap_mode \"{other}\" (repeat, mirror or clamp)"
+            )))
+        }
+    };
+    // Mitsuba stores the image as it is (no effect on the values caustic reads).
+    p.ignore(&["format", "accel"]);
+    Ok(TextureDesc::Bitmap {
+        filename,
+        raw: p.boolean("raw")?.unwrap_or(false),
+        filter,
+        wrap,
+        to_uv: to_uv(p)?,
+    })
+}
+
+/// Mitsuba applies the 4x4 `to_uv` to (u, v, 0, 1): its x and y rows, without z.
+fn to_uv(p: &Params) -> Result<Option<[[f32; 3]; 2]>> {
+    Ok(p.transform("to_uv")?.map(|Xf { m, .. }| {
+        let row = |r: glam::DVec4| [r.x as f32, r.y as f32, r.w as f32];
+        [row(m.row(0)), row(m.row(1))]
+    }))
+}

@@ -1,0 +1,219 @@
+//! Texture coordinates of surface points, as Mitsuba 3 gives them: interpolated
+//! vertex (u, v) on meshes (OBJ `vt`, PLY `u v`, inline `uvs`; rectangles and cubes
+//! with Mitsuba's own), and the analytic parametrisations of spheres and disks.
+//!
+//! Only shapes whose material reads a texture carry them, so a scene without textures
+//! compiles to exactly the primitives it did before.
+
+use super::load::MeshData;
+use crate::geometry::Interaction;
+use crate::math::{Mat3, Vec2, Vec3, INV_2PI, INV_PI};
+
+/// How a shape's hits map to (u, v).
+#[derive(Clone, Debug)]
+pub enum TexCoords {
+    /// Per primitive (indexed by the hit's `local`): the affine map `[o, a, b]` with
+    /// uv = o + s a + t b, (s, t) being a triangle's barycentrics (b1, b2) or a
+    /// parallelogram's edge coordinates.
+    Mesh(Vec<[Vec2; 3]>),
+    /// u = phi / 2 pi, counter-clockwise from the object's +x about +z; v = theta /
+    /// pi from +z. `to_object` turns world directions into the object's frame.
+    Sphere { center: Vec3, to_object: Mat3 },
+    /// (r, phi / 2 pi) in the disk's own coordinates; `swapped` when a mirroring
+    /// transform exchanged the disk's axes to keep its front side.
+    Disk { swapped: bool },
+}
+
+impl TexCoords {
+    #[inline]
+    pub fn uv(&self, it: &Interaction) -> Vec2 {
+        match self {
+            TexCoords::Mesh(maps) => {
+                let [o, a, b] = maps[it.local as usize];
+                o + a * it.uv.x + b * it.uv.y
+            }
+            TexCoords::Sphere { center, to_object } => sphere_uv(*to_object * (it.p - *center)),
+            TexCoords::Disk { swapped } => {
+                let (x, y) = if *swapped {
+                    (it.uv.y, it.uv.x)
+                } else {
+                    (it.uv.x, it.uv.y)
+                };
+                Vec2::new((x * x + y * y).sqrt(), angle_fraction(y, x))
+            }
+        }
+    }
+}
+
+/// Mitsuba's sphere coordinates of a direction from the centre, object frame.
+fn sphere_uv(d: Vec3) -> Vec2 {
+    let len = d.length();
+    let cos_theta = if len > 0.0 {
+        (d.z / len).clamp(-1.0, 1.0)
+    } else {
+        1.0
+    };
+    Vec2::new(angle_fraction(d.y, d.x), cos_theta.acos() * INV_PI)
+}
+
+/// atan2(y, x) as a fraction of a turn in [0, 1).
+fn angle_fraction(y: f32, x: f32) -> f32 {
+    let phi = y.atan2(x);
+    let phi = if phi < 0.0 {
+        phi + 2.0 * std::f32::consts::PI
+    } else {
+        phi
+    };
+    (phi * INV_2PI).min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// The affine map of one primitive from the (u, v) of its corners, in the order the
+/// primitive is parametrised (p0, then the ends of e1 and e2).
+pub fn corner_map([o, a, b]: [Vec2; 3]) -> [Vec2; 3] {
+    [o, a - o, b - o]
+}
+
+/// Mitsuba's cube: each face's four corners (object space) with their (u, v).
+pub const CUBE_FACES: [[([f32; 3], [f32; 2]); 4]; 6] = [
+    [
+        ([1., -1., -1.], [0., 1.]),
+        ([1., -1., 1.], [1., 1.]),
+        ([-1., -1., 1.], [1., 0.]),
+        ([-1., -1., -1.], [0., 0.]),
+    ],
+    [
+        ([1., 1., -1.], [0., 1.]),
+        ([-1., 1., -1.], [1., 1.]),
+        ([-1., 1., 1.], [1., 0.]),
+        ([1., 1., 1.], [0., 0.]),
+    ],
+    [
+        ([1., -1., -1.], [0., 1.]),
+        ([1., 1., -1.], [1., 1.]),
+        ([1., 1., 1.], [1., 0.]),
+        ([1., -1., 1.], [0., 0.]),
+    ],
+    [
+        ([1., -1., 1.], [0., 1.]),
+        ([1., 1., 1.], [1., 1.]),
+        ([-1., 1., 1.], [1., 0.]),
+        ([-1., -1., 1.], [0., 0.]),
+    ],
+    [
+        ([-1., -1., 1.], [0., 1.]),
+        ([-1., 1., 1.], [1., 1.]),
+        ([-1., 1., -1.], [1., 0.]),
+        ([-1., -1., -1.], [0., 0.]),
+    ],
+    [
+        ([1., 1., -1.], [0., 1.]),
+        ([1., -1., -1.], [1., 1.]),
+        ([-1., -1., -1.], [1., 0.]),
+        ([-1., 1., -1.], [0., 0.]),
+    ],
+];
+
+/// Mitsuba's cube as a mesh: 24 vertices, each face its own four with their (u, v),
+/// split as Mitsuba splits them.
+pub fn cube_mesh() -> MeshData {
+    let corners = CUBE_FACES.iter().flatten();
+    MeshData {
+        positions: corners.clone().map(|(p, _)| Vec3::from(*p)).collect(),
+        normals: None,
+        uvs: Some(corners.map(|(_, uv)| Vec2::from(*uv)).collect()),
+        indices: (0..6u32)
+            .flat_map(|f| [[0, 1, 2], [3, 0, 2]].map(|t| t.map(|k| 4 * f + k)))
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(p: Vec3, uv: Vec2) -> Interaction {
+        Interaction {
+            p,
+            p_err: Vec3::ZERO,
+            ng: Vec3::Z,
+            ns: Vec3::Z,
+            uv,
+            shape: 0,
+            local: 0,
+        }
+    }
+
+    fn close(a: Vec2, b: Vec2) -> bool {
+        (a - b).abs().max_element() < 1e-6
+    }
+
+    /// Values read from Mitsuba 3.9 (`ray_intersect` on its `sphere` and `disk`).
+    #[test]
+    fn spheres_and_disks_match_mitsuba() {
+        let s = TexCoords::Sphere {
+            center: Vec3::ZERO,
+            to_object: Mat3::IDENTITY,
+        };
+        for (p, uv) in [
+            (Vec3::X, Vec2::new(0.0, 0.5)),
+            (Vec3::Y, Vec2::new(0.25, 0.5)),
+            (-Vec3::X, Vec2::new(0.5, 0.5)),
+            (-Vec3::Y, Vec2::new(0.75, 0.5)),
+            (Vec3::Z, Vec2::new(0.0, 0.0)),
+            (Vec3::new(0.0, 0.0, -1.0), Vec2::new(0.0, 1.0)),
+        ] {
+            assert!(close(s.uv(&at(p, Vec2::ZERO)), uv), "{p}");
+        }
+        // Turned 90 degrees about z: world -x is the object's +y.
+        let turned = TexCoords::Sphere {
+            center: Vec3::new(5.0, 0.0, 0.0),
+            to_object: Mat3::from_rotation_z(90f32.to_radians()).transpose(),
+        };
+        let uv = turned.uv(&at(Vec3::new(4.0, 0.0, 0.0), Vec2::ZERO));
+        assert!(close(uv, Vec2::new(0.25, 0.5)), "{uv}");
+        let d = TexCoords::Disk { swapped: false };
+        for (xy, uv) in [
+            (Vec2::new(0.5, 0.0), Vec2::new(0.5, 0.0)),
+            (Vec2::new(0.0, 0.5), Vec2::new(0.5, 0.25)),
+            (Vec2::new(-0.5, 0.0), Vec2::new(0.5, 0.5)),
+            (Vec2::new(0.0, -0.5), Vec2::new(0.5, 0.75)),
+            (Vec2::new(0.25, 0.0), Vec2::new(0.25, 0.0)),
+        ] {
+            assert!(close(d.uv(&at(Vec3::ZERO, xy)), uv), "{xy}");
+        }
+        let swapped = TexCoords::Disk { swapped: true };
+        let uv = swapped.uv(&at(Vec3::ZERO, Vec2::new(0.0, 0.5)));
+        assert!(close(uv, Vec2::new(0.5, 0.0)), "{uv}");
+    }
+
+    #[test]
+    fn mesh_maps_interpolate_corners() {
+        let corners = [
+            Vec2::new(0.1, 0.8),
+            Vec2::new(0.9, 0.8),
+            Vec2::new(0.9, 0.3),
+        ];
+        let m = TexCoords::Mesh(vec![corner_map(corners)]);
+        for (bary, uv) in [
+            (Vec2::ZERO, corners[0]),
+            (Vec2::X, corners[1]),
+            (Vec2::Y, corners[2]),
+            (Vec2::new(0.25, 0.25), Vec2::new(0.5, 0.675)),
+        ] {
+            assert!(close(m.uv(&at(Vec3::ZERO, bary)), uv), "{bary}");
+        }
+    }
+
+    #[test]
+    fn cube_faces_wind_outwards_and_cover_the_unit_square() {
+        for face in CUBE_FACES {
+            let p = face.map(|(p, _)| Vec3::from(p));
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let centre = (p[0] + p[2]) * 0.5;
+            assert!(n.dot(centre) > 0.0, "{face:?}");
+            let mut uvs: Vec<[f32; 2]> = face.iter().map(|(_, uv)| *uv).collect();
+            uvs.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            assert_eq!(uvs, [[0., 0.], [0., 1.], [1., 0.], [1., 1.]]);
+        }
+    }
+}

@@ -1,0 +1,360 @@
+//! Textured materials under a uniform sky: a convex diffuse surface that sees the
+//! whole sky over each point reflects rho(u, v) L there, so every pixel whose
+//! footprint lies inside one texel or check has a known value. The (u, v) of each
+//! pixel is computed here from the hit point with Mitsuba's parametrisation,
+//! independently of the renderer's own, so the tests check the mapping (which check
+//! is `color0`, image row order, sRGB decoding) as well as every algorithm's handling
+//! of textured vertices (camera vertices, stored light vertices, visible points,
+//! virtual lights).
+
+mod common;
+use caustic::math::{Vec2, Vec3};
+use caustic::scene::{load::parse_scene, Scene};
+use common::*;
+use serde_json::json;
+
+const L: f32 = 1.5;
+const SIZE: u32 = 32;
+
+fn sky_scene(material: serde_json::Value, shape: serde_json::Value) -> serde_json::Value {
+    json!({
+        "format": 1,
+        "camera": {"look_at": {"origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 40},
+        "film": {"width": SIZE, "height": SIZE},
+        "materials": {"m": material},
+        "shapes": [shape],
+        "lights": [{"type": "constant", "radiance": [L, L, L]}]
+    })
+}
+
+/// Pixel indices by class: a pixel belongs to class k when its corners and centre all
+/// hit the surface at points `class` puts in k.
+fn classify(scene: &Scene, class: impl Fn(Vec3) -> Option<usize>, n: usize) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new(); n];
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let points = [
+                (0.01, 0.01),
+                (0.99, 0.01),
+                (0.01, 0.99),
+                (0.99, 0.99),
+                (0.5, 0.5),
+            ];
+            let classes: Vec<Option<usize>> = (points.iter())
+                .map(|(dx, dy)| {
+                    let s = Vec2::new(x as f32 + dx, y as f32 + dy);
+                    let ray = scene.camera.generate_ray(s, Default::default());
+                    scene.intersect(&ray).and_then(|it| class(it.p))
+                })
+                .collect();
+            if let Some(k) = classes[0] {
+                if classes.iter().all(|&c| c == Some(k)) {
+                    out[k].push((y * SIZE + x) as usize);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Renders with `alg` and checks each class's mean pixel value (channel `c`) against
+/// `expected[k] L`, within four standard errors.
+#[allow(clippy::needless_range_loop)] // c indexes the film's channels and the expectations alike
+fn check(
+    scene: &Scene,
+    alg: &str,
+    params: serde_json::Value,
+    spp: u64,
+    classes: &[Vec<usize>],
+    expected: &[[f64; 3]],
+) {
+    let (film, n) = render(scene, &settings(alg, params), 7, spp);
+    assert_eq!(film.dropped(), 0, "{alg}");
+    for c in 0..3 {
+        let img = channel(&film, n, c);
+        for (k, pixels) in classes.iter().enumerate() {
+            assert!(pixels.len() >= 8, "class {k} has {} pixels", pixels.len());
+            let vals: Vec<f64> = pixels.iter().map(|&i| img[i]).collect();
+            let (m, se) = mean_se(&vals);
+            let want = expected[k][c] * L as f64;
+            assert!(
+                (m - want).abs() <= 4.0 * se + 1e-4 * want,
+                "{alg}: class {k} channel {c}: {m} vs {want} (se {se})"
+            );
+        }
+    }
+}
+
+/// Mitsuba's sphere (u, v): the azimuth from +x over 2 pi, the polar angle from +z
+/// over pi.
+fn sphere_uv(p: Vec3) -> Vec2 {
+    let d = p.normalize();
+    let phi = d.y.atan2(d.x);
+    let phi = if phi < 0.0 {
+        phi + 2.0 * std::f32::consts::PI
+    } else {
+        phi
+    };
+    Vec2::new(
+        phi / (2.0 * std::f32::consts::PI),
+        d.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+    )
+}
+
+/// Mitsuba's checkerboard: `color0` where u and v are in the same half of their unit.
+fn check_class(uv: Vec2) -> usize {
+    let high = |x: f32| x - x.floor() > 0.5;
+    usize::from(high(uv.x) != high(uv.y))
+}
+
+const RHO0: [f64; 3] = [0.8, 0.5, 0.2];
+const RHO1: [f64; 3] = [0.1, 0.3, 0.6];
+
+fn checker_sphere() -> Scene {
+    let material = json!({"type": "diffuse", "reflectance": {
+        "type": "checkerboard", "color0": RHO0, "color1": RHO1,
+        "to_uv": [[4, 0, 0], [0, 4, 0]]}});
+    compile(sky_scene(
+        material,
+        json!({"type": "sphere", "radius": 1, "material": "m"}),
+    ))
+}
+
+fn checker_classes(scene: &Scene) -> Vec<Vec<usize>> {
+    classify(scene, |p| Some(check_class(sphere_uv(p) * 4.0)), 2)
+}
+
+#[test]
+fn checkerboard_sphere_path_tracing() {
+    let scene = checker_sphere();
+    let classes = checker_classes(&scene);
+    check(
+        &scene,
+        "pt",
+        json!({"max_depth": 2}),
+        16,
+        &classes,
+        &[RHO0, RHO1],
+    );
+}
+
+/// Light vertices on the sphere connect to the camera and to camera vertices: they must
+/// carry their (u, v).
+#[test]
+fn checkerboard_sphere_bidirectional() {
+    let scene = checker_sphere();
+    let classes = checker_classes(&scene);
+    check(
+        &scene,
+        "bpt",
+        json!({"max_depth": 2}),
+        16,
+        &classes,
+        &[RHO0, RHO1],
+    );
+    check(
+        &scene,
+        "lt",
+        json!({"max_depth": 2}),
+        64,
+        &classes,
+        &[RHO0, RHO1],
+    );
+}
+
+/// Visible points (sppm) and virtual point lights (vpl) evaluate the material after
+/// the walk that found them. Both are consistent rather than unbiased; on a convex
+/// shape under a uniform sky photons and VPLs only add the one bounce that is absent
+/// (max_depth 2: direct light only), so the image is the direct one.
+#[test]
+fn checkerboard_sphere_stored_vertices() {
+    let scene = checker_sphere();
+    let classes = checker_classes(&scene);
+    check(
+        &scene,
+        "sppm",
+        json!({"max_depth": 2}),
+        8,
+        &classes,
+        &[RHO0, RHO1],
+    );
+    check(
+        &scene,
+        "vpl",
+        json!({"max_depth": 2}),
+        8,
+        &classes,
+        &[RHO0, RHO1],
+    );
+}
+
+/// A 2 x 2 PNG (sRGB) on a rectangle seen from above, nearest filtering: row 0 of the
+/// image is at v = 0, which Mitsuba's rectangle puts at y = -1 (the bottom of this
+/// camera's image).
+#[test]
+fn bitmap_rectangle_rows_and_srgb() {
+    let dir = tempfile::tempdir().unwrap();
+    let texels: [[u8; 3]; 4] = [[200, 30, 90], [10, 250, 120], [128, 128, 128], [255, 0, 60]];
+    let mut png = image::RgbImage::new(2, 2);
+    for (i, t) in texels.iter().enumerate() {
+        png.put_pixel(i as u32 % 2, i as u32 / 2, image::Rgb(*t));
+    }
+    png.save(dir.path().join("tex.png")).unwrap();
+    let material = json!({"type": "diffuse", "reflectance": {
+        "type": "bitmap", "filename": "tex.png", "filter": "nearest"}});
+    let mut v = sky_scene(material, json!({"type": "rectangle", "material": "m"}));
+    v["camera"]["fov"] = json!(30);
+    let file = parse_scene(&v.to_string()).unwrap();
+    std::fs::write(dir.path().join("scene.json"), v.to_string()).unwrap();
+    let scene = Scene::compile(&file, Some(dir.path())).unwrap();
+    let class = |p: Vec3| {
+        let uv = Vec2::new((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
+        let inside = uv.cmpge(Vec2::ZERO).all() && uv.cmplt(Vec2::ONE).all();
+        inside.then(|| (uv.y * 2.0) as usize * 2 + (uv.x * 2.0) as usize)
+    };
+    let classes = classify(&scene, class, 4);
+    // The sRGB transfer function (IEC 61966-2-1).
+    let linear = |b: u8| {
+        let c = b as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let expected: Vec<[f64; 3]> = texels.iter().map(|t| t.map(linear)).collect();
+    check(
+        &scene,
+        "pt",
+        json!({"max_depth": 2}),
+        8,
+        &classes,
+        &expected,
+    );
+}
+
+/// One image named by two materials (and by the same material twice) is decoded once.
+#[test]
+fn one_image_is_loaded_once_per_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(64, 64, image::Rgb([100, 100, 100]))
+        .save(dir.path().join("t.png"))
+        .unwrap();
+    let bitmap = json!({"type": "bitmap", "filename": "t.png"});
+    let v = json!({
+        "format": 1,
+        "camera": {"look_at": {"origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 40},
+        "film": {"width": 8, "height": 8},
+        "materials": {
+            "a": {"type": "diffuse", "reflectance": bitmap},
+            "b": {"type": "dielectric", "specular_reflectance": bitmap, "specular_transmittance": bitmap},
+            "c": {"type": "diffuse", "reflectance": {"type": "bitmap", "filename": "t.png", "raw": true}}
+        },
+        "shapes": [
+            {"type": "sphere", "radius": 1, "material": "a"},
+            {"type": "sphere", "radius": 1, "center": [3, 0, 0], "material": "b"},
+            {"type": "sphere", "radius": 1, "center": [-3, 0, 0], "material": "c"}
+        ],
+        "lights": [{"type": "constant", "radiance": [1, 1, 1]}]
+    });
+    let file = parse_scene(&v.to_string()).unwrap();
+    let scene = Scene::compile(&file, Some(dir.path())).unwrap();
+    // 64 x 64 x 3 bytes, once as sRGB and once raw.
+    assert_eq!(scene.stats.texture_bytes, 2 * 64 * 64 * 3);
+}
+
+#[test]
+fn texture_errors_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.png"), b"\x89PNG\r\n\x1a\nnot a png").unwrap();
+    let cases = [
+        (
+            json!({"type": "bitmap", "filename": "missing.png"}),
+            "materials.m.reflectance.filename",
+            "missing.png",
+        ),
+        (
+            json!({"type": "bitmap", "filename": "bad.png"}),
+            "materials.m.reflectance.filename",
+            "bad.png",
+        ),
+        (
+            json!({"type": "bitmap", "filename": "../x.png"}),
+            "materials.m.reflectance.filename",
+            "inside the scene",
+        ),
+        (
+            json!({"type": "checkerboard", "color0": [-1, 0, 0]}),
+            "materials.m.reflectance.color0",
+            "negative",
+        ),
+        (
+            json!({"type": "checkerboard", "to_uv": [[1, 0, 0], [0, 1e39, 0]]}),
+            "",
+            "out of range",
+        ),
+    ];
+    for (tex, field, what) in cases {
+        let v = sky_scene(
+            json!({"type": "diffuse", "reflectance": tex}),
+            json!({"type": "sphere", "radius": 1, "material": "m"}),
+        );
+        let e = parse_scene(&v.to_string())
+            .and_then(|f| Scene::compile(&f, Some(dir.path())))
+            .err()
+            .unwrap_or_else(|| panic!("{tex} accepted"));
+        let text = e.to_string();
+        assert!(text.contains(field), "{tex}: {text}");
+        assert!(text.contains(what), "{tex}: {text}");
+        assert!(
+            !text.contains(dir.path().to_str().unwrap()),
+            "names a server path: {text}"
+        );
+    }
+}
+
+/// The Cornell box with every wall a red and blue checkerboard: indirect light comes
+/// only from textured surfaces, so every algorithm that stores vertices (bpt and lt
+/// connections, vcm merges, vpl's virtual lights, sppm's visible points) must give
+/// them their (u, v). Each is compared with pt pixel by pixel: the mean of the
+/// differences must be within four of its standard errors (plus 2% of the image mean
+/// for the consistent methods' kernel bias).
+#[test]
+fn textured_box_renders_alike_in_every_algorithm() {
+    let path = format!("{}/scenes/cornell-box.json", env!("CARGO_MANIFEST_DIR"));
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    v["film"] = json!({"width": 24, "height": 24});
+    v["materials"]["checker"] = json!({"type": "diffuse", "reflectance": {
+        "type": "checkerboard", "color0": [0.8, 0.1, 0.1], "color1": [0.1, 0.1, 0.8],
+        "to_uv": [[4, 0, 0], [0, 4, 0]]}});
+    for s in v["shapes"].as_array_mut().unwrap() {
+        if s["name"] != "light" {
+            s["material"] = json!("checker");
+        }
+    }
+    let scene = compile(v);
+    let depth = json!({"max_depth": 3});
+    let (reference, n) = render(&scene, &settings("pt", depth.clone()), 1, 1024);
+    for (alg, spp, bias) in [
+        ("bpt", 256, 0.0),
+        ("lt", 1024, 0.0),
+        ("vcm", 256, 0.02),
+        ("vpl", 64, 0.0),
+        ("sppm", 128, 0.02),
+    ] {
+        let (film, m) = render(&scene, &settings(alg, depth.clone()), 2, spp);
+        assert_eq!(film.dropped(), 0, "{alg}");
+        for c in [0, 2] {
+            let a = channel(&reference, n, c);
+            let b = channel(&film, m, c);
+            let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| y - x).collect();
+            let (mean, se) = mean_se(&d);
+            let level = a.iter().sum::<f64>() / a.len() as f64;
+            assert!(
+                mean.abs() <= 4.0 * se + bias * level,
+                "{alg} channel {c}: mean difference {mean} (se {se}, image mean {level})"
+            );
+        }
+    }
+}
