@@ -321,13 +321,30 @@ fn texture_errors_name_the_field() {
 /// for the consistent methods' kernel bias).
 #[test]
 fn textured_box_renders_alike_in_every_algorithm() {
+    let checker = json!({"type": "diffuse", "reflectance": CHECKER.clone()});
+    textured_box_alike(checker, &["bpt", "lt", "vcm", "vpl", "sppm"]);
+}
+
+/// The same with a rough plastic whose base is the checkerboard (the coating's
+/// Fresnel and internal reflections over a textured albedo).
+#[test]
+fn textured_plastic_box_renders_alike() {
+    let plastic = json!({"type": "roughplastic", "alpha": 0.3,
+        "diffuse_reflectance": CHECKER.clone()});
+    textured_box_alike(plastic, &["bpt", "lt"]);
+}
+
+static CHECKER: std::sync::LazyLock<serde_json::Value> = std::sync::LazyLock::new(|| {
+    json!({"type": "checkerboard", "color0": [0.8, 0.1, 0.1], "color1": [0.1, 0.1, 0.8],
+        "to_uv": [[4, 0, 0], [0, 4, 0]]})
+});
+
+fn textured_box_alike(material: serde_json::Value, algorithms: &[&str]) {
     let path = format!("{}/scenes/cornell-box.json", env!("CARGO_MANIFEST_DIR"));
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     v["film"] = json!({"width": 24, "height": 24});
-    v["materials"]["checker"] = json!({"type": "diffuse", "reflectance": {
-        "type": "checkerboard", "color0": [0.8, 0.1, 0.1], "color1": [0.1, 0.1, 0.8],
-        "to_uv": [[4, 0, 0], [0, 4, 0]]}});
+    v["materials"]["checker"] = material;
     for s in v["shapes"].as_array_mut().unwrap() {
         if s["name"] != "light" {
             s["material"] = json!("checker");
@@ -343,6 +360,9 @@ fn textured_box_renders_alike_in_every_algorithm() {
         ("vpl", 64, 0.0),
         ("sppm", 128, 0.02),
     ] {
+        if !algorithms.contains(&alg) {
+            continue;
+        }
         let (film, m) = render(&scene, &settings(alg, depth.clone()), 2, spp);
         assert_eq!(film.dropped(), 0, "{alg}");
         for c in [0, 2] {
@@ -355,6 +375,35 @@ fn textured_box_renders_alike_in_every_algorithm() {
                 mean.abs() <= 4.0 * se + bias * level,
                 "{alg} channel {c}: mean difference {mean} (se {se}, image mean {level})"
             );
+        }
+    }
+}
+
+/// Under a uniform sky with direct light only, a pixel of a convex shape depends on the
+/// material at its camera hits alone: a plastic whose base is a checkerboard renders
+/// each pixel inside a check bit for bit as the plastic of that check's constant colour
+/// (the same random numbers meet the same material).
+#[test]
+fn textured_plastic_equals_constant_plastic_check_by_check() {
+    let plastic = |base: serde_json::Value| {
+        let m = json!({"type": "roughplastic", "alpha": 0.2, "diffuse_reflectance": base});
+        compile(sky_scene(
+            m,
+            json!({"type": "sphere", "radius": 1, "material": "m"}),
+        ))
+    };
+    let textured = plastic(
+        json!({"type": "checkerboard", "color0": RHO0, "color1": RHO1,
+        "to_uv": [[4, 0, 0], [0, 4, 0]]}),
+    );
+    let classes = checker_classes(&textured);
+    let s = settings("pt", json!({"max_depth": 2}));
+    let (film, _) = render(&textured, &s, 3, 4);
+    for (k, rho) in [RHO0, RHO1].iter().enumerate() {
+        let (flat, _) = render(&plastic(json!(rho)), &s, 3, 4);
+        assert!(classes[k].len() >= 8);
+        for &i in &classes[k] {
+            assert_eq!(film.sums()[i], flat.sums()[i], "class {k} pixel {i}");
         }
     }
 }

@@ -11,6 +11,7 @@ use crate::math::{Rgb, Vec2};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
     Reflectance,
+    DiffuseReflectance,
     SpecularReflectance,
     SpecularTransmittance,
 }
@@ -20,6 +21,7 @@ impl Slot {
     pub fn from_field(field: &str) -> Slot {
         match field {
             "reflectance" => Slot::Reflectance,
+            "diffuse_reflectance" => Slot::DiffuseReflectance,
             "specular_reflectance" => Slot::SpecularReflectance,
             "specular_transmittance" => Slot::SpecularTransmittance,
             other => unreachable!("no texture slot for field {other}"),
@@ -54,6 +56,10 @@ impl Material {
             (Material::Dielectric(m), Slot::SpecularReflectance) => m.specular_reflectance = v,
             (Material::Dielectric(m), Slot::SpecularTransmittance) => m.specular_transmittance = v,
             (Material::Conductor(m), Slot::SpecularReflectance) => m.specular_reflectance = v,
+            (Material::Plastic(m), Slot::DiffuseReflectance) => m.coating.diffuse_reflectance = v,
+            (Material::RoughPlastic(m), Slot::DiffuseReflectance) => {
+                m.coating.diffuse_reflectance = v
+            }
             (m, slot) => unreachable!("{slot:?} on {m:?}"),
         }
     }

@@ -226,8 +226,8 @@ pub enum MaterialDesc {
     /// `diffuse_reflectance`, with the internal reflections of the coating's underside;
     /// `nonlinear` lets the base's colour tint them too. One-sided unless `two_sided`.
     Plastic {
-        #[serde(default = "half3")]
-        diffuse_reflectance: V3,
+        #[serde(default = "half_param")]
+        diffuse_reflectance: Param,
         #[serde(default = "one3")]
         specular_reflectance: V3,
         #[serde(default = "default_plastic_ior")]
@@ -248,8 +248,8 @@ pub enum MaterialDesc {
         distribution: DistributionDesc,
         #[serde(default = "default_alpha")]
         alpha: f32,
-        #[serde(default = "half3")]
-        diffuse_reflectance: V3,
+        #[serde(default = "half_param")]
+        diffuse_reflectance: Param,
         #[serde(default = "one3")]
         specular_reflectance: V3,
         #[serde(default = "default_plastic_ior")]
@@ -327,7 +327,15 @@ impl MaterialDesc {
                 specular_reflectance,
                 ..
             } => vec![("specular_reflectance", specular_reflectance)],
-            // The rough and coated materials take constants only, so far.
+            MaterialDesc::Plastic {
+                diffuse_reflectance,
+                ..
+            }
+            | MaterialDesc::RoughPlastic {
+                diffuse_reflectance,
+                ..
+            } => vec![("diffuse_reflectance", diffuse_reflectance)],
+            // The rough metals and glasses take constants only, so far.
             _ => Vec::new(),
         }
     }
@@ -351,21 +359,28 @@ impl MaterialDesc {
                 specular_reflectance,
                 ..
             } => vec![("specular_reflectance", specular_reflectance)],
-            // The rough and coated materials take constants only, so far.
+            MaterialDesc::Plastic {
+                diffuse_reflectance,
+                ..
+            }
+            | MaterialDesc::RoughPlastic {
+                diffuse_reflectance,
+                ..
+            } => vec![("diffuse_reflectance", diffuse_reflectance)],
             _ => Vec::new(),
         }
     }
 }
 
-fn half3() -> V3 {
-    [0.5; 3]
-}
 fn default_alpha() -> f32 {
     DEFAULT_ALPHA
 }
 /// Polypropylene, Mitsuba 3's default interior of its plastics.
 fn default_plastic_ior() -> f32 {
     1.49
+}
+fn half_param() -> Param {
+    Param::grey(0.5)
 }
 fn one_param() -> Param {
     Param::grey(1.0)

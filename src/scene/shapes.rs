@@ -159,7 +159,7 @@ fn material(m: &MaterialDesc) -> Material {
             two_sided,
         } => Material::Plastic(Plastic {
             coating: Coating {
-                diffuse_reflectance: rgb(*diffuse_reflectance),
+                diffuse_reflectance: constant(diffuse_reflectance),
                 specular_reflectance: rgb(*specular_reflectance),
                 eta: int_ior / ext_ior,
                 nonlinear: *nonlinear,
@@ -177,7 +177,7 @@ fn material(m: &MaterialDesc) -> Material {
             two_sided,
         } => {
             let coating = Coating {
-                diffuse_reflectance: rgb(*diffuse_reflectance),
+                diffuse_reflectance: constant(diffuse_reflectance),
                 specular_reflectance: rgb(*specular_reflectance),
                 eta: int_ior / ext_ior,
                 nonlinear: *nonlinear,

@@ -376,7 +376,7 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
         } => coating(
             path,
             [*int_ior, *ext_ior],
-            *diffuse_reflectance,
+            diffuse_reflectance,
             *specular_reflectance,
         ),
         MaterialDesc::RoughPlastic {
@@ -391,7 +391,7 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             coating(
                 path,
                 [*int_ior, *ext_ior],
-                *diffuse_reflectance,
+                diffuse_reflectance,
                 *specular_reflectance,
             )
         }
@@ -408,7 +408,7 @@ fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: V3, t: V3) -> Result<(
 }
 
 /// A plastic's coating (IORs that differ, as Mitsuba requires) and base.
-fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: V3, specular: V3) -> Result<()> {
+fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: &Param, specular: V3) -> Result<()> {
     positive(&format!("{path}.int_ior"), int_ior)?;
     positive(&format!("{path}.ext_ior"), ext_ior)?;
     if int_ior == ext_ior {
@@ -417,7 +417,7 @@ fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: V3, specular: V3) 
             "equals ext_ior: a coating needs an interface",
         ));
     }
-    unit3(&format!("{path}.diffuse_reflectance"), diffuse)?;
+    unit_param(&format!("{path}.diffuse_reflectance"), diffuse)?;
     unit3(&format!("{path}.specular_reflectance"), specular)
 }
 

@@ -146,7 +146,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             }
         }
         "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
-        "plastic" | "roughplastic" => plastic(n, &p)?,
+        "plastic" | "roughplastic" => plastic(n, &p, ctx)?,
         "null" => MaterialDesc::Null {},
         "thindielectric" => MaterialDesc::ThinDielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
@@ -268,8 +268,10 @@ fn roughness(n: &Node, p: &Params) -> Result<Roughness> {
 }
 
 /// `plastic` or `roughplastic` (isotropic only, as in Mitsuba 3).
-fn plastic(n: &Node, p: &Params) -> Result<MaterialDesc> {
-    let diffuse_reflectance = p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+fn plastic<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+    let diffuse_reflectance = p
+        .param("diffuse_reflectance", ctx)?
+        .unwrap_or(Param::grey(0.5));
     let specular_reflectance = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
     let int_ior = ior(p, "int_ior", 1.49)?;
     let ext_ior = ior(p, "ext_ior", 1.000277)?;
