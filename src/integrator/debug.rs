@@ -29,7 +29,7 @@ impl Integrator for DebugIntegrator {
                 let Some(it) = scene.intersect(&ray) else {
                     return Rgb::ZERO;
                 };
-                if scene.is_null(&it) {
+                if scene.passes(&it, &ray) {
                     ray = crate::geometry::spawn_ray(it.p, it.p_err, it.ng, ray.d);
                     stats.rays += 1;
                     continue;

@@ -276,6 +276,13 @@ pub enum MaterialDesc {
     },
     /// Index-matched boundary: rays pass straight through; only the medium changes.
     Null {},
+    /// A cut-out (Mitsuba's `mask`): `material` where the surface is opaque, a hole
+    /// elsewhere; `opacity` (a grey value or texture in [0, 1]) is the probability
+    /// that a ray, a shadow ray or a light path stops at the surface.
+    Mask {
+        opacity: Param,
+        material: Box<MaterialDesc>,
+    },
 }
 
 /// Microfacet distribution of the rough materials (Mitsuba 3's default: Beckmann).
@@ -305,7 +312,18 @@ pub fn alphas(alpha: Option<f32>, alpha_u: Option<f32>, alpha_v: Option<f32>) ->
 impl MaterialDesc {
     /// Whether the material reads a texture, so that its shapes need (u, v).
     pub fn reads_uv(&self) -> bool {
-        self.params().iter().any(|(_, p)| p.is_texture())
+        match self {
+            MaterialDesc::Mask { opacity, material } => opacity.is_texture() || material.reads_uv(),
+            _ => self.params().iter().any(|(_, p)| p.is_texture()),
+        }
+    }
+
+    /// The material that scatters: a mask's nested one, or the material itself.
+    pub fn scattering(&self) -> &MaterialDesc {
+        match self {
+            MaterialDesc::Mask { material, .. } => material,
+            other => other,
+        }
     }
 
     /// The parameters that may be textures, with their field names.
@@ -335,6 +353,11 @@ impl MaterialDesc {
                 diffuse_reflectance,
                 ..
             } => vec![("diffuse_reflectance", diffuse_reflectance)],
+            MaterialDesc::Mask { opacity, material } => {
+                let mut v = material.params();
+                v.push(("opacity", opacity));
+                v
+            }
             // The rough metals and glasses take constants only, so far.
             _ => Vec::new(),
         }
@@ -367,6 +390,11 @@ impl MaterialDesc {
                 diffuse_reflectance,
                 ..
             } => vec![("diffuse_reflectance", diffuse_reflectance)],
+            MaterialDesc::Mask { opacity, material } => {
+                let mut v = material.params_mut();
+                v.push(("opacity", opacity));
+                v
+            }
             _ => Vec::new(),
         }
     }

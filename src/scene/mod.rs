@@ -22,6 +22,7 @@ pub use uv::TexCoords;
 use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
+use crate::material::texture::Texture;
 use crate::material::textured::Textured;
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec2, Vec3};
@@ -89,6 +90,26 @@ pub struct SceneStats {
     pub texture_bytes: usize,
 }
 
+/// Whether `ray` passes through a mask of `opacity` at texture coordinates `uv`.
+#[inline(never)]
+fn mask_passes(opacity: &Texture, uv: Vec2, ray: &Ray) -> bool {
+    ray_hash(ray) >= opacity.eval_scalar(uv)
+}
+
+/// A number in [0, 1) from the bits of a ray's origin and direction: rays differ in
+/// their low bits wherever they start, so it serves as an independent uniform sample
+/// per ray (pbrt-v4's `HashFloat(r.o, r.d)`).
+fn ray_hash(ray: &Ray) -> f32 {
+    let mut h: u64 = 0x9E37_79B9_7F4A_7C15;
+    for x in [ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z] {
+        h = (h ^ u64::from(x.to_bits())).wrapping_mul(0xff51_afd7_ed55_8ccd);
+        h ^= h >> 33;
+    }
+    h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+    h ^= h >> 33;
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+}
+
 /// The rest of shadow segment `r` after it crosses the null boundary at `it`: from
 /// just past the boundary to the same end point, or on along the direction when the
 /// segment is unbounded.
@@ -119,6 +140,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The textures of each material (index as `materials`; None: all constant).
     pub textured: Vec<Option<Textured>>,
+    /// The opacity of each masked material (index as `materials`).
+    pub opacity: Vec<Option<Texture>>,
     pub lights: Vec<Light>,
     /// Lights seen by rays that leave the scene (constant and map environments).
     pub env_lights: Vec<u32>,
@@ -213,7 +236,7 @@ impl Scene {
             let Some(it) = self.intersect(ray) else {
                 return Surfacing::Escaped;
             };
-            if !self.is_null(&it) {
+            if !self.passes(&it, ray) {
                 let m = self.material(&it);
                 return Surfacing::Hit(it, m);
             }
@@ -294,7 +317,7 @@ impl Scene {
                 return true;
             };
             let it = self.accel.interaction(&r, &hit);
-            if !self.is_null(&it) {
+            if !self.passes(&it, &r) {
                 return false;
             }
             r = beyond(&it, &r, end);
@@ -407,7 +430,7 @@ impl Scene {
                 return (tr, depth);
             };
             let it = self.interaction(&r, &hit);
-            if !self.is_null(&it) {
+            if !self.passes(&it, &r) {
                 return (Rgb::ZERO, depth);
             }
             medium = self.medium_after(&it, r.d, medium);
@@ -453,6 +476,7 @@ impl Scene {
                 let shape = &self.shapes[self.accel.meta(prim).shape as usize];
                 match self.materials[shape.material as usize] {
                     Material::Null => Blocker::Null,
+                    _ if self.opacity[shape.material as usize].is_some() => Blocker::Null,
                     _ => Blocker::Opaque,
                 }
             }
@@ -467,6 +491,20 @@ impl Scene {
             .uvs
             .as_ref()
             .map_or(Vec2::ZERO, |t| t.uv(it))
+    }
+
+    /// Whether `ray` goes on through the surface it hit at `it`: an index-matched
+    /// (`null`) boundary, or a masked surface where the ray meets a hole. A mask of
+    /// opacity a stops a ray with probability a, decided by a hash of the ray (pbrt-v4's
+    /// stochastic alpha test), so the same ray always gets the same answer and camera
+    /// rays, light paths and shadow rays all see the mask.
+    #[inline(always)]
+    pub fn passes(&self, it: &Interaction, ray: &Ray) -> bool {
+        let m = self.shapes[it.shape as usize].material;
+        match &self.opacity[m as usize] {
+            None => matches!(self.materials[m as usize], Material::Null),
+            Some(opacity) => mask_passes(opacity, self.uv(it), ray),
+        }
     }
 
     /// Whether the surface hit is an index-matched (`null`) boundary.

@@ -203,6 +203,7 @@ fn material(m: &MaterialDesc) -> Material {
             specular_transmittance: rgb(*specular_transmittance),
         }),
         MaterialDesc::Null {} => Material::Null,
+        MaterialDesc::Mask { material: m, .. } => material(m),
     }
 }
 
@@ -655,6 +656,9 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let textured = (file.materials.iter())
         .map(|(name, m)| textures.material(name, m))
         .collect::<Result<Vec<_>>>()?;
+    let opacity = (file.materials.iter())
+        .map(|(name, m)| textures.opacity(name, m))
+        .collect::<Result<Vec<_>>>()?;
     // A textured parameter's template value is the texture's at the centre of
     // (u, v): what the albedo estimate (`Material::albedo`) reads.
     let materials: Vec<Material> = (file.materials.values().zip(&textured))
@@ -765,14 +769,17 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         media,
         camera_medium,
         has_media,
-        has_null: has_media
-            && shapes
-                .iter()
-                .any(|s| matches!(materials[s.material as usize], Material::Null)),
+        // Masks are holes that rays, shadow rays and light paths must look through.
+        has_null: opacity.iter().any(Option::is_some)
+            || has_media
+                && shapes
+                    .iter()
+                    .any(|s| matches!(materials[s.material as usize], Material::Null)),
         accel,
         shapes,
         materials,
         textured,
+        opacity,
         lights,
         env_lights,
         light_sampler,

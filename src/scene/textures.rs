@@ -33,14 +33,30 @@ impl<'a> Textures<'a> {
 
     /// The textured parameters of material `name` (None when all are constants).
     pub fn material(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Textured>> {
+        let (path, m) = match m {
+            MaterialDesc::Mask { material, .. } => {
+                (format!("materials.{name}.material"), &**material)
+            }
+            _ => (format!("materials.{name}"), m),
+        };
         let mut params = Vec::new();
         for (field, p) in m.params() {
             if p.is_texture() {
-                let t = self.texture(&format!("materials.{name}.{field}"), p)?;
+                let t = self.texture(&format!("{path}.{field}"), p)?;
                 params.push((Slot::from_field(field), t));
             }
         }
         Ok((!params.is_empty()).then_some(Textured { params }))
+    }
+
+    /// The opacity of a mask (None for other materials).
+    pub fn opacity(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Texture>> {
+        match m {
+            MaterialDesc::Mask { opacity, .. } => self
+                .texture(&format!("materials.{name}.opacity"), opacity)
+                .map(Some),
+            _ => Ok(None),
+        }
     }
 
     pub fn texture(&mut self, field: &str, p: &Param) -> Result<Texture> {

@@ -396,6 +396,19 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             )
         }
         MaterialDesc::Null {} => Ok(()),
+        MaterialDesc::Mask { opacity, material } => {
+            unit_param(&format!("{path}.opacity"), opacity)?;
+            if matches!(
+                **material,
+                MaterialDesc::Mask { .. } | MaterialDesc::Null {}
+            ) {
+                return Err(SceneError::new(
+                    format!("{path}.material"),
+                    "a mask holds a scattering material (not a mask or null)",
+                ));
+            }
+            validate_material(&format!("{path}.material"), material)
+        }
     }
 }
 

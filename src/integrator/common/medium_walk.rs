@@ -130,7 +130,7 @@ impl MediumWalk {
                 return Step::Escaped;
             };
             let it = scene.interaction(ray, &hit);
-            if !scene.is_null(&it) {
+            if !scene.passes(&it, ray) {
                 let m = scene.material(&it);
                 return Step::Surface(it, m);
             }
@@ -178,7 +178,7 @@ pub fn seen_emission(
             return tr * scene.env_radiance(ray.d);
         };
         let it = scene.interaction(&ray, &hit);
-        if !scene.is_null(&it) {
+        if !scene.passes(&it, &ray) {
             return match scene.area_light(&it) {
                 Some((_, area)) => tr * area.le(it.ng, -ray.d),
                 None => Rgb::ZERO,

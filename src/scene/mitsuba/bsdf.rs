@@ -105,7 +105,11 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 ));
             }
             let mut desc = bsdf(inner, ctx)?;
-            match &mut desc {
+            let target = match &mut desc {
+                MaterialDesc::Mask { material, .. } => &mut **material,
+                other => other,
+            };
+            match target {
                 MaterialDesc::Diffuse { two_sided, .. }
                 | MaterialDesc::Phong { two_sided, .. }
                 | MaterialDesc::Mirror { two_sided, .. }
@@ -122,6 +126,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             }
             desc
         }
+        "mask" => mask(n, &p, ctx)?,
         "dielectric" => MaterialDesc::Dielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
             ext_ior: ior(&p, "ext_ior", 1.000277)?,
@@ -164,6 +169,26 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
     };
     p.finish(&format!("the {} BSDF", n.kind()))?;
     Ok(desc)
+}
+
+/// A cut-out: the nested BSDF with an opacity (Mitsuba's default 0.5).
+fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+    let inner = p
+        .object(&["bsdf"], None)?
+        .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
+    // Masks do not nest (not even through a twosided), which also keeps a mask that
+    // refers to itself from recursing until the stack overflows.
+    let through = match inner.kind() {
+        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None)?,
+        _ => Some(inner),
+    };
+    if let Some(m) = through.filter(|m| m.kind() == "mask") {
+        return Err(m.err("a mask inside a mask (or one that refers to itself); remove one"));
+    }
+    Ok(MaterialDesc::Mask {
+        opacity: p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5)),
+        material: Box::new(bsdf(inner, ctx)?),
+    })
 }
 
 /// An index of refraction: a number or one of Mitsuba's names.
