@@ -23,12 +23,11 @@ use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::texture::Texture;
-use crate::material::textured::Textured;
+use crate::material::textured::{MaterialRef, Textured};
 use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec2, Vec3};
 use crate::medium::Medium;
 use error::Result;
-use std::borrow::Cow;
 use std::path::Path;
 use std::time::Duration;
 
@@ -38,7 +37,7 @@ pub const MAX_NULL_CROSSINGS: u32 = 256;
 
 /// What [`Scene::next_scattering`] found.
 pub enum Surfacing<'a> {
-    Hit(Interaction, Cow<'a, Material>),
+    Hit(Interaction, MaterialRef<'a>),
     /// Left the scene (environment lights apply).
     Escaped,
     /// Crossed more than MAX_NULL_CROSSINGS null boundaries.
@@ -516,21 +515,21 @@ impl Scene {
 
     /// The material at a hit, its textures evaluated there.
     #[inline(always)]
-    pub fn material(&self, it: &Interaction) -> Cow<'_, Material> {
+    pub fn material(&self, it: &Interaction) -> MaterialRef<'_> {
         let s = &self.shapes[it.shape as usize];
         match &s.uvs {
-            None => Cow::Borrowed(&self.materials[s.material as usize]),
+            None => MaterialRef::Plain(&self.materials[s.material as usize]),
             Some(t) => self.material_at(s.material, t.uv(it)),
         }
     }
 
     /// Material `index` at texture coordinates `uv` (for stored vertices).
     #[inline]
-    pub fn material_at(&self, index: u32, uv: Vec2) -> Cow<'_, Material> {
+    pub fn material_at(&self, index: u32, uv: Vec2) -> MaterialRef<'_> {
         let m = &self.materials[index as usize];
         match &self.textured[index as usize] {
-            None => Cow::Borrowed(m),
-            Some(t) => Cow::Owned(t.resolve(m, uv)),
+            None => MaterialRef::Plain(m),
+            Some(t) => MaterialRef::Textured(Box::new(t.resolve(m, uv))),
         }
     }
 

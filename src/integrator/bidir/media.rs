@@ -14,14 +14,14 @@ use super::walk::Walk;
 use crate::geometry::{Interaction, Ray};
 use crate::integrator::common::medium_walk::{MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;
-use crate::material::Material;
+use crate::material::textured::MaterialRef;
+
 use crate::math::{Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};
-use std::borrow::Cow;
 
 /// What a subpath meets next along its ray.
 pub(crate) enum Event<'a> {
-    Surface(Interaction, Cow<'a, Material>),
+    Surface(Interaction, MaterialRef<'a>),
     /// A real scattering event at a point in medium `.1`.
     Medium(Vec3, u32),
     /// Left the scene (environment lights apply).

@@ -13,10 +13,10 @@ use super::mis::Site;
 use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::material::{Material, Mode};
+use crate::material::textured::MaterialRef;
+use crate::material::Mode;
 use crate::math::{Frame, Rgb, Rng, Vec3};
 use crate::medium::Phase;
-use std::borrow::Cow;
 use std::convert::Infallible;
 
 /// Whether a scene has media, as a type (see the module notes).
@@ -179,7 +179,7 @@ impl<'a, M: Media> Vertex<'a, M> {
     /// A surface reached along `d`; None when it is met too grazingly for the MIS
     /// quantities, which divide by the cosine.
     #[inline(always)]
-    pub fn surface(pass: &Pass, it: Interaction, m: Cow<'a, Material>, d: Vec3) -> Option<Self> {
+    pub fn surface(pass: &Pass, it: Interaction, m: MaterialRef<'a>, d: Vec3) -> Option<Self> {
         let cos_in = it.ns.dot(d).abs();
         if cos_in < MIN_COS {
             return None;

@@ -4,16 +4,16 @@
 use super::mis::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::material::{Material, Mode};
+use crate::material::textured::MaterialRef;
+use crate::material::Mode;
 use crate::math::{Frame, Rgb, Rng, Vec3};
-use std::borrow::Cow;
 
 /// Cosines below this end a path: the MIS quantities divide by them.
 pub(crate) const MIN_COS: f32 = 1e-6;
 
 /// The shading context of a non-specular vertex, for evaluating connections.
 pub(crate) struct Surface<'a> {
-    pub m: Cow<'a, Material>,
+    pub m: MaterialRef<'a>,
     pub frame: Frame,
     pub ng: Vec3,
     /// Towards the previous vertex, local frame.

@@ -17,11 +17,11 @@
 
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::RenderStats;
-use crate::material::Material;
+use crate::material::textured::MaterialRef;
+
 use crate::math::{Rgb, Rng};
 use crate::medium::Flight;
 use crate::scene::{Scene, MAX_NULL_CROSSINGS};
-use std::borrow::Cow;
 
 /// The part of a ray inside one medium: from `ray.o` along the unit `ray.d` for
 /// `tmax` (infinite when the ray leaves the scene), entered with throughput `beta`.
@@ -36,7 +36,7 @@ pub struct Segment {
 /// What the walk meets next.
 pub enum Step<'a> {
     /// A surface that scatters (null boundaries are crossed, never returned).
-    Surface(Interaction, Cow<'a, Material>),
+    Surface(Interaction, MaterialRef<'a>),
     /// A real scattering event at distance `t` on `seg`; the throughput already holds
     /// the flight's `weight` (sigma_s T / pdf).
     Scatter { seg: Segment, t: f32, weight: Rgb },
