@@ -108,3 +108,27 @@ pub fn extreme_media() -> Vec<serde_json::Value> {
                "octaves": 6, "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}}),
     ]
 }
+
+/// Asserts that `film` (`m` iterations) and `reference` (`n`) estimate the same image
+/// in channel `c`: the mean of the per-pixel differences lies within four of its
+/// standard errors, plus `bias` times the reference's mean for consistent methods.
+/// Per-pixel differences cancel the image's own variation, leaving the noise.
+pub fn assert_same_image(
+    reference: &Film,
+    n: u64,
+    film: &Film,
+    m: u64,
+    c: usize,
+    bias: f64,
+    what: &str,
+) {
+    let a = channel(reference, n, c);
+    let b = channel(film, m, c);
+    let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| y - x).collect();
+    let (mean, se) = mean_se(&d);
+    let level = a.iter().sum::<f64>() / a.len() as f64;
+    assert!(
+        mean.abs() <= 4.0 * se + bias * level,
+        "{what} channel {c}: mean difference {mean} (se {se}, image mean {level})"
+    );
+}

@@ -108,15 +108,7 @@ fn every_algorithm_sees_the_same_holes() {
         let (film, m) = render(&scene, &settings(alg, depth.clone()), 2, spp);
         assert_eq!(film.dropped(), 0, "{alg}");
         for c in 0..3 {
-            let a = channel(&reference, n, c);
-            let b = channel(&film, m, c);
-            let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| y - x).collect();
-            let (mean, se) = mean_se(&d);
-            let level = a.iter().sum::<f64>() / a.len() as f64;
-            assert!(
-                mean.abs() <= 4.0 * se + bias * level,
-                "{alg} channel {c}: mean difference {mean} (se {se}, image mean {level})"
-            );
+            assert_same_image(&reference, n, &film, m, c, bias, alg);
         }
     }
 }

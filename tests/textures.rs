@@ -366,15 +366,7 @@ fn textured_box_alike(material: serde_json::Value, algorithms: &[&str]) {
         let (film, m) = render(&scene, &settings(alg, depth.clone()), 2, spp);
         assert_eq!(film.dropped(), 0, "{alg}");
         for c in [0, 2] {
-            let a = channel(&reference, n, c);
-            let b = channel(&film, m, c);
-            let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| y - x).collect();
-            let (mean, se) = mean_se(&d);
-            let level = a.iter().sum::<f64>() / a.len() as f64;
-            assert!(
-                mean.abs() <= 4.0 * se + bias * level,
-                "{alg} channel {c}: mean difference {mean} (se {se}, image mean {level})"
-            );
+            assert_same_image(&reference, n, &film, m, c, bias, alg);
         }
     }
 }
