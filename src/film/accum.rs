@@ -166,6 +166,7 @@ impl Film {
     /// `layer` if given. With the pixel box it goes to the pixel it lies in, as a
     /// camera sample does; with a wider filter to every pixel within the radius,
     /// the weights normalised to sum to one ([`PixelFilter::splat_taps`]).
+    #[inline(always)]
     pub fn add_splat(&mut self, filter: &PixelFilter, p: Vec2, v: Rgb, layer: Option<usize>) {
         if filter.is_pixel_box() {
             let x = (p.x as u32).min(self.width - 1);
@@ -177,6 +178,12 @@ impl Film {
             }
             return;
         }
+        self.add_filtered_splat(filter, p, v, layer);
+    }
+
+    /// [`add_splat`](Self::add_splat) with a filter wider than the pixel box.
+    #[inline(never)]
+    fn add_filtered_splat(&mut self, filter: &PixelFilter, p: Vec2, v: Rgb, layer: Option<usize>) {
         if !is_valid_sample(v) {
             self.dropped += 1;
             return;

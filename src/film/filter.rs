@@ -90,6 +90,7 @@ impl Filter {
 
     /// The one-pixel box, which a film takes by its fast path: each sample adds to the
     /// pixel it lies in with weight one.
+    #[inline]
     pub fn is_pixel_box(&self) -> bool {
         *self == Filter::default()
     }
@@ -234,6 +235,7 @@ impl PixelFilter {
     }
 
     /// Whether samples take the one-pixel box's fast path.
+    #[inline]
     pub fn is_pixel_box(&self) -> bool {
         self.filter.is_pixel_box()
     }

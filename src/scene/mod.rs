@@ -89,6 +89,13 @@ pub struct SceneStats {
     pub texture_bytes: usize,
 }
 
+/// `template` with its textures evaluated at `uv`; out of line, so the untextured
+/// path through [`Scene::material_at`] stays a load and a pointer.
+#[inline(never)]
+fn resolved<'a>(t: &Textured, template: &Material, uv: Vec2) -> MaterialRef<'a> {
+    MaterialRef::owned(t.resolve(template, uv))
+}
+
 /// Whether `ray` passes through a mask of `opacity` at texture coordinates `uv`.
 #[inline(never)]
 fn mask_passes(opacity: &Texture, uv: Vec2, ray: &Ray) -> bool {
@@ -518,18 +525,18 @@ impl Scene {
     pub fn material(&self, it: &Interaction) -> MaterialRef<'_> {
         let s = &self.shapes[it.shape as usize];
         match &s.uvs {
-            None => MaterialRef::Plain(&self.materials[s.material as usize]),
+            None => MaterialRef::plain(&self.materials[s.material as usize]),
             Some(t) => self.material_at(s.material, t.uv(it)),
         }
     }
 
     /// Material `index` at texture coordinates `uv` (for stored vertices).
-    #[inline]
+    #[inline(always)]
     pub fn material_at(&self, index: u32, uv: Vec2) -> MaterialRef<'_> {
         let m = &self.materials[index as usize];
         match &self.textured[index as usize] {
-            None => MaterialRef::Plain(m),
-            Some(t) => MaterialRef::Textured(Box::new(t.resolve(m, uv))),
+            None => MaterialRef::plain(m),
+            Some(t) => resolved(t, m, uv),
         }
     }
 
