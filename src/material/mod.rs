@@ -3,6 +3,11 @@
 //! from, `wi` towards where it goes next, both away from the surface. `eval` returns
 //! f(wo, wi) |cos theta_i| (the cosine included, as in Mitsuba) and `sample` returns
 //! that value divided by the pdf.
+//!
+//! The simple BSDFs are inlined into the integrators' kernels; the microfacet and
+//! coated ones (`RoughDielectric`, `Plastic`, `RoughPlastic`) stay out of line: inlined
+//! at every call site they grew the bidirectional kernel by a sixth and multiplied its
+//! instruction-cache misses by five, slowing scenes that hold none of them.
 
 mod coating;
 mod conductor;

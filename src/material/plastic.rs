@@ -37,7 +37,7 @@ impl Plastic {
         }
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
@@ -48,7 +48,7 @@ impl Plastic {
     }
 
     /// The diffuse lobe's density (the delta lobe has none).
-    #[inline]
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
@@ -66,7 +66,7 @@ impl Plastic {
         self.coating.prob_specular(self.fresnel(wo.z))
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

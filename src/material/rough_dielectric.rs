@@ -55,7 +55,7 @@ impl RoughDielectric {
         }
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: Mode) -> Rgb {
         let Some((m, eta_io)) = half_vector(self.eta, wo, wi) else {
             return Rgb::ZERO;
@@ -82,7 +82,7 @@ impl RoughDielectric {
     /// The visible-normal density of m times the lobe's Fresnel probability, through
     /// the Jacobian of the reflection (1 / (4 |wo.m|)) or refraction
     /// (n_i^2 |wi.m| / (n_o wo.m + n_i wi.m)^2) mapping.
-    #[inline]
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some((m, eta_io)) = half_vector(self.eta, wo, wi) else {
             return 0.0;
@@ -98,7 +98,7 @@ impl RoughDielectric {
         pm * (1.0 - f) * eta_io * eta_io * dot_i.abs() / (denom * denom)
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;

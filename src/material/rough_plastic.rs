@@ -61,7 +61,7 @@ impl RoughPlastic {
         t[i] + (t[i + 1] - t[i]) * (x - i as f32)
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
@@ -76,7 +76,7 @@ impl RoughPlastic {
 
     /// The specular lobe's visible-normal density through the reflection Jacobian,
     /// mixed with the cosine lobe by the coating's lobe probabilities.
-    #[inline]
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
@@ -92,7 +92,7 @@ impl RoughPlastic {
         p * spec + (1.0 - p) * cosine_hemisphere_pdf(wi.z)
     }
 
-    #[inline]
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
