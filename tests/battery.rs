@@ -3,7 +3,8 @@
 //! mistyped and out-of-range JSON, wrong content types and methods, odd paths, bodies
 //! too large (declared, chunked, lying), idle and slow connections, hostile scene
 //! bundles (unsafe paths, links, lying sizes, corrupt and bomb zips, OBJ `mtllib`
-//! outside the bundle, EXR headers claiming huge images; `battery/uploads.rs`: imports
+//! outside the bundle, EXR headers claiming huge images; `battery/images.rs`: hostile
+//! textures; `battery/uploads.rs`: imports
 //! whose work multiplies, padded bundles), bad references, job
 //! operations in the wrong state, and missing or wrong tokens.
 //!
@@ -20,6 +21,8 @@
 
 mod server_common;
 
+#[path = "battery/images.rs"]
+mod images;
 #[path = "battery/inputs.rs"]
 mod inputs;
 #[path = "battery/uploads.rs"]
@@ -2826,6 +2829,7 @@ fn bad_request_battery() {
     b.run_all(protocol_cases());
     b.run_all(size_cases(&s));
     b.run_all(scene_cases());
+    b.run_all(images::image_cases(&tiny_scene(16)));
     b.run_all(coincident_primitive_cases());
     b.run_all(reference_cases());
     uploads::run(&mut b);

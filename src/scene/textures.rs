@@ -6,7 +6,7 @@ use super::budget::CompileBudget;
 use super::error::{Result, SceneError};
 use super::format::{MaterialDesc, Param, TextureDesc};
 use super::load::resolve;
-use crate::material::texture::{decode, Bitmap, Texels, Texture, UvTransform};
+use crate::material::texture::{decode_within, Bitmap, Texels, Texture, UvTransform};
 use crate::material::textured::{Slot, Textured};
 use crate::math::Rgb;
 use std::collections::HashMap;
@@ -113,8 +113,9 @@ impl<'a> Textures<'a> {
         }
         let bytes =
             std::fs::read(&path).map_err(|e| SceneError::new(field, format!("\"{name}\": {e}")))?;
-        let texels =
-            decode(&bytes, name, raw).map_err(|e| SceneError::new(field, e.to_string()))?;
+        let left = self.budget.max_texture_bytes.saturating_sub(self.bytes);
+        let texels = decode_within(&bytes, name, raw, left)
+            .map_err(|e| SceneError::new(field, e.to_string()))?;
         self.bytes += texels.bytes();
         self.budget.check_texture_bytes(field, self.bytes)?;
         let texels = Arc::new(texels);

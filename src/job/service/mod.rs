@@ -129,9 +129,13 @@ impl Service {
             pool.build()
                 .map_err(|e| JobError::Internal(e.to_string()))?,
         );
+        // A scene's textures may take what one job may take, at most the server's
+        // default: a scene is compiled for its jobs, so no larger one could render.
         let budget = CompileBudget {
             max_primitives: config.max_primitives,
-            ..CompileBudget::SERVER
+            max_texture_bytes: CompileBudget::SERVER
+                .max_texture_bytes
+                .min(usize::try_from(config.max_job).unwrap_or(usize::MAX)),
         };
         let scenes = SceneStore::new(dir, config.max_upload, pool.clone())?.with_budget(budget);
         let scenes = Arc::new(scenes);

@@ -24,6 +24,18 @@ pub struct TextureError {
 
 /// Decodes a texture file's bytes; `name` is how the scene names it.
 pub fn decode(bytes: &[u8], name: &str, raw: bool) -> Result<Texels, TextureError> {
+    decode_within(bytes, name, raw, usize::MAX)
+}
+
+/// [`decode`], refusing a PNG or JPEG whose header promises more than `max_bytes` of
+/// texels before anything is decoded: a few KiB of compressed zeros can claim
+/// hundreds of MiB (a decompression bomb), and only the header says so in time.
+pub fn decode_within(
+    bytes: &[u8],
+    name: &str,
+    raw: bool,
+    max_bytes: usize,
+) -> Result<Texels, TextureError> {
     let err = |message: String| TextureError {
         name: name.to_string(),
         message,
@@ -34,7 +46,7 @@ pub fn decode(bytes: &[u8], name: &str, raw: bool) -> Result<Texels, TextureErro
         } else if is_radiance(bytes) {
             decode_hdr(bytes).map(from_image).map_err(|e| e.to_string())
         } else {
-            decode_with_image_crate(bytes, raw)
+            decode_with_image_crate(bytes, raw, max_bytes)
         }
     }));
     decoded
@@ -51,7 +63,7 @@ fn from_image(image: Image) -> Texels {
     Texels::from_floats(image.width(), image.height(), 3, data)
 }
 
-fn decode_with_image_crate(bytes: &[u8], raw: bool) -> Result<Texels, String> {
+fn decode_with_image_crate(bytes: &[u8], raw: bool, max_bytes: usize) -> Result<Texels, String> {
     let reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| e.to_string())?;
@@ -64,6 +76,7 @@ fn decode_with_image_crate(bytes: &[u8], raw: bool) -> Result<Texels, String> {
     let mut decoder = reader.into_decoder().map_err(|e| e.to_string())?;
     let (width, height) = decoder.dimensions();
     check_size(width, height)?;
+    check_bytes(width, height, decoder.color_type(), max_bytes)?;
     let mut limits = image::Limits::default();
     // Four f32 channels per pixel at most, plus the decoder's own working room.
     limits.max_alloc = Some(MAX_PIXELS * 16 + (64 << 20));
@@ -82,6 +95,31 @@ fn check_size(width: u32, height: u32) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// Refuses an image whose texels (as [`texels`] keeps them) would exceed `max_bytes`.
+fn check_bytes(
+    width: u32,
+    height: u32,
+    color: image::ColorType,
+    max_bytes: usize,
+) -> Result<(), String> {
+    let channels: u64 = if color.has_color() { 3 } else { 1 };
+    let per_channel: u64 = if color.bytes_per_pixel() / color.channel_count() == 1 {
+        1
+    } else {
+        4
+    };
+    let need = u64::from(width) * u64::from(height) * channels * per_channel;
+    if need <= max_bytes as u64 {
+        return Ok(());
+    }
+    Err(format!(
+        "{width} x {height} pixels decode to {} MiB, above the {} MiB left for this \
+         scene's textures",
+        need.div_ceil(1 << 20),
+        max_bytes >> 20
+    ))
 }
 
 /// 8-bit images keep their bytes; deeper ones become linear floats.
@@ -172,12 +210,11 @@ mod tests {
     #[test]
     fn huge_headers_truncated_files_and_garbage_are_errors() {
         // A PNG header claiming 100000 x 100000 pixels: refused before decoding.
-        let mut big = png(1, 1, image::ColorType::Rgb8, &[0, 0, 0]);
-        big[16..20].copy_from_slice(&100_000u32.to_be_bytes());
-        big[20..24].copy_from_slice(&100_000u32.to_be_bytes());
-        let mut crc = flate2::Crc::new();
-        crc.update(&big[12..29]);
-        big[29..33].copy_from_slice(&crc.sum().to_be_bytes());
+        let big = with_header_size(
+            png(1, 1, image::ColorType::Rgb8, &[0, 0, 0]),
+            100_000,
+            100_000,
+        );
         let e = decode(&big, "big.png", false).unwrap_err().to_string();
         assert!(
             e.starts_with("big.png: 100000 x 100000 pixels, more than"),
@@ -188,5 +225,34 @@ mod tests {
         assert_eq!(e.name, "cut.png");
         let e = decode(b"GIF89a not supported", "x.gif", false).unwrap_err();
         assert!(e.message.contains("not a PNG"), "{e}");
+    }
+
+    /// `png`'s image with its header's size changed (and its checksum made right).
+    fn with_header_size(mut png: Vec<u8>, width: u32, height: u32) -> Vec<u8> {
+        png[16..20].copy_from_slice(&width.to_be_bytes());
+        png[20..24].copy_from_slice(&height.to_be_bytes());
+        let mut crc = flate2::Crc::new();
+        crc.update(&png[12..29]);
+        png[29..33].copy_from_slice(&crc.sum().to_be_bytes());
+        png
+    }
+
+    #[test]
+    fn bombs_are_refused_by_their_header_within_the_budget() {
+        // 8192 x 8192 16-bit RGB claims 768 MiB of f32 texels from a few bytes.
+        let bomb = with_header_size(png(1, 1, image::ColorType::Rgb16, &[0; 6]), 8192, 8192);
+        let e = decode_within(&bomb, "bomb.png", false, 512 << 20).unwrap_err();
+        assert!(
+            e.message
+                .contains("decode to 768 MiB, above the 512 MiB left"),
+            "{e}"
+        );
+        // The budget counts what is kept: 8-bit grey is a byte a pixel, deep RGB 12.
+        let grey = png(4, 4, image::ColorType::L8, &[9; 16]);
+        assert!(decode_within(&grey, "g", true, 16).is_ok());
+        assert!(decode_within(&grey, "g", true, 15).is_err());
+        let deep = png(2, 2, image::ColorType::Rgb16, &[1; 24]);
+        assert!(decode_within(&deep, "d", true, 48).is_ok());
+        assert!(decode_within(&deep, "d", true, 47).is_err());
     }
 }

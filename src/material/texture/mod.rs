@@ -11,7 +11,7 @@ mod decode;
 mod texels;
 
 pub use bitmap::{Bitmap, Filter, Wrap};
-pub use decode::{decode, TextureError};
+pub use decode::{decode, decode_within, TextureError};
 pub use texels::Texels;
 
 use crate::math::{luminance, Rgb, Vec2};
