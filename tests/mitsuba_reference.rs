@@ -231,6 +231,16 @@ against_mitsuba! {
     texture_scale, texture_scale_dense: "texture-scale", 8;
     texture_to_uv, texture_to_uv_dense: "texture-to-uv", 8;
     texture_obj, texture_obj_dense: "texture-obj", 8;
+    /// caustic drops a BSDF sample whose direction lies on the other side of the
+    /// geometric surface than of the shading one (src/integrator/common/camera.rs,
+    /// `sample_lobe`: pbrt's rule against light leaks); Mitsuba's path integrator keeps
+    /// it and traces the ray on through the surface (src/integrators/path.cpp,
+    /// `si.spawn_ray(si.to_world(bsdf_sample.wo))`, no geometric test). Where vertex
+    /// normals lean away from the faces' (the strip's crease), caustic is 1-1.5 %
+    /// darker: 12-24 standard errors at 2048 spp; the 256 spp check cannot see it. The
+    /// same mesh flat-shaded (texture-obj) agrees.
+    #[ignore = "shading normals: caustic drops samples below the geometric surface, Mitsuba keeps them"]
+    obj_normals, obj_normals_dense: "shape-obj-normals", 8;
     filter_box, filter_box_dense: "filter-box", 8;
     filter_tent, filter_tent_dense: "filter-tent", 8;
     filter_gaussian, filter_gaussian_dense: "filter-gaussian", 8;
