@@ -70,16 +70,22 @@ pub fn material<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<String> {
     Ok(name)
 }
 
-/// Mitsuba's BSDF for shapes that name none: diffuse, reflectance 0.5.
-pub fn default_material(ctx: &mut Ctx) -> String {
-    let name = "mitsuba-default".to_string();
+/// Mitsuba's BSDF for shapes that name none: diffuse, reflectance 0.5, except on an
+/// area emitter, whose surface absorbs (reflectance 0; Mitsuba 3's
+/// src/render/shape.cpp, the constructor's default BSDF, and 0.x's `Shape::configure`).
+pub fn default_material(ctx: &mut Ctx, emitter: bool) -> String {
+    let (name, grey) = if emitter {
+        ("mitsuba-default-emitter", 0.0)
+    } else {
+        ("mitsuba-default", 0.5)
+    };
     ctx.materials
-        .entry(name.clone())
+        .entry(name.to_string())
         .or_insert(MaterialDesc::Diffuse {
-            reflectance: Param::grey(0.5),
+            reflectance: Param::grey(grey),
             two_sided: false,
         });
-    name
+    name.to_string()
 }
 
 fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {

@@ -55,11 +55,12 @@ pub fn shape<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<ShapeDesc> {
         }
     };
     let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
+    let emitter = p.object(&["emitter"], None)?;
     let material = match p.object(&["bsdf"], None)? {
         Some(b) => bsdf::material(b, ctx)?,
-        None => bsdf::default_material(ctx),
+        None => bsdf::default_material(ctx, emitter.is_some()),
     };
-    let emission = match p.object(&["emitter"], None)? {
+    let emission = match emitter {
         Some(e) => Some(area(e, ctx)?),
         None => None,
     };
