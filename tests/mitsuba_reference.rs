@@ -240,14 +240,9 @@ against_mitsuba! {
     conductor, conductor_dense: "bsdf-conductor", 8;
     conductor_named, conductor_named_dense: "bsdf-conductor-named", 8;
     mask, mask_dense: "bsdf-mask", 8;
-    /// Mitsuba 3.9.1's checkerboard disagrees with itself: its colour lookup (`eval`)
-    /// gives color0 where the fractional parts of u and v lie in the same half, its
-    /// scalar lookup (`eval_1`, which the mask's opacity uses) gives color1 there
-    /// (src/textures/checkerboard.cpp: `mask.x() == mask.y()` against
-    /// `mask.x() != mask.y()`). caustic uses the colour rule for both; with color0 and
-    /// color1 exchanged in the XML, caustic matches Mitsuba's image (RMSE 0.0018
-    /// against 0.020).
-    #[ignore = "Mitsuba's checkerboard eval_1 swaps color0 and color1"]
+    /// Mitsuba 3.9.1's checkerboard disagrees with itself: its scalar lookup
+    /// (`eval_1`, which the mask's opacity uses) swaps color0 and color1 against its
+    /// colour lookup; the importer follows it (`mitsuba::texture::scalar`).
     mask_checkerboard, mask_checkerboard_dense: "bsdf-mask-checkerboard", 8;
     texture_bitmap, texture_bitmap_dense: "texture-bitmap", 8;
     texture_raw, texture_raw_dense: "texture-raw", 8;

@@ -192,7 +192,7 @@ fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDe
         return Err(m.err("a mask inside a mask (or one that refers to itself); remove one"));
     }
     Ok(MaterialDesc::Mask {
-        opacity: p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5)),
+        opacity: super::texture::scalar(p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5))),
         material: Box::new(bsdf(inner, ctx)?),
     })
 }

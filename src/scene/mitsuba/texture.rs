@@ -8,6 +8,31 @@ use crate::material::texture::{Filter, Wrap};
 use crate::scene::error::Result;
 use crate::scene::format::{Param, TextureDesc};
 
+/// `p` as Mitsuba 3 reads it where one number is wanted (an opacity, a weight, a
+/// roughness): through the textures' `eval_1`, which for `checkerboard` picks
+/// `color0` where its colour lookup picks `color1` and the other way round
+/// (src/textures/checkerboard.cpp, Mitsuba 3.9: `eval` tests `mask.x() == mask.y()`,
+/// `eval_1` tests `!=`). Swapping the two keeps the image Mitsuba's.
+pub fn scalar(p: Param) -> Param {
+    let Param::Texture(t) = p else { return p };
+    Param::Texture(Box::new(match *t {
+        TextureDesc::Checkerboard {
+            color0,
+            color1,
+            to_uv,
+        } => TextureDesc::Checkerboard {
+            color0: scalar(color1),
+            color1: scalar(color0),
+            to_uv,
+        },
+        TextureDesc::Scale { texture, scale } => TextureDesc::Scale {
+            texture: scalar(texture),
+            scale,
+        },
+        bitmap @ TextureDesc::Bitmap { .. } => bitmap,
+    }))
+}
+
 /// The texture of element `n`.
 pub fn texture<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<Param> {
     let p = Params::new(n, ctx)?;
