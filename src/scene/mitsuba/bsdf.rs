@@ -165,13 +165,17 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
             specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
         },
-        other => {
-            return Err(n.err(format!(
-                "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
+        other => match super::stand_in::stand_in(n, &p, ctx)? {
+            Some(desc) => desc,
+            None => {
+                return Err(n.err(format!(
+                    "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
                  dielectric, roughdielectric, thindielectric, conductor, roughconductor, \
-                 plastic, roughplastic, twosided, null"
-            )))
-        }
+                 plastic, roughplastic, twosided, null (and stands in for principled, \
+                 pplastic, hair and measured)"
+                )))
+            }
+        },
     };
     p.finish(&format!("the {} BSDF", n.kind()))?;
     Ok(desc)

@@ -14,6 +14,7 @@ mod params;
 mod sensor;
 mod serialized;
 mod shapes;
+mod stand_in;
 mod texture;
 mod upgrade;
 mod xml;

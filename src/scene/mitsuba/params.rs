@@ -201,6 +201,27 @@ impl<'a> Params<'a> {
         Ok(found)
     }
 
+    /// Whether slot `name` holds a texture.
+    pub fn has_texture(&self, name: &str) -> bool {
+        (self.objects.iter()).any(|(slot, n, _)| *slot == Some(name) && n.tag == "texture")
+    }
+
+    /// Marks every parameter and object nothing has taken as read, and names them
+    /// (for a converter that knowingly leaves them out).
+    pub fn take_unread(&self) -> Vec<String> {
+        let props = (self.props.iter()).filter(|(_, used)| !used.get());
+        let props = props.map(|(n, used)| {
+            used.set(true);
+            n.attr("name").unwrap_or("?").to_string()
+        });
+        let objects = (self.objects.iter()).filter(|(_, _, used)| !used.get());
+        let objects = objects.map(|(slot, n, used)| {
+            used.set(true);
+            slot.map_or_else(|| format!("<{}>", n.tag), str::to_string)
+        });
+        props.chain(objects).collect()
+    }
+
     /// The parameters and objects nothing has taken (yet).
     pub fn unread(&self) -> Vec<&'a Node> {
         let props = (self.props.iter())
