@@ -675,7 +675,7 @@ fn vpl_eval(scene: &Scene, y: &Vpl, v: Vec3) -> Option<(Rgb, f32)> {
             }
             let wo = frame.to_local(y.wo);
             let f = scene
-                .material_at(mi, y.uv)
+                .material_on(mi, y.uv, y.ng, y.ns)
                 .eval_pdfs(wo, wi, Mode::Importance)
                 .0;
             (f != Rgb::ZERO).then_some((f, wi.z.abs()))
