@@ -185,7 +185,10 @@ mod tests {
     #[test]
     fn normal_maps_read_2rgb_minus_1_along_dpdu() {
         let up = Vec3::Z;
-        assert_eq!(map([0.5, 0.5, 1.0], true).normal(Vec2::ZERO, &flat(), up), up);
+        assert_eq!(
+            map([0.5, 0.5, 1.0], true).normal(Vec2::ZERO, &flat(), up),
+            up
+        );
         let n = map([1.0, 0.5, 0.5], false).normal(Vec2::ZERO, &flat(), up);
         assert!((n - Vec3::X).length() < 1e-6, "{n}");
         // dp/du along +y: the map's x follows it.
@@ -195,9 +198,15 @@ mod tests {
             ..flat()
         };
         let n = map([0.75, 0.5, 1.0], false).normal(Vec2::ZERO, &turned, up);
-        assert!((n - Vec3::new(0.0, 0.5, 1.0).normalize()).length() < 1e-6, "{n}");
+        assert!(
+            (n - Vec3::new(0.0, 0.5, 1.0).normalize()).length() < 1e-6,
+            "{n}"
+        );
         // No normal at all: the unperturbed one stays.
-        assert_eq!(map([0.5, 0.5, 0.5], true).normal(Vec2::ZERO, &flat(), up), up);
+        assert_eq!(
+            map([0.5, 0.5, 0.5], true).normal(Vec2::ZERO, &flat(), up),
+            up
+        );
     }
 
     #[test]

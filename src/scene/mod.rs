@@ -23,16 +23,16 @@ pub use uv::TexCoords;
 use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
+use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::texture::Texture;
 use crate::material::textured::{MaterialRef, Textured};
-use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::Material;
-use tangent::Tangents;
 use crate::math::{Rgb, Rng, Vec2, Vec3};
 use crate::medium::Medium;
 use error::Result;
 use std::path::Path;
 use std::time::Duration;
+use tangent::Tangents;
 
 /// Index-matched boundaries a ray may cross before it is given up as lost (a guard
 /// against rays trapped between coincident null surfaces).
@@ -240,7 +240,13 @@ impl Scene {
     /// arriving from `wo` (see `material::normal_map`).
     #[cold]
     #[inline(never)]
-    fn perturbed_normal(&self, it: &Interaction, shape: &ShapeInfo, t: &Tangents, wo: Vec3) -> Vec3 {
+    fn perturbed_normal(
+        &self,
+        it: &Interaction,
+        shape: &ShapeInfo,
+        t: &Tangents,
+        wo: Vec3,
+    ) -> Vec3 {
         let (Some(p), Some(uvs)) = (&self.perturb[shape.material as usize], &shape.uvs) else {
             return it.ns;
         };

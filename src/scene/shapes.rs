@@ -4,8 +4,8 @@
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
-use super::textures::Textures;
 use super::tangent::Tangents;
+use super::textures::Textures;
 use super::uv::{self, TexCoords};
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;

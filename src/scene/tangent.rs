@@ -127,18 +127,7 @@ fn sphere_tangents(to_object: Mat3, radius: f32, world_dir: Vec3) -> (Vec3, Vec3
 mod tests {
     use super::*;
     use crate::math::{Vec2, Vec3A};
-
-    fn at(p: Vec3, uv: Vec2) -> Interaction {
-        Interaction {
-            p,
-            p_err: Vec3::ZERO,
-            ng: Vec3::Z,
-            ns: Vec3::Z,
-            uv,
-            shape: 0,
-            local: 0,
-        }
-    }
+    use crate::scene::uv::tests::at;
 
     fn close(a: Vec3, b: Vec3) -> bool {
         (a - b).abs().max_element() < 1e-5

@@ -6,8 +6,8 @@ use super::budget::CompileBudget;
 use super::error::{Result, SceneError};
 use super::format::{MaterialDesc, Param, TextureDesc};
 use super::load::resolve;
-use crate::material::texture::{decode, Bitmap, Texels, Texture, UvTransform};
 use crate::material::normal_map::{NormalSource, Perturb};
+use crate::material::texture::{decode, Bitmap, Texels, Texture, UvTransform};
 use crate::material::textured::{Slot, Textured};
 use crate::math::Rgb;
 use std::collections::HashMap;
@@ -58,7 +58,9 @@ impl<'a> Textures<'a> {
     /// The normal or bump map of a material (None for materials without one).
     pub fn perturb(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Perturb>> {
         let (prefix, m) = match m {
-            MaterialDesc::Mask { material, .. } => (format!("materials.{name}.material"), &**material),
+            MaterialDesc::Mask { material, .. } => {
+                (format!("materials.{name}.material"), &**material)
+            }
             m => (format!("materials.{name}"), m),
         };
         let path = |field: &str| format!("{prefix}.{field}");

@@ -175,17 +175,21 @@ fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDe
         .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
     // Masks do not nest (not even through a twosided), which also keeps a mask that
     // refers to itself from recursing until the stack overflows.
-    let through = match inner.kind() {
-        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None)?,
-        _ => Some(inner),
-    };
-    if let Some(m) = through.filter(|m| m.kind() == "mask") {
+    if let Some(m) = through_twosided(inner, ctx)?.filter(|m| m.kind() == "mask") {
         return Err(m.err("a mask inside a mask (or one that refers to itself); remove one"));
     }
     Ok(MaterialDesc::Mask {
         opacity: p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5)),
         material: Box::new(bsdf(inner, ctx)?),
     })
+}
+
+/// The BSDF a nested `inner` wraps: inside a twosided, its nested one.
+fn through_twosided<'a>(inner: &'a Node, ctx: &Ctx<'a>) -> Result<Option<&'a Node>> {
+    match inner.kind() {
+        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None),
+        _ => Ok(Some(inner)),
+    }
 }
 
 /// The material that scatters inside masks and normal maps.
@@ -206,10 +210,7 @@ fn perturbed<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
         .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
     // Only a scattering BSDF goes inside (a mask goes outside), which also keeps a
     // map that refers to itself from recursing until the stack overflows.
-    let through = match inner.kind() {
-        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None)?,
-        _ => Some(inner),
-    };
+    let through = through_twosided(inner, ctx)?;
     if let Some(m) = through.filter(|m| matches!(m.kind(), "mask" | "normalmap" | "bumpmap")) {
         return Err(m.err(format!(
             "a {} inside a {} (or one that refers to itself): caustic takes masks outside \
