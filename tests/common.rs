@@ -132,3 +132,23 @@ pub fn assert_same_image(
         "{what} channel {c}: mean difference {mean} (se {se}, image mean {level})"
     );
 }
+
+/// Renders `scene` with pt (`pt_spp` iterations) and with each `(algorithm, spp,
+/// bias)`, all with `params`, and asserts each image equals pt's in channels 0 and 2
+/// ([`assert_same_image`]) with no sample dropped.
+pub fn assert_algorithms_agree_with_pt(
+    scene: &Scene,
+    params: serde_json::Value,
+    pt_spp: u64,
+    cases: &[(&str, u64, f64)],
+) {
+    let (reference, n) = render(scene, &settings("pt", params.clone()), 1, pt_spp);
+    assert_eq!(reference.dropped(), 0, "pt");
+    for &(alg, spp, bias) in cases {
+        let (film, m) = render(scene, &settings(alg, params.clone()), 2, spp);
+        assert_eq!(film.dropped(), 0, "{alg}");
+        for c in [0, 2] {
+            assert_same_image(&reference, n, &film, m, c, bias, alg);
+        }
+    }
+}

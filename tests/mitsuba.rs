@@ -104,6 +104,8 @@ fn every_plugin_fixture_imports_and_renders() {
         ("bsdf-roughplastic.xml", &[]),
         ("bsdf-twosided.xml", &[]),
         ("bsdf-plastic.xml", &[]),
+        ("bsdf-normalmap.xml", &[]),
+        ("bsdf-bumpmap.xml", &[]),
         ("bsdf-null.xml", &["base.xml:4:5: <integrator type=\"path\">: Mitsuba's path integrator ignores media"]),
         ("emitter-point.xml", &[]),
         ("emitter-spot.xml", &[]),
@@ -939,4 +941,23 @@ fn rfilters_map_exactly() {
             "{film}: {err}"
         );
     }
+}
+
+/// Mitsuba's `normalmap` (texture in slot `normalmap`) and `bumpmap` (any nested
+/// texture, `scale`) import with their options, around a nested twosided BSDF.
+#[test]
+fn normal_and_bump_maps_import() {
+    use caustic::scene::format::MaterialDesc;
+    let m = import("bsdf-normalmap.xml").scene.materials;
+    let want = json::<MaterialDesc>(serde_json::json!({"type": "normalmap",
+        "normalmap": {"type": "bitmap", "filename": "normals.png", "raw": true},
+        "use_shadowing_function": false,
+        "material": {"type": "diffuse", "reflectance": [0.2, 0.5, 0.8], "two_sided": true}}));
+    assert!(m.values().any(|d| *d == want), "{m:?}");
+    let m = import("bsdf-bumpmap.xml").scene.materials;
+    let want = json::<MaterialDesc>(serde_json::json!({"type": "bumpmap",
+        "texture": {"type": "bitmap", "filename": "heights.png", "raw": true},
+        "scale": 0.5, "flip_invalid_normals": false,
+        "material": {"type": "roughplastic"}}));
+    assert!(m.values().any(|d| *d == want), "{m:?}");
 }

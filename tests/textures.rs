@@ -351,24 +351,17 @@ fn textured_box_alike(material: serde_json::Value, algorithms: &[&str]) {
         }
     }
     let scene = compile(v);
-    let depth = json!({"max_depth": 3});
-    let (reference, n) = render(&scene, &settings("pt", depth.clone()), 1, 1024);
-    for (alg, spp, bias) in [
+    let cases: Vec<_> = [
         ("bpt", 256, 0.0),
         ("lt", 1024, 0.0),
         ("vcm", 256, 0.02),
         ("vpl", 64, 0.0),
         ("sppm", 128, 0.02),
-    ] {
-        if !algorithms.contains(&alg) {
-            continue;
-        }
-        let (film, m) = render(&scene, &settings(alg, depth.clone()), 2, spp);
-        assert_eq!(film.dropped(), 0, "{alg}");
-        for c in [0, 2] {
-            assert_same_image(&reference, n, &film, m, c, bias, alg);
-        }
-    }
+    ]
+    .into_iter()
+    .filter(|(alg, _, _)| algorithms.contains(alg))
+    .collect();
+    assert_algorithms_agree_with_pt(&scene, json!({"max_depth": 3}), 1024, &cases);
 }
 
 /// Under a uniform sky with direct light only, a pixel of a convex shape depends on the

@@ -16,6 +16,7 @@ mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 mod mirror;
+pub mod normal_map;
 mod phong;
 mod plastic;
 mod rough_dielectric;
@@ -72,6 +73,8 @@ pub enum Material {
     ThinDielectric(ThinDielectric),
     /// Index-matched boundary: not a scattering event at all.
     Null,
+    /// A BSDF under a normal or bump map, with its shadowing term (built per hit).
+    Shadowed(Box<normal_map::Shadowed>),
 }
 
 /// Two-sided materials see the back face as a mirrored copy of the front.
@@ -97,7 +100,8 @@ impl Material {
             Material::Dielectric(_)
             | Material::RoughDielectric(_)
             | Material::ThinDielectric(_)
-            | Material::Null => false,
+            | Material::Null
+            | Material::Shadowed(_) => false,
         }
     }
 
@@ -112,6 +116,7 @@ impl Material {
             Material::RoughDielectric(m) => m.eval(wo, wi, mode),
             Material::Plastic(m) => m.eval(wo, wi),
             Material::RoughPlastic(m) => m.eval(wo, wi),
+            Material::Shadowed(m) => m.eval(wo, wi, mode),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -130,6 +135,7 @@ impl Material {
             Material::RoughDielectric(m) => m.pdf(wo, wi),
             Material::Plastic(m) => m.pdf(wo, wi),
             Material::RoughPlastic(m) => m.pdf(wo, wi),
+            Material::Shadowed(m) => m.nested.pdf(wo, wi),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -179,6 +185,7 @@ impl Material {
             Material::Plastic(m) => m.sample(wo_o, u_lobe, u),
             Material::RoughPlastic(m) => m.sample(wo_o, u_lobe, u),
             Material::ThinDielectric(m) => m.sample(wo_o, u_lobe),
+            Material::Shadowed(m) => m.sample(wo_o, u_lobe, u, mode),
             Material::Null => None,
         }?;
         if flipped {
@@ -196,6 +203,7 @@ impl Material {
             | Material::ThinDielectric(_)
             | Material::Null => true,
             Material::Conductor(c) => c.is_smooth(),
+            Material::Shadowed(m) => m.nested.is_delta(),
             // Plastic's specular lobe is a delta, its diffuse lobe is not: it is sampled
             // per lobe (`BsdfSample::delta`) and connects through the diffuse one.
             Material::Diffuse(_)
@@ -213,6 +221,7 @@ impl Material {
     pub fn delta_probability(&self, wo: Vec3) -> f32 {
         match self {
             Material::Plastic(m) => m.delta_probability(orient(m.two_sided, wo, Vec3::Z).0),
+            Material::Shadowed(m) => m.nested.delta_probability(wo),
             _ => 0.0,
         }
     }
@@ -228,6 +237,7 @@ impl Material {
             | Material::Conductor(_)
             | Material::Plastic(_)
             | Material::RoughPlastic(_) => orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0,
+            Material::Shadowed(m) => m.nested.is_black_from(wo),
             Material::Mirror(_)
             | Material::Dielectric(_)
             | Material::RoughDielectric(_)
@@ -249,6 +259,7 @@ impl Material {
             | Material::RoughPlastic(RoughPlastic { coating, .. }) => coating.diffuse_reflectance,
             Material::Conductor(m) => m.normal_reflectance(),
             Material::Null => Rgb::ONE,
+            Material::Shadowed(m) => m.nested.albedo(),
         }
     }
 }

@@ -283,6 +283,39 @@ pub enum MaterialDesc {
         opacity: Param,
         material: Box<MaterialDesc>,
     },
+    /// Mitsuba 3's `normalmap`: `material` shaded with the normal 2 rgb - 1 read from
+    /// `normalmap`, in the shading frame (x along dp/du, z the unperturbed normal).
+    /// Images are sRGB-decoded unless `raw`, as in Mitsuba, whose documentation asks
+    /// for `raw: true`. An invalid normal (one the incoming direction sees from behind)
+    /// is mirrored about the unperturbed normal and the result attenuated by Estevez et
+    /// al.'s shadowing term, unless these are turned off, as in Mitsuba.
+    #[serde(rename = "normalmap")]
+    NormalMap {
+        normalmap: Param,
+        material: Box<MaterialDesc>,
+        #[serde(default = "yes")]
+        flip_invalid_normals: bool,
+        #[serde(default = "yes")]
+        use_shadowing_function: bool,
+    },
+    /// Mitsuba 3's `bumpmap`: `material` on the surface displaced along its normal by
+    /// `scale` times `texture` (its luminance), in units where (u, v) span [0, 1]; the
+    /// options of `normalmap`.
+    #[serde(rename = "bumpmap")]
+    BumpMap {
+        texture: Param,
+        #[serde(default = "one")]
+        scale: f32,
+        material: Box<MaterialDesc>,
+        #[serde(default = "yes")]
+        flip_invalid_normals: bool,
+        #[serde(default = "yes")]
+        use_shadowing_function: bool,
+    },
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// Microfacet distribution of the rough materials (Mitsuba 3's default: Beckmann).
@@ -314,14 +347,19 @@ impl MaterialDesc {
     pub fn reads_uv(&self) -> bool {
         match self {
             MaterialDesc::Mask { opacity, material } => opacity.is_texture() || material.reads_uv(),
+            // Perturbed normals need (u, v) and dp/du, whatever the map is.
+            MaterialDesc::NormalMap { .. } | MaterialDesc::BumpMap { .. } => true,
             _ => self.params().iter().any(|(_, p)| p.is_texture()),
         }
     }
 
-    /// The material that scatters: a mask's nested one, or the material itself.
+    /// The material that scatters: a mask's or a normal map's nested one, or the
+    /// material itself.
     pub fn scattering(&self) -> &MaterialDesc {
         match self {
-            MaterialDesc::Mask { material, .. } => material,
+            MaterialDesc::Mask { material, .. }
+            | MaterialDesc::NormalMap { material, .. }
+            | MaterialDesc::BumpMap { material, .. } => material.scattering(),
             other => other,
         }
     }
@@ -356,6 +394,22 @@ impl MaterialDesc {
             MaterialDesc::Mask { opacity, material } => {
                 let mut v = material.params();
                 v.push(("opacity", opacity));
+                v
+            }
+            MaterialDesc::NormalMap {
+                normalmap,
+                material,
+                ..
+            } => {
+                let mut v = material.params();
+                v.push(("normalmap", normalmap));
+                v
+            }
+            MaterialDesc::BumpMap {
+                texture, material, ..
+            } => {
+                let mut v = material.params();
+                v.push(("texture", texture));
                 v
             }
             // The rough metals and glasses take constants only, so far.
@@ -393,6 +447,22 @@ impl MaterialDesc {
             MaterialDesc::Mask { opacity, material } => {
                 let mut v = material.params_mut();
                 v.push(("opacity", opacity));
+                v
+            }
+            MaterialDesc::NormalMap {
+                normalmap,
+                material,
+                ..
+            } => {
+                let mut v = material.params_mut();
+                v.push(("normalmap", normalmap));
+                v
+            }
+            MaterialDesc::BumpMap {
+                texture, material, ..
+            } => {
+                let mut v = material.params_mut();
+                v.push(("texture", texture));
                 v
             }
             _ => Vec::new(),

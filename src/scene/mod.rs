@@ -10,6 +10,7 @@ mod media;
 pub mod mitsuba;
 mod param;
 mod shapes;
+pub mod tangent;
 mod textures;
 mod uv;
 pub mod validate;
@@ -22,6 +23,7 @@ pub use uv::TexCoords;
 use crate::camera::Camera;
 use crate::geometry::{Accel, Hit, Interaction, Ray};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
+use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::texture::Texture;
 use crate::material::textured::{MaterialRef, Textured};
 use crate::material::Material;
@@ -30,6 +32,7 @@ use crate::medium::Medium;
 use error::Result;
 use std::path::Path;
 use std::time::Duration;
+use tangent::Tangents;
 
 /// Index-matched boundaries a ray may cross before it is given up as lost (a guard
 /// against rays trapped between coincident null surfaces).
@@ -57,6 +60,8 @@ pub struct ShapeInfo {
     pub shading: Option<shapes::ShadingNormals>,
     /// Texture coordinates, for shapes whose material reads a texture.
     pub uvs: Option<TexCoords>,
+    /// dp/du and dp/dv, for shapes whose material has a normal or bump map.
+    pub tangents: Option<tangent::Tangents>,
     /// Medium on the side opposite the normal (index into `Scene::media`).
     pub interior: Option<u32>,
     /// Medium on the side the normal points to.
@@ -148,6 +153,8 @@ pub struct Scene {
     pub textured: Vec<Option<Textured>>,
     /// The opacity of each masked material (index as `materials`).
     pub opacity: Vec<Option<Texture>>,
+    /// The normal or bump map of each material (index as `materials`).
+    pub perturb: Vec<Option<Perturb>>,
     pub lights: Vec<Light>,
     /// Lights seen by rays that leave the scene (constant and map environments).
     pub env_lights: Vec<u32>,
@@ -230,7 +237,34 @@ impl Scene {
             Some(s) => s.normal(it.local, hit.uv, it.ng),
             None => it.ng,
         };
+        if let Some(t) = &shape.tangents {
+            it.ns = self.perturbed_normal(&it, shape, t, -ray.d);
+        }
         it
+    }
+
+    /// The shading normal of a hit on a normal- or bump-mapped shape, for light
+    /// arriving from `wo` (see `material::normal_map`).
+    #[cold]
+    #[inline(never)]
+    fn perturbed_normal(
+        &self,
+        it: &Interaction,
+        shape: &ShapeInfo,
+        t: &Tangents,
+        wo: Vec3,
+    ) -> Vec3 {
+        let (Some(p), Some(uvs)) = (&self.perturb[shape.material as usize], &shape.uvs) else {
+            return it.ns;
+        };
+        let (dpdu, dpdv) = t.at(it);
+        let frame = SurfaceFrame {
+            ns: it.ns,
+            ng: it.ng,
+            dpdu,
+            dpdv,
+        };
+        p.normal(uvs.uv(it), &frame, wo)
     }
 
     /// The next point where `ray` scatters: the closest hit that is not an
@@ -526,8 +560,28 @@ impl Scene {
         let s = &self.shapes[it.shape as usize];
         match &s.uvs {
             None => MaterialRef::plain(&self.materials[s.material as usize]),
-            Some(t) => self.material_at(s.material, t.uv(it)),
+            Some(t) => self.material_on(s.material, t.uv(it), it.ng, it.ns),
         }
+    }
+
+    /// Material `index` at texture coordinates `uv` on a surface with geometric normal
+    /// `ng` and shading normal `ns` (for stored vertices): [`material_at`], wrapped in
+    /// the shadowing term of its normal or bump map if it has one.
+    ///
+    /// [`material_at`]: Self::material_at
+    #[inline]
+    pub fn material_on(&self, index: u32, uv: Vec2, ng: Vec3, ns: Vec3) -> MaterialRef<'_> {
+        match &self.perturb[index as usize] {
+            Some(p) if p.use_shadowing_function => self.shadowed(index, uv, ng, ns),
+            _ => self.material_at(index, uv),
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn shadowed(&self, index: u32, uv: Vec2, ng: Vec3, ns: Vec3) -> MaterialRef<'_> {
+        let nested = self.material_at(index, uv).clone();
+        MaterialRef::owned(Material::Shadowed(Box::new(Shadowed::new(nested, ng, ns))))
     }
 
     /// Material `index` at texture coordinates `uv` (for stored vertices).

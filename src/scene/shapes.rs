@@ -4,6 +4,7 @@
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
+use super::tangent::Tangents;
 use super::textures::Textures;
 use super::uv::{self, TexCoords};
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
@@ -203,7 +204,9 @@ fn material(m: &MaterialDesc) -> Material {
             specular_transmittance: rgb(*specular_transmittance),
         }),
         MaterialDesc::Null {} => Material::Null,
-        MaterialDesc::Mask { material: m, .. } => material(m),
+        MaterialDesc::Mask { material: m, .. }
+        | MaterialDesc::NormalMap { material: m, .. }
+        | MaterialDesc::BumpMap { material: m, .. } => material(m),
     }
 }
 
@@ -659,6 +662,9 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let opacity = (file.materials.iter())
         .map(|(name, m)| textures.opacity(name, m))
         .collect::<Result<Vec<_>>>()?;
+    let perturb = (file.materials.iter())
+        .map(|(name, m)| textures.perturb(name, m))
+        .collect::<Result<Vec<_>>>()?;
     // A textured parameter's template value is the texture's at the centre of
     // (u, v): what the albedo estimate (`Material::albedo`) reads.
     let materials: Vec<Material> = (file.materials.values().zip(&textured))
@@ -697,6 +703,11 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
             shading,
             uvs,
         } = b.shape(i as u32, &path, s, uv)?;
+        let material_index = names[s.common.material.as_str()];
+        // Normal and bump maps need dp/du; other shapes carry nothing more.
+        let tangents = (perturb[material_index as usize].as_ref())
+            .and(uvs.as_ref())
+            .map(|t| Tangents::new(&prims, t));
         let mut light_index = None;
         if let Some(e) = &s.common.emission {
             if e.radiance.iter().any(|&x| x > 0.0) && !prims.is_empty() {
@@ -712,11 +723,12 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         }
         shapes.push(ShapeInfo {
             name: s.common.name.clone().unwrap_or_else(|| path.clone()),
-            material: names[s.common.material.as_str()],
+            material: material_index,
             light: light_index,
             flip: s.common.flip_normals,
             shading,
             uvs,
+            tangents,
             interior: medium_ref(&s.common.interior),
             exterior: medium_ref(&s.common.exterior),
         });
@@ -780,6 +792,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         materials,
         textured,
         opacity,
+        perturb,
         lights,
         env_lights,
         light_sampler,

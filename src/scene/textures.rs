@@ -6,6 +6,7 @@ use super::budget::CompileBudget;
 use super::error::{Result, SceneError};
 use super::format::{MaterialDesc, Param, TextureDesc};
 use super::load::resolve;
+use crate::material::normal_map::{NormalSource, Perturb};
 use crate::material::texture::{decode_within, Bitmap, Texels, Texture, UvTransform};
 use crate::material::textured::{Slot, Textured};
 use crate::math::Rgb;
@@ -33,12 +34,7 @@ impl<'a> Textures<'a> {
 
     /// The textured parameters of material `name` (None when all are constants).
     pub fn material(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Textured>> {
-        let (path, m) = match m {
-            MaterialDesc::Mask { material, .. } => {
-                (format!("materials.{name}.material"), &**material)
-            }
-            _ => (format!("materials.{name}"), m),
-        };
+        let (path, m) = nested(name, m);
         let mut params = Vec::new();
         for (field, p) in m.params() {
             if p.is_texture() {
@@ -57,6 +53,49 @@ impl<'a> Textures<'a> {
                 .map(Some),
             _ => Ok(None),
         }
+    }
+
+    /// The normal or bump map of a material (None for materials without one).
+    pub fn perturb(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Perturb>> {
+        let (prefix, m) = match m {
+            MaterialDesc::Mask { material, .. } => {
+                (format!("materials.{name}.material"), &**material)
+            }
+            m => (format!("materials.{name}"), m),
+        };
+        let path = |field: &str| format!("{prefix}.{field}");
+        let (source, flip, shadowing) = match m {
+            MaterialDesc::NormalMap {
+                normalmap,
+                flip_invalid_normals,
+                use_shadowing_function,
+                ..
+            } => (
+                NormalSource::Map(self.texture(&path("normalmap"), normalmap)?),
+                flip_invalid_normals,
+                use_shadowing_function,
+            ),
+            MaterialDesc::BumpMap {
+                texture,
+                scale,
+                flip_invalid_normals,
+                use_shadowing_function,
+                ..
+            } => (
+                NormalSource::Bump {
+                    height: self.texture(&path("texture"), texture)?,
+                    scale: *scale,
+                },
+                flip_invalid_normals,
+                use_shadowing_function,
+            ),
+            _ => return Ok(None),
+        };
+        Ok(Some(Perturb {
+            source,
+            flip_invalid_normals: *flip,
+            use_shadowing_function: *shadowing,
+        }))
     }
 
     pub fn texture(&mut self, field: &str, p: &Param) -> Result<Texture> {
@@ -122,6 +161,20 @@ impl<'a> Textures<'a> {
         self.images.insert((path, raw), texels.clone());
         Ok(texels)
     }
+}
+
+/// The material that scatters inside masks and normal maps, with its JSON path.
+fn nested<'m>(name: &str, m: &'m MaterialDesc) -> (String, &'m MaterialDesc) {
+    let mut path = format!("materials.{name}");
+    let mut m = m;
+    while let MaterialDesc::Mask { material, .. }
+    | MaterialDesc::NormalMap { material, .. }
+    | MaterialDesc::BumpMap { material, .. } = m
+    {
+        path.push_str(".material");
+        m = material;
+    }
+    (path, m)
 }
 
 fn uv_transform(rows: &Option<[[f32; 3]; 2]>) -> UvTransform {

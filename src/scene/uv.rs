@@ -128,10 +128,11 @@ pub fn cube_mesh() -> MeshData {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn at(p: Vec3, uv: Vec2) -> Interaction {
+    /// A hit at `p` with primitive coordinates `uv` on a +z-facing surface.
+    pub(in crate::scene) fn at(p: Vec3, uv: Vec2) -> Interaction {
         Interaction {
             p,
             p_err: Vec3::ZERO,

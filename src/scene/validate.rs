@@ -409,7 +409,59 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             }
             validate_material(&format!("{path}.material"), material)
         }
+        MaterialDesc::NormalMap {
+            normalmap: map,
+            material,
+            ..
+        }
+        | MaterialDesc::BumpMap {
+            texture: map,
+            material,
+            ..
+        } => perturbed(path, m, map, material),
     }
+}
+
+/// A normal or bump map: its texture, a finite scale, and a nested material that
+/// scatters (masks go outside normal maps, not inside).
+fn perturbed(path: &str, m: &MaterialDesc, map: &Param, material: &MaterialDesc) -> Result<()> {
+    match m {
+        MaterialDesc::NormalMap { .. } => {
+            let p = format!("{path}.normalmap");
+            match map {
+                Param::Value(v) => finite3(&p, *v)?,
+                Param::Texture(t) => validate_texture(&p, t)?,
+            }
+        }
+        MaterialDesc::BumpMap { scale, .. } => {
+            let p = format!("{path}.texture");
+            match map {
+                Param::Value(v) => non_negative3(&p, *v)?,
+                Param::Texture(t) => validate_texture(&p, t)?,
+            }
+            if !scale.is_finite() {
+                return Err(SceneError::new(
+                    format!("{path}.scale"),
+                    format!("{scale} is not finite"),
+                ));
+            }
+        }
+        _ => unreachable!("not a normal or bump map"),
+    }
+    if matches!(
+        material,
+        MaterialDesc::Mask { .. }
+            | MaterialDesc::Null {}
+            | MaterialDesc::NormalMap { .. }
+            | MaterialDesc::BumpMap { .. }
+    ) {
+        return Err(SceneError::new(
+            format!("{path}.material"),
+            "a normal or bump map holds a scattering material (not a mask, null, \
+             normal map or bump map); put a mask outside it",
+        ));
+    }
+    validate_material(&format!("{path}.material"), material)
 }
 
 /// A dielectric interface's IORs and the colours of its two lobes.

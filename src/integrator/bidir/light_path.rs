@@ -106,7 +106,7 @@ impl LightVertex {
         }
         let frame = Frame::from_normal(self.ns);
         Scatterer::Surface(Surface {
-            m: pass.scene.material_at(self.material, self.uv),
+            m: (pass.scene).material_on(self.material, self.uv, self.ng, self.ns),
             frame,
             ng: self.ng,
             wo: frame.to_local(self.wo),

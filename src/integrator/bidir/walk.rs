@@ -4,6 +4,7 @@
 use super::mis::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::integrator::common::adjoint::adjoint_correction;
 use crate::material::textured::MaterialRef;
 use crate::material::Mode;
 use crate::math::{Frame, Rgb, Rng, Vec3};
@@ -40,7 +41,15 @@ impl Surface<'_> {
         if (wi_world.dot(self.ng) > 0.0) != (wi.z > 0.0) {
             return None;
         }
-        let (f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
+        let (mut f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
+        if mode == Mode::Importance {
+            f *= adjoint_correction(
+                self.frame.n,
+                self.ng,
+                self.frame.to_world(self.wo),
+                wi_world,
+            );
+        }
         if f == Rgb::ZERO {
             return None;
         }
@@ -105,6 +114,10 @@ pub(crate) fn scatter(
         .on_scatter(walk.q, vm, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta);
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
+    if mode == Mode::Importance {
+        let wo = surface.frame.to_world(surface.wo);
+        walk.throughput *= adjoint_correction(surface.frame.n, it.ng, wo, wi);
+    }
     if walk.throughput == Rgb::ZERO {
         return None;
     }

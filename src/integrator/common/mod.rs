@@ -1,6 +1,7 @@
 //! What every tracer shares: MIS between unidirectional strategies, next-event
 //! estimation, and the random streams.
 
+pub mod adjoint;
 pub mod camera;
 pub mod density_camera;
 pub mod emit;

@@ -27,6 +27,7 @@ use super::lights::{Lights, Picker, RayLight, Vpl};
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::integrator::accel::light_tree::Query;
+use crate::integrator::common::adjoint::adjoint_correction;
 use crate::integrator::common::camera::sample_bsdf;
 use crate::integrator::common::equiangular::EquiAngular;
 use crate::integrator::common::medium_walk::{MediumWalk, Step};
@@ -675,9 +676,10 @@ fn vpl_eval(scene: &Scene, y: &Vpl, v: Vec3) -> Option<(Rgb, f32)> {
             }
             let wo = frame.to_local(y.wo);
             let f = scene
-                .material_at(mi, y.uv)
+                .material_on(mi, y.uv, y.ng, y.ns)
                 .eval_pdfs(wo, wi, Mode::Importance)
-                .0;
+                .0
+                * adjoint_correction(y.ns, y.ng, y.wo, v);
             (f != Rgb::ZERO).then_some((f, wi.z.abs()))
         }
     }

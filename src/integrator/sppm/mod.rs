@@ -591,7 +591,7 @@ impl PhotonMapper {
         r: f32,
         acc: &mut Gathered,
     ) {
-        let m = scene.material_at(vp.material, vp.uv);
+        let m = scene.material_on(vp.material, vp.uv, vp.ng, vp.frame.n);
         let r2 = r * r;
         let mut phi = Rgb::ZERO;
         map.grid.query_in(vp.p, &map.data, |ph, d2| {

@@ -65,6 +65,32 @@ impl Bitmap {
         }
     }
 
+    /// d/du and d/dv of the value, per channel: the derivative of the bilinear
+    /// interpolant within the texel square holding `uv` (zero under nearest
+    /// filtering), through `to_uv` as Mitsuba's `eval_1_grad` takes it (the transposed
+    /// matrix times the texel-space gradient, then times the resolution).
+    pub fn grad(&self, uv: Vec2) -> [Rgb; 2] {
+        let p = self.to_uv.apply(uv);
+        if self.filter == Filter::Nearest || !p.is_finite() {
+            return [Rgb::ZERO; 2];
+        }
+        let t = &*self.texels;
+        let size = Vec2::new(t.width() as f32, t.height() as f32);
+        let q = p * size - Vec2::splat(0.5);
+        let q0 = q.floor();
+        let f = q - q0;
+        let (x, y) = (q0.x as i64, q0.y as i64);
+        let (f00, f10) = (self.texel(x, y), self.texel(x + 1, y));
+        let (f01, f11) = (self.texel(x, y + 1), self.texel(x + 1, y + 1));
+        let dx = (f10 - f00) * (1.0 - f.y) + (f11 - f01) * f.y;
+        let dy = (f01 - f00) * (1.0 - f.x) + (f11 - f10) * f.x;
+        let [a, b] = self.to_uv.rows;
+        [
+            (dx * a[0] + dy * b[0]) * size.x,
+            (dx * a[1] + dy * b[1]) * size.y,
+        ]
+    }
+
     /// The texel at integer coordinates, wrapped into the image.
     #[inline]
     fn texel(&self, x: i64, y: i64) -> Rgb {
@@ -141,6 +167,26 @@ mod tests {
         let mut scaled = quad(Filter::Nearest, Wrap::Repeat);
         scaled.to_uv = UvTransform::scale(Vec2::new(2.0, 1.0));
         assert_eq!(at(&scaled, 0.3, 0.25), GREEN);
+    }
+
+    /// The gradient is the bilinear interpolant's derivative: central differences
+    /// inside one texel square agree with it.
+    #[test]
+    fn gradients_are_the_interpolants_derivatives() {
+        let b = Bitmap {
+            to_uv: UvTransform {
+                rows: [[2.0, 0.5, 0.1], [-0.3, 1.5, 0.0]],
+            },
+            ..quad(Filter::Bilinear, Wrap::Repeat)
+        };
+        let uv = Vec2::new(0.37, 0.61);
+        let h = 1e-3;
+        let [du, dv] = b.grad(uv);
+        let fd_u = (b.eval(uv + Vec2::X * h) - b.eval(uv - Vec2::X * h)) / (2.0 * h);
+        let fd_v = (b.eval(uv + Vec2::Y * h) - b.eval(uv - Vec2::Y * h)) / (2.0 * h);
+        assert!((du - fd_u).abs().max_element() < 1e-2, "{du} {fd_u}");
+        assert!((dv - fd_v).abs().max_element() < 1e-2, "{dv} {fd_v}");
+        assert_eq!(quad(Filter::Nearest, Wrap::Repeat).grad(uv), [Rgb::ZERO; 2]);
     }
 
     #[test]

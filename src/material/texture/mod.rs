@@ -91,6 +91,22 @@ impl Texture {
         luminance(self.eval(uv))
     }
 
+    /// The gradient in (u, v) of the scalar value (the luminance), for bump maps: a
+    /// bilinear bitmap's analytic one (Mitsuba's `eval_1_grad`), zero for constants
+    /// and within checks (Mitsuba has none for a checkerboard).
+    pub fn grad(&self, uv: Vec2) -> Vec2 {
+        let [du, dv] = self.grad_rgb(uv);
+        Vec2::new(luminance(du), luminance(dv))
+    }
+
+    fn grad_rgb(&self, uv: Vec2) -> [Rgb; 2] {
+        match self {
+            Texture::Constant(_) | Texture::Checkerboard { .. } => [Rgb::ZERO; 2],
+            Texture::Bitmap(b) => b.grad(uv),
+            Texture::Scale { inner, scale } => inner.grad_rgb(uv).map(|g| g * *scale),
+        }
+    }
+
     /// The value when it does not vary over the surface.
     pub fn constant(&self) -> Option<Rgb> {
         match self {

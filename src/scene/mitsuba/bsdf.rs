@@ -111,11 +111,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 ));
             }
             let mut desc = bsdf(inner, ctx)?;
-            let target = match &mut desc {
-                MaterialDesc::Mask { material, .. } => &mut **material,
-                other => other,
-            };
-            match target {
+            match scattering_mut(&mut desc) {
                 MaterialDesc::Diffuse { two_sided, .. }
                 | MaterialDesc::Phong { two_sided, .. }
                 | MaterialDesc::Mirror { two_sided, .. }
@@ -133,6 +129,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
             desc
         }
         "mask" => mask(n, &p, ctx)?,
+        "normalmap" | "bumpmap" => perturbed(n, &p, ctx)?,
         "dielectric" => MaterialDesc::Dielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
             ext_ior: ior(&p, "ext_ior", 1.000277)?,
@@ -171,7 +168,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 return Err(n.err(format!(
                     "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
                  dielectric, roughdielectric, thindielectric, conductor, roughconductor, \
-                 plastic, roughplastic, twosided, null (and stands in for principled, \
+                 plastic, roughplastic, twosided, mask, normalmap, bumpmap, null (and stands in for principled, \
                  pplastic, hair and measured)"
                 )))
             }
@@ -188,16 +185,72 @@ fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDe
         .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
     // Masks do not nest (not even through a twosided), which also keeps a mask that
     // refers to itself from recursing until the stack overflows.
-    let through = match inner.kind() {
-        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None)?,
-        _ => Some(inner),
-    };
-    if let Some(m) = through.filter(|m| m.kind() == "mask") {
+    if let Some(m) = through_twosided(inner, ctx)?.filter(|m| m.kind() == "mask") {
         return Err(m.err("a mask inside a mask (or one that refers to itself); remove one"));
     }
     Ok(MaterialDesc::Mask {
         opacity: super::texture::scalar(p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5))),
         material: Box::new(bsdf(inner, ctx)?),
+    })
+}
+
+/// The BSDF a nested `inner` wraps: inside a twosided, its nested one.
+fn through_twosided<'a>(inner: &'a Node, ctx: &Ctx<'a>) -> Result<Option<&'a Node>> {
+    match inner.kind() {
+        "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None),
+        _ => Ok(Some(inner)),
+    }
+}
+
+/// The material that scatters inside masks and normal maps.
+fn scattering_mut(desc: &mut MaterialDesc) -> &mut MaterialDesc {
+    match desc {
+        MaterialDesc::Mask { material, .. }
+        | MaterialDesc::NormalMap { material, .. }
+        | MaterialDesc::BumpMap { material, .. } => scattering_mut(material),
+        other => other,
+    }
+}
+
+/// A normal map (its texture in slot `normalmap`) or bump map (any nested texture,
+/// with `scale`) over the nested BSDF, with Mitsuba's options and defaults.
+fn perturbed<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+    let inner = p
+        .object(&["bsdf"], None)?
+        .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
+    // Only a scattering BSDF goes inside (a mask goes outside), which also keeps a
+    // map that refers to itself from recursing until the stack overflows.
+    let through = through_twosided(inner, ctx)?;
+    if let Some(m) = through.filter(|m| matches!(m.kind(), "mask" | "normalmap" | "bumpmap")) {
+        return Err(m.err(format!(
+            "a {} inside a {} (or one that refers to itself): caustic takes masks outside \
+             normal and bump maps, and one map per material",
+            m.kind(),
+            n.kind()
+        )));
+    }
+    let material = Box::new(bsdf(inner, ctx)?);
+    let flip_invalid_normals = p.boolean("flip_invalid_normals")?.unwrap_or(true);
+    let use_shadowing_function = p.boolean("use_shadowing_function")?.unwrap_or(true);
+    if n.kind() == "normalmap" {
+        return Ok(MaterialDesc::NormalMap {
+            normalmap: p
+                .param("normalmap", ctx)?
+                .ok_or_else(|| n.err("needs a \"normalmap\" texture"))?,
+            material,
+            flip_invalid_normals,
+            use_shadowing_function,
+        });
+    }
+    let texture = p
+        .object(&["texture"], None)?
+        .ok_or_else(|| n.err("needs a nested <texture>"))?;
+    Ok(MaterialDesc::BumpMap {
+        texture: super::texture::texture(texture, ctx)?,
+        scale: p.float("scale")?.map_or(1.0, |s| s as f32),
+        material,
+        flip_invalid_normals,
+        use_shadowing_function,
     })
 }
 
