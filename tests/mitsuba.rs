@@ -7,6 +7,7 @@ mod server_common;
 
 use caustic::scene::mitsuba::{import_file, Import};
 use caustic::scene::{load::read_scene_file, Scene};
+use serde_json::json;
 use std::path::{Path, PathBuf};
 
 fn data(name: &str) -> PathBuf {
@@ -335,7 +336,7 @@ fn scene(body: &str) -> String {
 fn every_error_names_the_element_and_its_line() {
     // Unknown plugins, of every kind.
     let cases = [
-        ("<shape type=\"sphere\">\n  <bsdf type=\"hair\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"hair\">", "unknown or unsupported BSDF plugin"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"velvet\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"velvet\">", "unknown or unsupported BSDF plugin"),
         ("<shape type=\"bezier\"/>", "s.xml:2:1: <shape type=\"bezier\">", "unknown or unsupported shape plugin"),
         ("<emitter type=\"sky\"/>", "s.xml:2:1: <emitter type=\"sky\">", "unknown or unsupported emitter plugin"),
         ("<sensor type=\"orthographic\"/>", "s.xml:2:1: <sensor type=\"orthographic\">", "unknown sensor plugin"),
@@ -960,4 +961,53 @@ fn normal_and_bump_maps_import() {
         "scale": 0.5, "flip_invalid_normals": false,
         "material": {"type": "roughplastic"}}));
     assert!(m.values().any(|d| *d == want), "{m:?}");
+}
+
+/// BSDFs caustic does not implement import as the nearest material it has, with a
+/// warning that names the stand-in and what it leaves out.
+#[test]
+fn uncovered_bsdfs_import_as_stand_ins_with_warnings() {
+    let cases = [
+        (
+            r#"<bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.1"/><float name="roughness" value="0.3"/><float name="sheen" value="0.5"/></bsdf>"#,
+            json!({"type": "roughplastic", "distribution": "ggx", "alpha": 0.09f32,
+                   "diffuse_reflectance": [0.8, 0.2, 0.1], "specular_reflectance": [1, 1, 1],
+                   "int_ior": 1.5, "ext_ior": 1, "nonlinear": false, "two_sided": false}),
+            "ignored: sheen",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="metallic" value="1"/><float name="roughness" value="0.5"/></bsdf>"#,
+            json!({"type": "roughconductor", "distribution": "ggx", "alpha": 0.25,
+                   "eta": [0, 0, 0], "k": [1, 1, 1], "specular_reflectance": [0.5, 0.5, 0.5],
+                   "two_sided": false}),
+            "roughconductor",
+        ),
+        (
+            r#"<bsdf type="pplastic"><float name="alpha" value="0.2"/></bsdf>"#,
+            json!({"type": "roughplastic", "distribution": "ggx", "alpha": 0.2f32,
+                   "diffuse_reflectance": [0.5, 0.5, 0.5], "specular_reflectance": [1, 1, 1],
+                   "int_ior": 1.49, "ext_ior": 1.000277f32, "nonlinear": false, "two_sided": false}),
+            "unpolarized",
+        ),
+        (
+            r#"<bsdf type="hair"><float name="eumelanin" value="1.3"/></bsdf>"#,
+            json!({"type": "diffuse", "reflectance": [0.5, 0.5, 0.5], "two_sided": true}),
+            "ignored: eumelanin",
+        ),
+    ];
+    for (bsdf, want, words) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let text = scene(&format!(
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"8\"/></film></sensor>\n<shape type=\"sphere\">{bsdf}</shape>"
+        ));
+        std::fs::write(dir.path().join("s.xml"), text).unwrap();
+        let i = import_file(&dir.path().join("s.xml")).unwrap_or_else(|e| panic!("{bsdf}: {e}"));
+        let got = serde_json::to_value(i.scene.materials.values().next().unwrap()).unwrap();
+        // Through the format's own types, so numbers compare as f32 alike.
+        let want: caustic::scene::format::MaterialDesc = serde_json::from_value(want).unwrap();
+        assert_eq!(got, serde_json::to_value(want).unwrap(), "{bsdf}");
+        let w = i.warnings.iter().find(|w| w.contains("caustic has no"));
+        let w = w.unwrap_or_else(|| panic!("{bsdf}: no stand-in warning in {:?}", i.warnings));
+        assert!(w.contains(words) && w.contains("s.xml:3:"), "{w}");
+    }
 }
