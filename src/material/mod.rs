@@ -11,6 +11,7 @@ mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 mod mirror;
+mod mixture;
 mod phong;
 mod plastic;
 mod rough_dielectric;
@@ -24,6 +25,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mirror::Mirror;
+pub use mixture::Mixture;
 pub use phong::Phong;
 pub use plastic::Plastic;
 pub use rough_dielectric::RoughDielectric;
@@ -65,6 +67,9 @@ pub enum Material {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     ThinDielectric(ThinDielectric),
+    /// A weighted sum of materials (`mixturebsdf`, `blendbsdf`), boxed so that the
+    /// enum stays as small as before for every scene.
+    Mixture(Box<Mixture>),
     /// Index-matched boundary: not a scattering event at all.
     Null,
 }
@@ -92,6 +97,7 @@ impl Material {
             Material::Dielectric(_)
             | Material::RoughDielectric(_)
             | Material::ThinDielectric(_)
+            | Material::Mixture(_)
             | Material::Null => false,
         }
     }
@@ -107,6 +113,7 @@ impl Material {
             Material::RoughDielectric(m) => m.eval(wo, wi, mode),
             Material::Plastic(m) => m.eval(wo, wi),
             Material::RoughPlastic(m) => m.eval(wo, wi),
+            Material::Mixture(m) => m.eval(wo, wi, mode),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -125,6 +132,7 @@ impl Material {
             Material::RoughDielectric(m) => m.pdf(wo, wi),
             Material::Plastic(m) => m.pdf(wo, wi),
             Material::RoughPlastic(m) => m.pdf(wo, wi),
+            Material::Mixture(m) => m.pdf(wo, wi),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -174,6 +182,7 @@ impl Material {
             Material::Plastic(m) => m.sample(wo_o, u_lobe, u),
             Material::RoughPlastic(m) => m.sample(wo_o, u_lobe, u),
             Material::ThinDielectric(m) => m.sample(wo_o, u_lobe),
+            Material::Mixture(m) => m.sample(wo_o, u_lobe, u, mode),
             Material::Null => None,
         }?;
         if flipped {
@@ -191,6 +200,7 @@ impl Material {
             | Material::ThinDielectric(_)
             | Material::Null => true,
             Material::Conductor(c) => c.is_smooth(),
+            Material::Mixture(m) => m.is_delta(),
             // Plastic's specular lobe is a delta, its diffuse lobe is not: it is sampled
             // per lobe (`BsdfSample::delta`) and connects through the diffuse one.
             Material::Diffuse(_)
@@ -208,7 +218,32 @@ impl Material {
     pub fn delta_probability(&self, wo: Vec3) -> f32 {
         match self {
             Material::Plastic(m) => m.delta_probability(orient(m.two_sided, wo, Vec3::Z).0),
+            Material::Mixture(m) => m.delta_probability(wo),
             _ => 0.0,
+        }
+    }
+
+    /// Probability that `sample` picks a delta lobe from `wo`, for any BSDF: 1 for a
+    /// delta one.
+    #[inline]
+    fn delta_share(&self, wo: Vec3) -> f32 {
+        if self.is_delta() {
+            1.0
+        } else {
+            self.delta_probability(wo)
+        }
+    }
+
+    /// `sample` restricted to the delta lobes, where `delta_probability` (or
+    /// `is_delta`) says there are some: the sample's weight is f over the lobe's
+    /// probability under `sample`, as `sample` gives it. `u_lobe` picks among several
+    /// delta lobes (plastic has one: it is what `sample` picks with `u_lobe` 0).
+    #[inline]
+    pub fn sample_delta(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
+        match self {
+            Material::Mixture(m) => m.sample_delta(wo, u_lobe, u, mode),
+            m if m.is_delta() => m.sample(wo, u_lobe, u, mode),
+            m => m.sample(wo, 0.0, u, mode),
         }
     }
 
@@ -223,6 +258,7 @@ impl Material {
             | Material::Conductor(_)
             | Material::Plastic(_)
             | Material::RoughPlastic(_) => orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0,
+            Material::Mixture(m) => m.is_black_from(wo),
             Material::Mirror(_)
             | Material::Dielectric(_)
             | Material::RoughDielectric(_)
@@ -243,6 +279,7 @@ impl Material {
             Material::Plastic(Plastic { coating, .. })
             | Material::RoughPlastic(RoughPlastic { coating, .. }) => coating.diffuse_reflectance,
             Material::Conductor(m) => m.normal_reflectance(),
+            Material::Mixture(m) => m.albedo(),
             Material::Null => Rgb::ONE,
         }
     }
@@ -251,6 +288,12 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mixtures_leave_the_enum_size_alone() {
+        // 64 bytes before mixtures: the largest variant is a microfacet material.
+        assert!(std::mem::size_of::<Material>() <= 64, "{}", std::mem::size_of::<Material>());
+    }
 
     #[test]
     fn two_sided_back_face_mirrors_front() {
