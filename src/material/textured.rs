@@ -51,23 +51,34 @@ pub struct Textured {
 }
 
 impl Textured {
-    /// `template` with each textured parameter set to its value at `uv`.
+    /// `template` with each textured parameter set to its value at `uv`: the
+    /// material at a hit.
     pub fn resolve(&self, template: &Material, uv: Vec2) -> Material {
         let mut m = template.clone();
-        self.apply(&mut m, uv);
+        self.apply(&mut m, uv, true);
         m
     }
 
-    fn apply(&self, m: &mut Material, uv: Vec2) {
+    /// `template` with its parameters at `uv`, still a template: a rough dielectric
+    /// stays one whatever its roughness there, for `resolve` to set it again.
+    pub fn template(&self, template: &Material, uv: Vec2) -> Material {
+        let mut m = template.clone();
+        self.apply(&mut m, uv, false);
+        m
+    }
+
+    fn apply(&self, m: &mut Material, uv: Vec2, settle: bool) {
         for (slot, t) in &self.params {
             m.set(*slot, t.eval(uv));
         }
         if let Material::Mixture(mix) = m {
             for (k, t) in &self.nested {
-                t.apply(&mut mix.components[*k], uv);
+                t.apply(&mut mix.components[*k], uv, settle);
             }
         }
-        m.settle();
+        if settle {
+            m.settle();
+        }
     }
 }
 

@@ -687,7 +687,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         .map(|(m, t)| {
             let m = material(m);
             t.as_ref()
-                .map_or(m.clone(), |t| t.resolve(&m, Vec2::splat(0.5)))
+                .map_or(m.clone(), |t| t.template(&m, Vec2::splat(0.5)))
         })
         .collect();
     let medium_names: BTreeMap<&str, u32> = file
