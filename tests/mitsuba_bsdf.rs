@@ -189,7 +189,10 @@ fn material(name: &str) -> (Material, f64) {
                 reflectance: Rgb::new(0.3, 0.5, 0.7),
                 two_sided: false,
             });
-            (blend(0.3, diffuse, metal(Microfacet::new(Ggx, 0.2, 0.2))), 1e-4)
+            (
+                blend(0.3, diffuse, metal(Microfacet::new(Ggx, 0.2, 0.2))),
+                1e-4,
+            )
         }
         "blend_06_dielectric_roughdielectric_ggx_03" => {
             let smooth = Material::Dielectric(Dielectric {
@@ -197,7 +200,10 @@ fn material(name: &str) -> (Material, f64) {
                 specular_reflectance: Rgb::ONE,
                 specular_transmittance: Rgb::ONE,
             });
-            (blend(0.6, smooth, glass(Microfacet::new(Ggx, 0.3, 0.3))), 1e-4)
+            (
+                blend(0.6, smooth, glass(Microfacet::new(Ggx, 0.3, 0.3))),
+                1e-4,
+            )
         }
         other => panic!("no material {other}"),
     }

@@ -109,7 +109,10 @@ fn delta_lobes_of_a_mixture_are_sampled_as_sample_does() {
         two_sided: false,
     });
     let cases = [
-        ("blend of glass and diffuse", mix(&[0.7, 0.3], vec![glass(), diffuse(0.8)])),
+        (
+            "blend of glass and diffuse",
+            mix(&[0.7, 0.3], vec![glass(), diffuse(0.8)]),
+        ),
         (
             "mixture of a blend of plastic and metal, and diffuse",
             mix(
@@ -136,7 +139,10 @@ fn delta_lobes_of_a_mixture_are_sampled_as_sample_does() {
         }
         let share = hits / n as f64;
         let se = (p * (1.0 - p) / n as f64).sqrt();
-        assert!((share - p).abs() <= 4.0 * se, "{name}: share {share} vs {p}");
+        assert!(
+            (share - p).abs() <= 4.0 * se,
+            "{name}: share {share} vs {p}"
+        );
         let via_delta: Vec<f64> = (0..n)
             .map(|_| {
                 m.sample_delta(wo, rng.next_f32(), rng.next_2d(), Mode::Radiance)
@@ -204,7 +210,10 @@ fn scene_format_reads_mixtures_and_names_errors() {
     let f = parse(one_material_scene(rough)).unwrap();
     let text = serde_json::to_string(&f.materials["m"]).unwrap();
     assert!(text.contains("\"alpha\":0.25"), "{text}");
-    assert!(text.contains("\"specular_reflectance\":[1.0,1.0,1.0]"), "{text}");
+    assert!(
+        text.contains("\"specular_reflectance\":[1.0,1.0,1.0]"),
+        "{text}"
+    );
 
     for (m, field) in [
         (
@@ -239,8 +248,10 @@ fn scene_format_reads_mixtures_and_names_errors() {
         let e = parse(one_material_scene(m.clone())).expect_err(&m.to_string());
         assert!(e.contains(field), "{m}: {e}");
     }
-    let e = parse(one_material_scene(json!({"type": "roughconductor", "alpha": [0.1, 0.2, 0.3]})))
-        .unwrap_err();
+    let e = parse(one_material_scene(
+        json!({"type": "roughconductor", "alpha": [0.1, 0.2, 0.3]}),
+    ))
+    .unwrap_err();
     assert!(e.contains("a number or a texture object"), "{e}");
 }
 
@@ -337,7 +348,10 @@ fn every_algorithm_agrees_with_pt_on_mixtures() {
         ("vrl", 128, 0.03, json!({})),
     ] {
         let mut params = depth.clone();
-        params.as_object_mut().unwrap().extend(extra.as_object().unwrap().clone());
+        params
+            .as_object_mut()
+            .unwrap()
+            .extend(extra.as_object().unwrap().clone());
         let (film, m) = render(&scene, &settings(alg, params), 2, spp);
         assert_eq!(film.dropped(), 0, "{alg}");
         for c in 0..3 {
@@ -345,7 +359,6 @@ fn every_algorithm_agrees_with_pt_on_mixtures() {
         }
     }
 }
-
 
 /// A sphere filling the view under a uniform sky of radiance 1.5, made of a half and
 /// half blend of white-ish diffuse (0.3) and a perfect mirror: convex, so both lobes

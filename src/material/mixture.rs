@@ -56,7 +56,7 @@ impl Mixture {
     fn pick(&self, u: f32, q: impl Fn(usize) -> f32) -> Option<(usize, f32)> {
         let n = self.components.len();
         let total: f32 = (0..n).map(&q).sum();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return None;
         }
         let target = u * total;
@@ -89,7 +89,7 @@ impl Mixture {
         }
         let wi: Vec3 = s.wi.into();
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let f = self.eval(wo, wi, mode);

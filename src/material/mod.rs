@@ -292,7 +292,10 @@ mod tests {
     #[test]
     fn mixtures_leave_the_enum_size_alone() {
         // 64 bytes before mixtures: the largest variant is a microfacet material.
-        eprintln!("size_of::<Material>() = {}", std::mem::size_of::<Material>());
+        eprintln!(
+            "size_of::<Material>() = {}",
+            std::mem::size_of::<Material>()
+        );
         assert!(std::mem::size_of::<Material>() <= 64);
     }
 

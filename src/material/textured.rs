@@ -106,9 +106,7 @@ impl Material {
             (Material::RoughPlastic(m), Slot::DiffuseReflectance) => {
                 m.coating.diffuse_reflectance = v
             }
-            (Material::RoughDielectric(m), Slot::SpecularReflectance) => {
-                m.specular_reflectance = v
-            }
+            (Material::RoughDielectric(m), Slot::SpecularReflectance) => m.specular_reflectance = v,
             (Material::RoughDielectric(m), Slot::SpecularTransmittance) => {
                 m.specular_transmittance = v
             }

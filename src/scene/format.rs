@@ -318,7 +318,11 @@ pub const DEFAULT_ALPHA: f32 = 0.1;
 /// The (alpha_u, alpha_v) a rough material's `alpha`, `alpha_u` and `alpha_v` give
 /// (after validation: `alpha` alone, both of the others, or none). A texture counts
 /// as 0 here: its value is set per hit.
-pub fn alphas(alpha: &Option<Scalar>, alpha_u: &Option<Scalar>, alpha_v: &Option<Scalar>) -> (f32, f32) {
+pub fn alphas(
+    alpha: &Option<Scalar>,
+    alpha_u: &Option<Scalar>,
+    alpha_v: &Option<Scalar>,
+) -> (f32, f32) {
     let c = |a: &Option<Scalar>| a.as_ref().map(|s| s.constant().unwrap_or(0.0));
     alphas_of(c(alpha), c(alpha_u), c(alpha_v))
 }
@@ -490,7 +494,9 @@ impl MaterialDesc {
                 v.extend(nested_params_mut(materials));
                 v
             }
-            MaterialDesc::Phong { .. } | MaterialDesc::ThinDielectric { .. } | MaterialDesc::Null {} => Vec::new(),
+            MaterialDesc::Phong { .. }
+            | MaterialDesc::ThinDielectric { .. }
+            | MaterialDesc::Null {} => Vec::new(),
         }
     }
 }

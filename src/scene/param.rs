@@ -274,7 +274,9 @@ mod tests {
         assert!(s.0.is_texture());
         let back: Scalar = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
         assert_eq!(back, s);
-        let e = serde_json::from_str::<Scalar>("[1, 2, 3]").unwrap_err().to_string();
+        let e = serde_json::from_str::<Scalar>("[1, 2, 3]")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("a number or a texture object"), "{e}");
     }
 

@@ -13,8 +13,8 @@ use crate::light::DirectionalLight;
 use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
 use crate::material::microfacet::{Distribution, Microfacet};
 use crate::material::{
-    Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Mixture, Phong, Plastic, RoughDielectric,
-    RoughPlastic, ThinDielectric,
+    Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Mixture, Phong, Plastic,
+    RoughDielectric, RoughPlastic, ThinDielectric,
 };
 use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3};
 use std::collections::BTreeMap;

@@ -485,12 +485,7 @@ fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: &Param, specular: 
 
 /// A rough material's `alpha`, or `alpha_u` with `alpha_v`, each in [0, 10] (or a
 /// texture).
-fn roughness(
-    path: &str,
-    a: &Option<Scalar>,
-    u: &Option<Scalar>,
-    v: &Option<Scalar>,
-) -> Result<()> {
+fn roughness(path: &str, a: &Option<Scalar>, u: &Option<Scalar>, v: &Option<Scalar>) -> Result<()> {
     let given = [("alpha", a), ("alpha_u", u), ("alpha_v", v)];
     for (key, x) in given {
         let path = format!("{path}.{key}");

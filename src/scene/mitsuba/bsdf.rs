@@ -234,7 +234,8 @@ fn mixture<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>, depth: u32) -> Re
             _ => Err(wnode.err(format!("weight \"{w}\" is not a number >= 0"))),
         })
         .collect::<Result<Vec<f32>>>()?;
-    if p.boolean("ensure_energy_conservation")? == Some(false) && weights.iter().sum::<f32>() > 1.0 {
+    if p.boolean("ensure_energy_conservation")? == Some(false) && weights.iter().sum::<f32>() > 1.0
+    {
         return Err(n.err(
             "weights summing past 1 without energy conservation would create energy; caustic \
              divides them by their sum",
@@ -260,7 +261,9 @@ fn components<'a>(inner: &[&'a Node], ctx: &mut Ctx<'a>, depth: u32) -> Result<V
     for c in inner {
         let m = bsdf(c, ctx, depth + 1)?;
         if matches!(m, MaterialDesc::Mask { .. } | MaterialDesc::Null {}) {
-            return Err(c.err("a mask or null inside a blend or mixture: mix scattering BSDFs only"));
+            return Err(
+                c.err("a mask or null inside a blend or mixture: mix scattering BSDFs only")
+            );
         }
         out.push(m);
     }
@@ -338,7 +341,12 @@ fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
 /// A rough BSDF's `distribution` and `alpha` or `alpha_u` / `alpha_v`, as given (the
 /// scene format has Mitsuba's defaults). `sample_visible` is read and not needed:
 /// caustic always samples visible normals, which changes the noise, not the image.
-type Roughness = (DistributionDesc, Option<Scalar>, Option<Scalar>, Option<Scalar>);
+type Roughness = (
+    DistributionDesc,
+    Option<Scalar>,
+    Option<Scalar>,
+    Option<Scalar>,
+);
 
 fn roughness<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Roughness> {
     p.ignore(&["sample_visible"]);
