@@ -107,6 +107,9 @@ fn every_plugin_fixture_imports_and_renders() {
         ("bsdf-plastic.xml", &[]),
         ("bsdf-normalmap.xml", &[]),
         ("bsdf-bumpmap.xml", &[]),
+        ("bsdf-blendbsdf.xml", &[]),
+        ("bsdf-rough-textured.xml", &[]),
+        ("v06-bsdf-mixturebsdf.xml", &[]),
         ("bsdf-null.xml", &["base.xml:4:5: <integrator type=\"path\">: Mitsuba's path integrator ignores media"]),
         ("emitter-point.xml", &[]),
         ("emitter-spot.xml", &[]),
@@ -130,6 +133,49 @@ fn every_plugin_fixture_imports_and_renders() {
             assert!(got.starts_with(want), "{name}: {got}");
         }
     }
+}
+
+/// `blendbsdf` (weight a float or texture, nested BSDFs in document order whatever
+/// their names, as Mitsuba 3.9 orders them), 0.x's `mixturebsdf` (a weights string),
+/// and textured roughness and colours of the rough materials.
+#[test]
+fn mixtures_and_textured_rough_materials_import() {
+    use caustic::scene::format::MaterialDesc;
+    let has = |file: &str, want: serde_json::Value| {
+        let m = import(file).scene.materials;
+        let want = json::<MaterialDesc>(want);
+        assert!(m.values().any(|d| *d == want), "{file}: {m:#?}");
+    };
+    has(
+        "bsdf-blendbsdf.xml",
+        serde_json::json!({"type": "blend",
+            "weight": {"type": "checkerboard", "color0": 0.2, "color1": 0.9},
+            "materials": [{"type": "dielectric"}, {"type": "diffuse", "reflectance": [0.2, 0.5, 0.8]}]}),
+    );
+    has(
+        "bsdf-blendbsdf.xml",
+        serde_json::json!({"type": "blend", "weight": 0.25, "materials": [
+            {"type": "roughconductor", "alpha": 0.2},
+            {"type": "blend", "materials": [{"type": "diffuse", "reflectance": 0.5}, {"type": "plastic"}]}]}),
+    );
+    has(
+        "v06-bsdf-mixturebsdf.xml",
+        serde_json::json!({"type": "mixture", "weights": [0.7, 0.2], "materials": [
+            {"type": "conductor", "eta": [4.36968, 2.9167, 1.6547], "k": [5.20643, 4.23136, 3.75469]},
+            {"type": "diffuse", "reflectance": [0.7, 1.0, 0.7]}]}),
+    );
+    has(
+        "bsdf-rough-textured.xml",
+        serde_json::json!({"type": "roughconductor", "distribution": "ggx",
+            "alpha_u": {"type": "checkerboard", "color0": 0.05, "color1": 0.3}, "alpha_v": 0.2,
+            "specular_reflectance": {"type": "checkerboard"}}),
+    );
+    has(
+        "bsdf-rough-textured.xml",
+        serde_json::json!({"type": "roughdielectric",
+            "alpha": {"type": "checkerboard", "color0": 0.1, "color1": 0.4},
+            "specular_transmittance": {"type": "checkerboard", "color0": [0.9, 0.9, 1], "color1": [1, 0.8, 0.8]}}),
+    );
 }
 
 #[test]
@@ -344,6 +390,13 @@ fn every_error_names_the_element_and_its_line() {
         // A feature caustic lacks.
         ("<shape type=\"sphere\">\n  <bsdf type=\"roughplastic\">\n    <float name=\"alpha_u\" value=\"0.1\"/>\n    <float name=\"alpha_v\" value=\"0.2\"/>\n  </bsdf>\n</shape>", "s.xml:3:3: <bsdf type=\"roughplastic\">", "roughplastic is isotropic"),
         ("<shape type=\"sphere\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <texture type=\"bitmap\" name=\"reflectance\">", "needs a filename"),
+        // Mixtures: counts that do not match, a weight that is no number, a texture where
+        // Mitsuba takes a float, a blend that holds itself.
+        ("<shape type=\"sphere\">\n  <bsdf type=\"blendbsdf\">\n    <bsdf type=\"diffuse\"/>\n  </bsdf>\n</shape>", "s.xml:3:3: <bsdf type=\"blendbsdf\">", "needs two nested <bsdf>s, not 1"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"mixturebsdf\">\n    <string name=\"weights\" value=\"0.5, x\"/>\n    <bsdf type=\"diffuse\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <string name=\"weights\">", "weight \"x\" is not a number"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"mixturebsdf\">\n    <string name=\"weights\" value=\"0.5, 0.5\"/>\n    <bsdf type=\"diffuse\"/>\n  </bsdf>\n</shape>", "s.xml:4:5: <string name=\"weights\">", "2 weights for 1 nested"),
+        ("<shape type=\"sphere\">\n  <bsdf type=\"roughplastic\">\n    <texture type=\"checkerboard\" name=\"alpha\"/>\n  </bsdf>\n</shape>", "s.xml:3:3: <bsdf type=\"roughplastic\">", "roughplastic's alpha is a number"),
+        ("<bsdf type=\"blendbsdf\" id=\"b\">\n  <bsdf type=\"diffuse\"/>\n  <ref id=\"b\"/>\n</bsdf>\n<shape type=\"sphere\">\n  <ref id=\"b\"/>\n</shape>", "s.xml:3:3: <bsdf type=\"diffuse\">", "nested more than 16 deep"),
         // Missing files.
         ("<shape type=\"obj\">\n  <string name=\"filename\" value=\"gone.obj\"/>\n</shape>", "s.xml:3:3: <string name=\"filename\">", "file \"gone.obj\" not found"),
         ("<include filename=\"gone.xml\"/>", "s.xml:2:1: <include>", "\"gone.xml\""),

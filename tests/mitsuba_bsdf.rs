@@ -7,11 +7,13 @@
 //! Beckmann's masking is exact here and Walter's rational fit (within 0.35 %) in
 //! Mitsuba, so Beckmann values agree within 1 %; rough plastic's tabulated coating
 //! transmittance comes from a quadrature over visible-normal samples whose mapping
-//! differs between the two renderers, hence also 1 %.
+//! differs between the two renderers, hence also 1 %. Blends (`blendbsdf`, caustic's
+//! mixture of two) weigh eval and pdf alike, a smooth component adding to neither.
 
 use caustic::material::microfacet::{Distribution, Microfacet};
 use caustic::material::{
-    Coating, Conductor, Material, Mode, Plastic, RoughDielectric, RoughPlastic,
+    Coating, Conductor, Dielectric, Diffuse, Material, Mixture, Mode, Plastic, RoughDielectric,
+    RoughPlastic,
 };
 use caustic::math::{Rgb, Vec3};
 
@@ -101,6 +103,26 @@ const MITSUBA: &[Row] = &[
     ("roughplastic_ggx_03_nonlinear", 'I', [0.3, 0.2, 0.9], [-0.2, 0.1, -0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
     ("roughplastic_ggx_03_nonlinear", 'I', [0.2, -0.3, -0.85], [-0.1, 0.3, 0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
     ("roughplastic_ggx_03_nonlinear", 'I', [0.2, -0.3, -0.85], [-0.3, 0.2, -0.8], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'R', [0.3, 0.2, 0.9], [-0.4, -0.1, 0.8], [4.8491815e-01, 3.7428793e-01, 3.0396998e-01], 6.4629173e-01),
+    ("blend_03_diffuse_conductor_ggx_02", 'R', [0.3, 0.2, 0.9], [-0.2, -0.3, 0.5], [2.8882009e-01, 2.4213989e-01, 2.1791895e-01], 4.2852005e-01),
+    ("blend_03_diffuse_conductor_ggx_02", 'R', [0.3, 0.2, 0.9], [-0.2, 0.1, -0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'R', [0.2, -0.3, -0.85], [-0.1, 0.3, 0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'R', [0.2, -0.3, -0.85], [-0.3, 0.2, -0.8], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'I', [0.3, 0.2, 0.9], [-0.4, -0.1, 0.8], [4.8491815e-01, 3.7428793e-01, 3.0396998e-01], 6.4629173e-01),
+    ("blend_03_diffuse_conductor_ggx_02", 'I', [0.3, 0.2, 0.9], [-0.2, -0.3, 0.5], [2.8882009e-01, 2.4213989e-01, 2.1791895e-01], 4.2852005e-01),
+    ("blend_03_diffuse_conductor_ggx_02", 'I', [0.3, 0.2, 0.9], [-0.2, 0.1, -0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'I', [0.2, -0.3, -0.85], [-0.1, 0.3, 0.9], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_03_diffuse_conductor_ggx_02", 'I', [0.2, -0.3, -0.85], [-0.3, 0.2, -0.8], [0.0000000e+00, 0.0000000e+00, 0.0000000e+00], 0.0000000e+00),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'R', [0.3, 0.2, 0.9], [-0.4, -0.1, 0.8], [1.9857872e-02, 1.9857872e-02, 1.9857872e-02], 1.9975856e-02),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'R', [0.3, 0.2, 0.9], [-0.2, -0.3, 0.5], [1.4865418e-02, 1.4865418e-02, 1.4865418e-02], 1.5037353e-02),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'R', [0.3, 0.2, 0.9], [-0.2, 0.1, -0.9], [1.5723483e-01, 1.5723483e-01, 1.5723483e-01], 3.5624775e-01),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'R', [0.2, -0.3, -0.85], [-0.1, 0.3, 0.9], [1.0860227e+00, 1.0860227e+00, 1.0860227e+00], 4.8132542e-01),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'R', [0.2, -0.3, -0.85], [-0.3, 0.2, -0.8], [2.1824893e-02, 2.1824893e-02, 2.1824893e-02], 2.1924190e-02),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'I', [0.3, 0.2, 0.9], [-0.4, -0.1, 0.8], [1.9857872e-02, 1.9857872e-02, 1.9857872e-02], 1.9975856e-02),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'I', [0.3, 0.2, 0.9], [-0.2, -0.3, 0.5], [1.4865418e-02, 1.4865418e-02, 1.4865418e-02], 1.5037353e-02),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'I', [0.3, 0.2, 0.9], [-0.2, 0.1, -0.9], [3.5575438e-01, 3.5575438e-01, 3.5575438e-01], 3.5624775e-01),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'I', [0.2, -0.3, -0.85], [-0.1, 0.3, 0.9], [4.7999570e-01, 4.7999570e-01, 4.7999570e-01], 4.8132542e-01),
+    ("blend_06_dielectric_roughdielectric_ggx_03", 'I', [0.2, -0.3, -0.85], [-0.3, 0.2, -0.8], [2.1824893e-02, 2.1824893e-02, 2.1824893e-02], 2.1924190e-02),
 ];
 
 const GLASS: f32 = 1.5046 / 1.000277;
@@ -134,6 +156,14 @@ fn coating(nonlinear: bool) -> Coating {
     }
 }
 
+/// Mitsuba 3's `blendbsdf`: (1 - w) a + w b.
+fn blend(w: f32, a: Material, b: Material) -> Material {
+    Material::Mixture(Box::new(Mixture {
+        components: vec![a, b],
+        weights: vec![1.0 - w, w],
+    }))
+}
+
 /// The material of a row's name, and its relative tolerance.
 fn material(name: &str) -> (Material, f64) {
     use Distribution::{Beckmann, Ggx};
@@ -154,6 +184,27 @@ fn material(name: &str) -> (Material, f64) {
         "plastic_nonlinear" => (plastic(true), 1e-4),
         "roughplastic_beckmann_02" => (rough(false, Microfacet::new(Beckmann, 0.2, 0.2)), 1e-2),
         "roughplastic_ggx_03_nonlinear" => (rough(true, Microfacet::new(Ggx, 0.3, 0.3)), 1e-2),
+        "blend_03_diffuse_conductor_ggx_02" => {
+            let diffuse = Material::Diffuse(Diffuse {
+                reflectance: Rgb::new(0.3, 0.5, 0.7),
+                two_sided: false,
+            });
+            (
+                blend(0.3, diffuse, metal(Microfacet::new(Ggx, 0.2, 0.2))),
+                1e-4,
+            )
+        }
+        "blend_06_dielectric_roughdielectric_ggx_03" => {
+            let smooth = Material::Dielectric(Dielectric {
+                eta: GLASS,
+                specular_reflectance: Rgb::ONE,
+                specular_transmittance: Rgb::ONE,
+            });
+            (
+                blend(0.6, smooth, glass(Microfacet::new(Ggx, 0.3, 0.3))),
+                1e-4,
+            )
+        }
         other => panic!("no material {other}"),
     }
 }

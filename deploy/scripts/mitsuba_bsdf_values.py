@@ -27,6 +27,16 @@ BSDFS = {
                                      diffuse_reflectance={"type": "rgb", "value": [0.3, 0.5, 0.7]}),
     "roughplastic_ggx_03_nonlinear": dict(type="roughplastic", distribution="ggx", alpha=0.3, nonlinear=True,
                                           diffuse_reflectance={"type": "rgb", "value": [0.3, 0.5, 0.7]}),
+    # blendbsdf: (1 - weight) first + weight second; a smooth (delta) component adds
+    # nothing to eval and pdf.
+    "blend_03_diffuse_conductor_ggx_02": dict(
+        type="blendbsdf", weight=0.3,
+        a=dict(type="diffuse", reflectance={"type": "rgb", "value": [0.3, 0.5, 0.7]}),
+        b=dict(type="roughconductor", distribution="ggx", alpha=0.2, **METAL)),
+    "blend_06_dielectric_roughdielectric_ggx_03": dict(
+        type="blendbsdf", weight=0.6,
+        a=dict(type="dielectric"),
+        b=dict(type="roughdielectric", distribution="ggx", alpha=0.3)),
 }
 # (caustic wo, caustic wi), unnormalised.
 PAIRS = [

@@ -16,6 +16,7 @@ mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 mod mirror;
+mod mixture;
 pub mod normal_map;
 mod phong;
 mod plastic;
@@ -30,6 +31,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mirror::Mirror;
+pub use mixture::Mixture;
 pub use phong::Phong;
 pub use plastic::Plastic;
 pub use rough_dielectric::RoughDielectric;
@@ -71,6 +73,9 @@ pub enum Material {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     ThinDielectric(ThinDielectric),
+    /// A weighted sum of materials (`mixturebsdf`, `blendbsdf`), boxed so that the
+    /// enum stays as small as before for every scene.
+    Mixture(Box<Mixture>),
     /// Index-matched boundary: not a scattering event at all.
     Null,
     /// A BSDF under a normal or bump map, with its shadowing term (built per hit).
@@ -100,6 +105,7 @@ impl Material {
             Material::Dielectric(_)
             | Material::RoughDielectric(_)
             | Material::ThinDielectric(_)
+            | Material::Mixture(_)
             | Material::Null
             | Material::Shadowed(_) => false,
         }
@@ -117,6 +123,7 @@ impl Material {
             Material::Plastic(m) => m.eval(wo, wi),
             Material::RoughPlastic(m) => m.eval(wo, wi),
             Material::Shadowed(m) => m.eval(wo, wi, mode),
+            Material::Mixture(m) => m.eval(wo, wi, mode),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -136,6 +143,7 @@ impl Material {
             Material::Plastic(m) => m.pdf(wo, wi),
             Material::RoughPlastic(m) => m.pdf(wo, wi),
             Material::Shadowed(m) => m.nested.pdf(wo, wi),
+            Material::Mixture(m) => m.pdf(wo, wi),
             Material::Dielectric(_)
             | Material::ThinDielectric(_)
             | Material::Mirror(_)
@@ -186,6 +194,7 @@ impl Material {
             Material::RoughPlastic(m) => m.sample(wo_o, u_lobe, u),
             Material::ThinDielectric(m) => m.sample(wo_o, u_lobe),
             Material::Shadowed(m) => m.sample(wo_o, u_lobe, u, mode),
+            Material::Mixture(m) => m.sample(wo_o, u_lobe, u, mode),
             Material::Null => None,
         }?;
         if flipped {
@@ -204,6 +213,7 @@ impl Material {
             | Material::Null => true,
             Material::Conductor(c) => c.is_smooth(),
             Material::Shadowed(m) => m.nested.is_delta(),
+            Material::Mixture(m) => m.is_delta(),
             // Plastic's specular lobe is a delta, its diffuse lobe is not: it is sampled
             // per lobe (`BsdfSample::delta`) and connects through the diffuse one.
             Material::Diffuse(_)
@@ -222,7 +232,33 @@ impl Material {
         match self {
             Material::Plastic(m) => m.delta_probability(orient(m.two_sided, wo, Vec3::Z).0),
             Material::Shadowed(m) => m.nested.delta_probability(wo),
+            Material::Mixture(m) => m.delta_probability(wo),
             _ => 0.0,
+        }
+    }
+
+    /// Probability that `sample` picks a delta lobe from `wo`, for any BSDF: 1 for a
+    /// delta one.
+    #[inline]
+    fn delta_share(&self, wo: Vec3) -> f32 {
+        if self.is_delta() {
+            1.0
+        } else {
+            self.delta_probability(wo)
+        }
+    }
+
+    /// `sample` restricted to the delta lobes, where `delta_probability` (or
+    /// `is_delta`) says there are some: the sample's weight is f over the lobe's
+    /// probability under `sample`, as `sample` gives it. `u_lobe` picks among several
+    /// delta lobes (plastic has one: it is what `sample` picks with `u_lobe` 0).
+    #[inline]
+    pub fn sample_delta(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
+        match self {
+            Material::Mixture(m) => m.sample_delta(wo, u_lobe, u, mode),
+            Material::Shadowed(m) => m.sample_delta(wo, u_lobe, u, mode),
+            m if m.is_delta() => m.sample(wo, u_lobe, u, mode),
+            m => m.sample(wo, 0.0, u, mode),
         }
     }
 
@@ -238,6 +274,7 @@ impl Material {
             | Material::Plastic(_)
             | Material::RoughPlastic(_) => orient(self.two_sided(), wo, Vec3::Z).0.z <= 0.0,
             Material::Shadowed(m) => m.nested.is_black_from(wo),
+            Material::Mixture(m) => m.is_black_from(wo),
             Material::Mirror(_)
             | Material::Dielectric(_)
             | Material::RoughDielectric(_)
@@ -258,6 +295,7 @@ impl Material {
             Material::Plastic(Plastic { coating, .. })
             | Material::RoughPlastic(RoughPlastic { coating, .. }) => coating.diffuse_reflectance,
             Material::Conductor(m) => m.normal_reflectance(),
+            Material::Mixture(m) => m.albedo(),
             Material::Null => Rgb::ONE,
             Material::Shadowed(m) => m.nested.albedo(),
         }
@@ -267,6 +305,16 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mixtures_leave_the_enum_size_alone() {
+        // 64 bytes before mixtures: the largest variant is a microfacet material.
+        eprintln!(
+            "size_of::<Material>() = {}",
+            std::mem::size_of::<Material>()
+        );
+        assert!(std::mem::size_of::<Material>() <= 64);
+    }
 
     #[test]
     fn two_sided_back_face_mirrors_front() {

@@ -147,9 +147,19 @@ impl Shadowed {
     }
 
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
-        let mut s = self.nested.sample(wo, u_lobe, u, mode)?;
+        let s = self.nested.sample(wo, u_lobe, u, mode)?;
+        Some(self.shadow(wo, s, mode))
+    }
+
+    /// [`Material::sample_delta`] of the nested BSDF, with the shadowing term.
+    pub fn sample_delta(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
+        let s = self.nested.sample_delta(wo, u_lobe, u, mode)?;
+        Some(self.shadow(wo, s, mode))
+    }
+
+    fn shadow(&self, wo: Vec3, mut s: BsdfSample, mode: Mode) -> BsdfSample {
         s.weight *= self.g(wo, s.wi.into(), mode);
-        Some(s)
+        s
     }
 }
 

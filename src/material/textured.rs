@@ -3,9 +3,10 @@
 //! whose parameters are the textures' values at the hit's (u, v), so every BSDF stays
 //! a closed, texture-free enum in the hot loops and untextured scenes pay one branch.
 
+use super::microfacet::Microfacet;
 use super::texture::Texture;
-use super::Material;
-use crate::math::{Rgb, Vec2};
+use super::{Dielectric, Material};
+use crate::math::{luminance, Rgb, Vec2};
 
 /// Which parameter of a material a texture drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,6 +15,13 @@ pub enum Slot {
     DiffuseReflectance,
     SpecularReflectance,
     SpecularTransmittance,
+    /// Roughness, both alphas (scalar: a colour texture's luminance, as Mitsuba's
+    /// `eval_1`).
+    Alpha,
+    AlphaU,
+    AlphaV,
+    /// A blend's weight w of its second material (scalar, clamped to [0, 1]).
+    Weight,
 }
 
 impl Slot {
@@ -24,25 +32,63 @@ impl Slot {
             "diffuse_reflectance" => Slot::DiffuseReflectance,
             "specular_reflectance" => Slot::SpecularReflectance,
             "specular_transmittance" => Slot::SpecularTransmittance,
+            "alpha" => Slot::Alpha,
+            "alpha_u" => Slot::AlphaU,
+            "alpha_v" => Slot::AlphaV,
+            "weight" => Slot::Weight,
             other => unreachable!("no texture slot for field {other}"),
         }
     }
 }
 
-/// The textures of one material, applied over its constant template.
+/// The textures of one material, applied over its constant template: its own
+/// parameters', and those of the materials it holds (a mixture's components, by
+/// index), recursively.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Textured {
     pub params: Vec<(Slot, Texture)>,
+    pub nested: Vec<(usize, Textured)>,
 }
 
 impl Textured {
-    /// `template` with each textured parameter set to its value at `uv`.
+    /// `template` with each textured parameter set to its value at `uv`: the
+    /// material at a hit.
     pub fn resolve(&self, template: &Material, uv: Vec2) -> Material {
         let mut m = template.clone();
+        self.apply(&mut m, uv, true);
+        m
+    }
+
+    /// `template` with its parameters at `uv`, still a template: a rough dielectric
+    /// stays one whatever its roughness there, for `resolve` to set it again.
+    pub fn template(&self, template: &Material, uv: Vec2) -> Material {
+        let mut m = template.clone();
+        self.apply(&mut m, uv, false);
+        m
+    }
+
+    fn apply(&self, m: &mut Material, uv: Vec2, settle: bool) {
         for (slot, t) in &self.params {
             m.set(*slot, t.eval(uv));
         }
-        m
+        if let Material::Mixture(mix) = m {
+            for (k, t) in &self.nested {
+                t.apply(&mut mix.components[*k], uv, settle);
+            }
+        }
+        if settle {
+            m.settle();
+        }
+    }
+}
+
+/// A scalar parameter's value from a texture's: a grey value itself, a colour's
+/// luminance (Mitsuba's `eval_1`).
+fn scalar(v: Rgb) -> f32 {
+    if v.x == v.y && v.y == v.z {
+        v.x
+    } else {
+        luminance(v)
     }
 }
 
@@ -60,9 +106,47 @@ impl Material {
             (Material::RoughPlastic(m), Slot::DiffuseReflectance) => {
                 m.coating.diffuse_reflectance = v
             }
+            (Material::RoughDielectric(m), Slot::SpecularReflectance) => m.specular_reflectance = v,
+            (Material::RoughDielectric(m), Slot::SpecularTransmittance) => {
+                m.specular_transmittance = v
+            }
+            (Material::Conductor(m), slot @ (Slot::Alpha | Slot::AlphaU | Slot::AlphaV)) => {
+                m.distribution = with_alpha(m.distribution, slot, scalar(v))
+            }
+            (Material::RoughDielectric(m), slot @ (Slot::Alpha | Slot::AlphaU | Slot::AlphaV)) => {
+                m.distribution = with_alpha(m.distribution, slot, scalar(v))
+            }
+            (Material::Mixture(m), Slot::Weight) if m.weights.len() == 2 => {
+                let w = scalar(v).clamp(0.0, 1.0);
+                m.weights = vec![1.0 - w, w];
+            }
             (m, slot) => unreachable!("{slot:?} on {m:?}"),
         }
     }
+
+    /// After its parameters are set: a rough dielectric whose roughness came out
+    /// smooth is the smooth interface, as a constant one is (`scene::shapes`).
+    fn settle(&mut self) {
+        if let Material::RoughDielectric(m) = self {
+            if m.distribution.is_smooth() {
+                *self = Material::Dielectric(Dielectric {
+                    eta: m.eta,
+                    specular_reflectance: m.specular_reflectance,
+                    specular_transmittance: m.specular_transmittance,
+                });
+            }
+        }
+    }
+}
+
+/// `d` with the roughness of `slot` set to `a` (clamped as `Microfacet::new` does).
+fn with_alpha(d: Microfacet, slot: Slot, a: f32) -> Microfacet {
+    let (u, v) = match slot {
+        Slot::Alpha => (a, a),
+        Slot::AlphaU => (a, d.alpha_v),
+        _ => (d.alpha_u, a),
+    };
+    Microfacet::new(d.kind, u, v)
 }
 
 /// The material at a hit: the scene's own, or one resolved from its textures. A

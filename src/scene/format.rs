@@ -1,7 +1,7 @@
 //! The scene file format (JSON, `"format": 1`). These serde types are the contract with
 //! users: every field is documented here and in README.md. Unknown fields are errors.
 
-pub use super::param::{Param, TextureDesc};
+pub use super::param::{Param, Scalar, TextureDesc};
 pub use crate::film::Filter;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -180,46 +180,48 @@ pub enum MaterialDesc {
     /// Rough metal, as Mitsuba 3's `roughconductor`: a microfacet `distribution`
     /// (`beckmann` or `ggx`) of roughness `alpha`, or `alpha_u` and `alpha_v` (along
     /// the shading frame's two tangents) for an anisotropic one. `eta` and `k` default
-    /// to Mitsuba's material "none", a perfect reflector (eta 0, k 1).
+    /// to Mitsuba's material "none", a perfect reflector (eta 0, k 1). The alphas and
+    /// `specular_reflectance` may be textures, as in Mitsuba 3.
     #[serde(rename = "roughconductor")]
     RoughConductor {
         #[serde(default)]
         distribution: DistributionDesc,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha: Option<f32>,
+        alpha: Option<Scalar>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha_u: Option<f32>,
+        alpha_u: Option<Scalar>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha_v: Option<f32>,
+        alpha_v: Option<Scalar>,
         #[serde(default)]
         eta: V3,
         #[serde(default = "one3")]
         k: V3,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
         #[serde(default)]
         two_sided: bool,
     },
     /// Rough dielectric interface, as Mitsuba 3's `roughdielectric` (Walter et al.
     /// 2007): the roughness parameters of `roughconductor`, the IORs of `dielectric`.
+    /// The alphas and both colours may be textures, as in Mitsuba 3.
     #[serde(rename = "roughdielectric")]
     RoughDielectric {
         #[serde(default)]
         distribution: DistributionDesc,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha: Option<f32>,
+        alpha: Option<Scalar>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha_u: Option<f32>,
+        alpha_u: Option<Scalar>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        alpha_v: Option<f32>,
+        alpha_v: Option<Scalar>,
         #[serde(default = "default_int_ior")]
         int_ior: f32,
         #[serde(default = "default_ext_ior")]
         ext_ior: f32,
-        #[serde(default = "one3")]
-        specular_reflectance: V3,
-        #[serde(default = "one3")]
-        specular_transmittance: V3,
+        #[serde(default = "one_param")]
+        specular_reflectance: Param,
+        #[serde(default = "one_param")]
+        specular_transmittance: Param,
     },
     /// Smooth plastic, as Mitsuba 3's `plastic`: a dielectric coating (`int_ior`,
     /// default polypropylene 1.49, over `ext_ior`) on a Lambertian base of
@@ -283,6 +285,22 @@ pub enum MaterialDesc {
         opacity: Param,
         material: Box<MaterialDesc>,
     },
+    /// A weighted sum of `materials`, as Mitsuba 0.x's `mixturebsdf`: f = sum_k
+    /// `weights[k]` f_k, one weight per material, each >= 0; weights summing past 1
+    /// are divided by their sum (as Mitsuba does), below 1 the rest is absorbed.
+    /// Sampling picks a material in proportion to its weight.
+    Mixture {
+        weights: Vec<f32>,
+        materials: Vec<MaterialDesc>,
+    },
+    /// Mitsuba 3's `blendbsdf`: (1 - `weight`) times the first of two `materials`
+    /// plus `weight` times the second. `weight` (default 0.5) is a number or a
+    /// texture (a colour texture counts by its luminance), clamped to [0, 1].
+    Blend {
+        #[serde(default = "half_scalar")]
+        weight: Scalar,
+        materials: Vec<MaterialDesc>,
+    },
     /// Mitsuba 3's `normalmap`: `material` shaded with the normal 2 rgb - 1 read from
     /// `normalmap`, in the shading frame (x along dp/du, z the unperturbed normal).
     /// Images are sRGB-decoded unless `raw`, as in Mitsuba, whose documentation asks
@@ -331,8 +349,18 @@ pub enum DistributionDesc {
 pub const DEFAULT_ALPHA: f32 = 0.1;
 
 /// The (alpha_u, alpha_v) a rough material's `alpha`, `alpha_u` and `alpha_v` give
-/// (after validation: `alpha` alone, both of the others, or none).
-pub fn alphas(alpha: Option<f32>, alpha_u: Option<f32>, alpha_v: Option<f32>) -> (f32, f32) {
+/// (after validation: `alpha` alone, both of the others, or none). A texture counts
+/// as 0 here: its value is set per hit.
+pub fn alphas(
+    alpha: &Option<Scalar>,
+    alpha_u: &Option<Scalar>,
+    alpha_v: &Option<Scalar>,
+) -> (f32, f32) {
+    let c = |a: &Option<Scalar>| a.as_ref().map(|s| s.constant().unwrap_or(0.0));
+    alphas_of(c(alpha), c(alpha_u), c(alpha_v))
+}
+
+fn alphas_of(alpha: Option<f32>, alpha_u: Option<f32>, alpha_v: Option<f32>) -> (f32, f32) {
     match (alpha, alpha_u, alpha_v) {
         (_, Some(u), Some(v)) => (u, v),
         (a, _, _) => {
@@ -349,7 +377,20 @@ impl MaterialDesc {
             MaterialDesc::Mask { opacity, material } => opacity.is_texture() || material.reads_uv(),
             // Perturbed normals need (u, v) and dp/du, whatever the map is.
             MaterialDesc::NormalMap { .. } | MaterialDesc::BumpMap { .. } => true,
-            _ => self.params().iter().any(|(_, p)| p.is_texture()),
+            _ => {
+                self.params().iter().any(|(_, p)| p.is_texture())
+                    || self.components().iter().any(MaterialDesc::reads_uv)
+            }
+        }
+    }
+
+    /// The materials a mixture or blend holds (none for others).
+    pub fn components(&self) -> &[MaterialDesc] {
+        match self {
+            MaterialDesc::Mixture { materials, .. } | MaterialDesc::Blend { materials, .. } => {
+                materials
+            }
+            _ => &[],
         }
     }
 
@@ -412,30 +453,56 @@ impl MaterialDesc {
                 v.push(("texture", texture));
                 v
             }
-            // The rough metals and glasses take constants only, so far.
+            MaterialDesc::RoughConductor {
+                alpha,
+                alpha_u,
+                alpha_v,
+                specular_reflectance,
+                ..
+            } => {
+                let mut v = vec![("specular_reflectance", specular_reflectance)];
+                v.extend(roughness_params([alpha, alpha_u, alpha_v]));
+                v
+            }
+            MaterialDesc::RoughDielectric {
+                alpha,
+                alpha_u,
+                alpha_v,
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => {
+                let mut v = vec![
+                    ("specular_reflectance", specular_reflectance),
+                    ("specular_transmittance", specular_transmittance),
+                ];
+                v.extend(roughness_params([alpha, alpha_u, alpha_v]));
+                v
+            }
+            // A mixture's own; its materials' are theirs (`components`).
+            MaterialDesc::Blend { weight, .. } => vec![("weight", &weight.0)],
             _ => Vec::new(),
         }
     }
 
-    /// [`params`](Self::params), to rewrite the file names inside.
-    pub fn params_mut(&mut self) -> Vec<(&'static str, &mut Param)> {
+    /// [`params`](Self::params) and those of the materials inside (named
+    /// `materials[k].field`), to rewrite the file names inside.
+    pub fn params_mut(&mut self) -> Vec<(String, &mut Param)> {
         match self {
             MaterialDesc::Diffuse { reflectance, .. }
-            | MaterialDesc::Mirror { reflectance, .. } => {
-                vec![("reflectance", reflectance)]
-            }
+            | MaterialDesc::Mirror { reflectance, .. } => own(vec![("reflectance", reflectance)]),
             MaterialDesc::Dielectric {
                 specular_reflectance,
                 specular_transmittance,
                 ..
-            } => vec![
+            } => own(vec![
                 ("specular_reflectance", specular_reflectance),
                 ("specular_transmittance", specular_transmittance),
-            ],
+            ]),
             MaterialDesc::Conductor {
                 specular_reflectance,
                 ..
-            } => vec![("specular_reflectance", specular_reflectance)],
+            } => own(vec![("specular_reflectance", specular_reflectance)]),
             MaterialDesc::Plastic {
                 diffuse_reflectance,
                 ..
@@ -443,10 +510,10 @@ impl MaterialDesc {
             | MaterialDesc::RoughPlastic {
                 diffuse_reflectance,
                 ..
-            } => vec![("diffuse_reflectance", diffuse_reflectance)],
+            } => own(vec![("diffuse_reflectance", diffuse_reflectance)]),
             MaterialDesc::Mask { opacity, material } => {
                 let mut v = material.params_mut();
-                v.push(("opacity", opacity));
+                v.push(("opacity".to_string(), opacity));
                 v
             }
             MaterialDesc::NormalMap {
@@ -455,21 +522,85 @@ impl MaterialDesc {
                 ..
             } => {
                 let mut v = material.params_mut();
-                v.push(("normalmap", normalmap));
+                v.push(("normalmap".to_string(), normalmap));
                 v
             }
             MaterialDesc::BumpMap {
                 texture, material, ..
             } => {
                 let mut v = material.params_mut();
-                v.push(("texture", texture));
+                v.push(("texture".to_string(), texture));
                 v
             }
-            _ => Vec::new(),
+            MaterialDesc::RoughConductor {
+                alpha,
+                alpha_u,
+                alpha_v,
+                specular_reflectance,
+                ..
+            } => {
+                let mut v = vec![("specular_reflectance", specular_reflectance)];
+                v.extend(roughness_params_mut([alpha, alpha_u, alpha_v]));
+                own(v)
+            }
+            MaterialDesc::RoughDielectric {
+                alpha,
+                alpha_u,
+                alpha_v,
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => {
+                let mut v = vec![
+                    ("specular_reflectance", specular_reflectance),
+                    ("specular_transmittance", specular_transmittance),
+                ];
+                v.extend(roughness_params_mut([alpha, alpha_u, alpha_v]));
+                own(v)
+            }
+            MaterialDesc::Mixture { materials, .. } => nested_params_mut(materials),
+            MaterialDesc::Blend { weight, materials } => {
+                let mut v = vec![("weight".to_string(), &mut weight.0)];
+                v.extend(nested_params_mut(materials));
+                v
+            }
+            MaterialDesc::Phong { .. }
+            | MaterialDesc::ThinDielectric { .. }
+            | MaterialDesc::Null {} => Vec::new(),
         }
     }
 }
 
+const ALPHA_FIELDS: [&str; 3] = ["alpha", "alpha_u", "alpha_v"];
+
+/// The roughness fields that are given, as parameters.
+fn roughness_params(alphas: [&Option<Scalar>; 3]) -> impl Iterator<Item = (&'static str, &Param)> {
+    (ALPHA_FIELDS.into_iter().zip(alphas)).filter_map(|(k, a)| a.as_ref().map(|a| (k, &a.0)))
+}
+
+fn roughness_params_mut(
+    alphas: [&mut Option<Scalar>; 3],
+) -> impl Iterator<Item = (&'static str, &mut Param)> {
+    (ALPHA_FIELDS.into_iter().zip(alphas)).filter_map(|(k, a)| a.as_mut().map(|a| (k, &mut a.0)))
+}
+
+fn own<'a>(v: Vec<(&'static str, &'a mut Param)>) -> Vec<(String, &'a mut Param)> {
+    v.into_iter().map(|(k, p)| (k.to_string(), p)).collect()
+}
+
+fn nested_params_mut(materials: &mut [MaterialDesc]) -> Vec<(String, &mut Param)> {
+    let mut v = Vec::new();
+    for (k, m) in materials.iter_mut().enumerate() {
+        for (field, p) in m.params_mut() {
+            v.push((format!("materials[{k}].{field}"), p));
+        }
+    }
+    v
+}
+
+fn half_scalar() -> Scalar {
+    Scalar::value(0.5)
+}
 fn default_alpha() -> f32 {
     DEFAULT_ALPHA
 }

@@ -148,6 +148,71 @@ impl<'de> Visitor<'de> for ParamVisitor {
     }
 }
 
+/// A scalar parameter (roughness, a blend's weight): a number or a texture (whose
+/// colour counts by its luminance). Held as a grey [`Param`], so that textures,
+/// validation and file references treat it as any other parameter; it reads and
+/// writes as a number.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scalar(pub Param);
+
+impl Scalar {
+    pub const fn value(v: f32) -> Scalar {
+        Scalar(Param::grey(v))
+    }
+
+    /// The value when it is a constant.
+    pub fn constant(&self) -> Option<f32> {
+        self.0.constant().map(|v| v[0])
+    }
+}
+
+impl From<f32> for Scalar {
+    fn from(v: f32) -> Self {
+        Scalar::value(v)
+    }
+}
+
+impl Serialize for Scalar {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match &self.0 {
+            Param::Value(v) => s.serialize_f32(v[0]),
+            Param::Texture(t) => t.serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Scalar {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(ScalarVisitor)
+    }
+}
+
+struct ScalarVisitor;
+
+impl<'de> Visitor<'de> for ScalarVisitor {
+    type Value = Scalar;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a number or a texture object")
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scalar, E> {
+        ParamVisitor.visit_f64(v).map(Scalar)
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Scalar, E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scalar, E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Scalar, A::Error> {
+        ParamVisitor.visit_map(map).map(Scalar)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -197,6 +262,22 @@ mod tests {
             let p = parse(s).unwrap();
             assert_eq!(serde_json::to_string(&p).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn scalars_are_numbers_or_textures() {
+        let s: Scalar = serde_json::from_str("0.25").unwrap();
+        assert_eq!(s, Scalar::value(0.25));
+        assert_eq!(serde_json::to_string(&s).unwrap(), "0.25");
+        let t = r#"{"type":"checkerboard","color0":0.1,"color1":0.3}"#;
+        let s: Scalar = serde_json::from_str(t).unwrap();
+        assert!(s.0.is_texture());
+        let back: Scalar = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        assert_eq!(back, s);
+        let e = serde_json::from_str::<Scalar>("[1, 2, 3]")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a number or a texture object"), "{e}");
     }
 
     #[test]

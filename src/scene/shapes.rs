@@ -14,8 +14,8 @@ use crate::light::DirectionalLight;
 use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
 use crate::material::microfacet::{Distribution, Microfacet};
 use crate::material::{
-    Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Phong, Plastic, RoughDielectric,
-    RoughPlastic, ThinDielectric,
+    Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Mixture, Phong, Plastic,
+    RoughDielectric, RoughPlastic, ThinDielectric,
 };
 use crate::math::{Mat3, Mat4, Rgb, Vec2, Vec3};
 use std::collections::BTreeMap;
@@ -114,8 +114,8 @@ fn material(m: &MaterialDesc) -> Material {
         } => Material::Conductor(Conductor {
             eta: rgb(*eta),
             k: rgb(*k),
-            distribution: microfacet(*distribution, *alpha, *alpha_u, *alpha_v),
-            specular_reflectance: rgb(*specular_reflectance),
+            distribution: microfacet(*distribution, alpha, alpha_u, alpha_v),
+            specular_reflectance: constant(specular_reflectance),
             two_sided: *two_sided,
         }),
         MaterialDesc::RoughDielectric {
@@ -128,15 +128,19 @@ fn material(m: &MaterialDesc) -> Material {
             specular_reflectance,
             specular_transmittance,
         } => {
-            let distribution = microfacet(*distribution, *alpha, *alpha_u, *alpha_v);
+            let distribution = microfacet(*distribution, alpha, alpha_u, alpha_v);
             let (eta, r, t) = (
                 int_ior / ext_ior,
-                rgb(*specular_reflectance),
-                rgb(*specular_transmittance),
+                constant(specular_reflectance),
+                constant(specular_transmittance),
             );
             // Below the smooth threshold the lobes are Dirac deltas: the smooth
-            // interface renders the same image without the lobes' float trouble.
-            if distribution.is_smooth() {
+            // interface renders the same image without the lobes' float trouble. (A
+            // textured roughness decides per hit: `Textured::resolve`.)
+            let textured = [alpha, alpha_u, alpha_v]
+                .iter()
+                .any(|a| a.as_ref().is_some_and(|a| a.0.is_texture()));
+            if distribution.is_smooth() && !textured {
                 Material::Dielectric(Dielectric {
                     eta,
                     specular_reflectance: r,
@@ -183,7 +187,7 @@ fn material(m: &MaterialDesc) -> Material {
                 eta: int_ior / ext_ior,
                 nonlinear: *nonlinear,
             };
-            let d = microfacet(*distribution, Some(*alpha), None, None);
+            let d = microfacet(*distribution, &Some(Scalar::value(*alpha)), &None, &None);
             if d.is_smooth() {
                 Material::Plastic(Plastic {
                     coating,
@@ -207,14 +211,32 @@ fn material(m: &MaterialDesc) -> Material {
         MaterialDesc::Mask { material: m, .. }
         | MaterialDesc::NormalMap { material: m, .. }
         | MaterialDesc::BumpMap { material: m, .. } => material(m),
+        MaterialDesc::Mixture { weights, materials } => {
+            // Mitsuba 0.x divides weights that sum past 1 by their sum.
+            let sum: f32 = weights.iter().sum();
+            let scale = if sum > 1.0 { 1.0 / sum } else { 1.0 };
+            mixture(materials, weights.iter().map(|w| w * scale).collect())
+        }
+        MaterialDesc::Blend { weight, materials } => {
+            // A textured weight's template value is set per hit.
+            let w = weight.constant().unwrap_or(0.5);
+            mixture(materials, vec![1.0 - w, w])
+        }
     }
+}
+
+fn mixture(materials: &[MaterialDesc], weights: Vec<f32>) -> Material {
+    Material::Mixture(Box::new(Mixture {
+        components: materials.iter().map(material).collect(),
+        weights,
+    }))
 }
 
 fn microfacet(
     d: DistributionDesc,
-    alpha: Option<f32>,
-    alpha_u: Option<f32>,
-    alpha_v: Option<f32>,
+    alpha: &Option<Scalar>,
+    alpha_u: &Option<Scalar>,
+    alpha_v: &Option<Scalar>,
 ) -> Microfacet {
     let kind = match d {
         DistributionDesc::Beckmann => Distribution::Beckmann,
@@ -671,7 +693,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         .map(|(m, t)| {
             let m = material(m);
             t.as_ref()
-                .map_or(m.clone(), |t| t.resolve(&m, Vec2::splat(0.5)))
+                .map_or(m.clone(), |t| t.template(&m, Vec2::splat(0.5)))
         })
         .collect();
     let medium_names: BTreeMap<&str, u32> = file

@@ -35,6 +35,11 @@ impl<'a> Textures<'a> {
     /// The textured parameters of material `name` (None when all are constants).
     pub fn material(&mut self, name: &str, m: &MaterialDesc) -> Result<Option<Textured>> {
         let (path, m) = nested(name, m);
+        self.textured(&path, m)
+    }
+
+    /// The textures of `m` (at `path`) and of the materials it holds.
+    fn textured(&mut self, path: &str, m: &MaterialDesc) -> Result<Option<Textured>> {
         let mut params = Vec::new();
         for (field, p) in m.params() {
             if p.is_texture() {
@@ -42,7 +47,13 @@ impl<'a> Textures<'a> {
                 params.push((Slot::from_field(field), t));
             }
         }
-        Ok((!params.is_empty()).then_some(Textured { params }))
+        let mut nested = Vec::new();
+        for (k, c) in m.components().iter().enumerate() {
+            if let Some(t) = self.textured(&format!("{path}.materials[{k}]"), c)? {
+                nested.push((k, t));
+            }
+        }
+        Ok((!params.is_empty() || !nested.is_empty()).then_some(Textured { params, nested }))
     }
 
     /// The opacity of a mask (None for other materials).

@@ -299,8 +299,8 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
         } => interface(
             path,
             [*int_ior, *ext_ior],
-            *specular_reflectance,
-            *specular_transmittance,
+            &Param::Value(*specular_reflectance),
+            &Param::Value(*specular_transmittance),
         ),
         MaterialDesc::Conductor {
             eta,
@@ -335,7 +335,7 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             specular_reflectance,
             ..
         } => {
-            roughness(path, *alpha, *alpha_u, *alpha_v)?;
+            roughness(path, alpha, alpha_u, alpha_v)?;
             non_negative3(&format!("{path}.eta"), *eta)?;
             non_negative3(&format!("{path}.k"), *k)?;
             if (0..3).any(|c| eta[c] == 0.0 && k[c] == 0.0) {
@@ -344,9 +344,9 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
                     "eta and k are both zero in a channel (no such conductor)",
                 ));
             }
-            unit3(
+            unit_param(
                 &format!("{path}.specular_reflectance"),
-                *specular_reflectance,
+                specular_reflectance,
             )
         }
         MaterialDesc::RoughDielectric {
@@ -359,12 +359,12 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             specular_transmittance,
             ..
         } => {
-            roughness(path, *alpha, *alpha_u, *alpha_v)?;
+            roughness(path, alpha, alpha_u, alpha_v)?;
             interface(
                 path,
                 [*int_ior, *ext_ior],
-                *specular_reflectance,
-                *specular_transmittance,
+                specular_reflectance,
+                specular_transmittance,
             )
         }
         MaterialDesc::Plastic {
@@ -387,7 +387,7 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             ext_ior,
             ..
         } => {
-            roughness(path, Some(*alpha), None, None)?;
+            roughness(path, &Some(Scalar::value(*alpha)), &None, &None)?;
             coating(
                 path,
                 [*int_ior, *ext_ior],
@@ -419,6 +419,40 @@ fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
             material,
             ..
         } => perturbed(path, m, map, material),
+
+        MaterialDesc::Mixture { weights, materials } => {
+            if weights.len() != materials.len() || materials.is_empty() {
+                return Err(SceneError::new(
+                    format!("{path}.weights"),
+                    format!(
+                        "{} weights for {} materials: give one weight per material, and at \
+                         least one material",
+                        weights.len(),
+                        materials.len()
+                    ),
+                ));
+            }
+            for (k, w) in weights.iter().enumerate() {
+                in_range(&format!("{path}.weights[{k}]"), *w, 0.0, f32::MAX, ">= 0")?;
+            }
+            if weights.iter().sum::<f32>() <= 0.0 {
+                return Err(SceneError::new(
+                    format!("{path}.weights"),
+                    "must sum to more than zero",
+                ));
+            }
+            components(path, materials)
+        }
+        MaterialDesc::Blend { weight, materials } => {
+            unit_param(&format!("{path}.weight"), &weight.0)?;
+            if materials.len() != 2 {
+                return Err(SceneError::new(
+                    format!("{path}.materials"),
+                    format!("a blend holds two materials, not {}", materials.len()),
+                ));
+            }
+            components(path, materials)
+        }
     }
 }
 
@@ -464,12 +498,35 @@ fn perturbed(path: &str, m: &MaterialDesc, map: &Param, material: &MaterialDesc)
     validate_material(&format!("{path}.material"), material)
 }
 
+/// The materials of a mixture or blend: scattering ones (masks and null boundaries
+/// hold no BSDF to weigh).
+fn components(path: &str, materials: &[MaterialDesc]) -> Result<()> {
+    for (k, m) in materials.iter().enumerate() {
+        let path = format!("{path}.materials[{k}]");
+        if matches!(
+            m,
+            MaterialDesc::Mask { .. }
+                | MaterialDesc::Null {}
+                | MaterialDesc::NormalMap { .. }
+                | MaterialDesc::BumpMap { .. }
+        ) {
+            return Err(SceneError::new(
+                path,
+                "a mixture holds scattering materials (not a mask, null, normal map or bump \
+                 map); put a normal or bump map outside the mixture or blend",
+            ));
+        }
+        validate_material(&path, m)?;
+    }
+    Ok(())
+}
+
 /// A dielectric interface's IORs and the colours of its two lobes.
-fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: V3, t: V3) -> Result<()> {
+fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: &Param, t: &Param) -> Result<()> {
     positive(&format!("{path}.int_ior"), int_ior)?;
     positive(&format!("{path}.ext_ior"), ext_ior)?;
-    unit3(&format!("{path}.specular_reflectance"), r)?;
-    unit3(&format!("{path}.specular_transmittance"), t)
+    unit_param(&format!("{path}.specular_reflectance"), r)?;
+    unit_param(&format!("{path}.specular_transmittance"), t)
 }
 
 /// A plastic's coating (IORs that differ, as Mitsuba requires) and base.
@@ -486,12 +543,16 @@ fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: &Param, specular: 
     unit3(&format!("{path}.specular_reflectance"), specular)
 }
 
-/// A rough material's `alpha`, or `alpha_u` with `alpha_v`, each in [0, 10].
-fn roughness(path: &str, a: Option<f32>, u: Option<f32>, v: Option<f32>) -> Result<()> {
+/// A rough material's `alpha`, or `alpha_u` with `alpha_v`, each in [0, 10] (or a
+/// texture).
+fn roughness(path: &str, a: &Option<Scalar>, u: &Option<Scalar>, v: &Option<Scalar>) -> Result<()> {
     let given = [("alpha", a), ("alpha_u", u), ("alpha_v", v)];
     for (key, x) in given {
-        if let Some(x) = x {
-            in_range(&format!("{path}.{key}"), x, 0.0, 10.0, "alpha in [0, 10]")?;
+        let path = format!("{path}.{key}");
+        match x.as_ref().map(|x| &x.0) {
+            Some(Param::Value(x)) => in_range(&path, x[0], 0.0, 10.0, "alpha in [0, 10]")?,
+            Some(Param::Texture(t)) => validate_texture(&path, t)?,
+            None => {}
         }
     }
     match (a, u, v) {

@@ -20,20 +20,14 @@ pub fn sample_bsdf(
     rng: &mut Rng,
 ) -> Option<(Vec3, BsdfSample)> {
     let u_lobe = rng.next_f32();
-    sample_lobe(it, frame, wo, m, u_lobe, rng)
+    let s = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance)?;
+    on_its_side(it, frame, s)
 }
 
-/// `sample_bsdf` with the lobe chosen by `u_lobe`; two random numbers.
+/// The sample with its world direction, unless that direction lies on the other side
+/// of the geometric surface than the shading frame says.
 #[inline(always)]
-fn sample_lobe(
-    it: &Interaction,
-    frame: &Frame,
-    wo: Vec3,
-    m: &Material,
-    u_lobe: f32,
-    rng: &mut Rng,
-) -> Option<(Vec3, BsdfSample)> {
-    let s = m.sample(wo, u_lobe, rng.next_2d(), Mode::Radiance)?;
+fn on_its_side(it: &Interaction, frame: &Frame, s: BsdfSample) -> Option<(Vec3, BsdfSample)> {
     let wi = frame.to_world(s.wi.into());
     ((wi.dot(it.ng) > 0.0) == (s.wi.z > 0.0)).then_some((wi, s))
 }
@@ -64,10 +58,14 @@ pub fn stop_or_follow_delta(
     if p <= 0.0 {
         return Stop::Here(1.0);
     }
-    if rng.next_f32() >= p {
+    let u = rng.next_f32();
+    if u >= p {
         return Stop::Here(1.0 / (1.0 - p));
     }
-    Stop::Follow(sample_lobe(it, frame, wo, m, 0.0, rng))
+    // u / p is uniform on [0, 1) here: it picks among several delta lobes (a
+    // mixture's), and plastic, with one, ignores it.
+    let s = m.sample_delta(wo, u / p, rng.next_2d(), Mode::Radiance);
+    Stop::Follow(s.and_then(|s| on_its_side(it, frame, s)))
 }
 
 /// Russian roulette after `rr_depth` scattering events, with survival the largest

@@ -4,7 +4,7 @@ use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{DistributionDesc, MaterialDesc, Param, V3};
+use crate::scene::format::{DistributionDesc, MaterialDesc, Param, Scalar, V3};
 
 /// Conductors Mitsuba names, as RGB (eta, k): the values of Mitsuba's spectral data
 /// reduced to linear sRGB that Tungsten and Mitsuba 0.6's RGB mode tabulate.
@@ -64,7 +64,7 @@ pub fn material<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<String> {
     if let Some(name) = ctx.name_of(n) {
         return Ok(name);
     }
-    let desc = bsdf(n, ctx)?;
+    let desc = bsdf(n, ctx, 0)?;
     let name = ctx.name_for(n, "bsdf");
     ctx.materials.insert(name.clone(), desc);
     Ok(name)
@@ -88,9 +88,19 @@ pub fn default_material(ctx: &mut Ctx, emitter: bool) -> String {
     name.to_string()
 }
 
-fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+/// How deep BSDFs may nest (wrappers and mixtures): deeper is a BSDF that refers to
+/// itself, which would otherwise recurse until the stack overflows.
+const MAX_NESTING: u32 = 16;
+
+/// The BSDF of element `n`, `depth` levels inside others.
+fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> {
     if n.tag != "bsdf" {
         return Err(n.err("is not a <bsdf>"));
+    }
+    if depth > MAX_NESTING {
+        return Err(n.err(format!(
+            "BSDFs nested more than {MAX_NESTING} deep (or one that refers to itself)"
+        )));
     }
     let p = Params::new(n, ctx)?;
     let desc = match n.kind() {
@@ -110,26 +120,20 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                      the inner wrapper",
                 ));
             }
-            let mut desc = bsdf(inner, ctx)?;
-            match scattering_mut(&mut desc) {
-                MaterialDesc::Diffuse { two_sided, .. }
-                | MaterialDesc::Phong { two_sided, .. }
-                | MaterialDesc::Mirror { two_sided, .. }
-                | MaterialDesc::Conductor { two_sided, .. }
-                | MaterialDesc::RoughConductor { two_sided, .. }
-                | MaterialDesc::Plastic { two_sided, .. }
-                | MaterialDesc::RoughPlastic { two_sided, .. } => *two_sided = true,
-                _ => {
-                    return Err(inner.err(
-                        "twosided applies to reflecting BSDFs only (diffuse, conductor, \
-                         roughconductor, plastic, roughplastic); remove the twosided wrapper",
-                    ))
-                }
+            let mut desc = bsdf(inner, ctx, depth + 1)?;
+            if !make_two_sided(scattering_mut(&mut desc)) {
+                return Err(inner.err(
+                    "twosided applies to reflecting BSDFs only (diffuse, conductor, \
+                     roughconductor, plastic, roughplastic, and blends and mixtures of them); \
+                     remove the twosided wrapper",
+                ));
             }
             desc
         }
-        "mask" => mask(n, &p, ctx)?,
-        "normalmap" | "bumpmap" => perturbed(n, &p, ctx)?,
+        "mask" => mask(n, &p, ctx, depth)?,
+        "normalmap" | "bumpmap" => perturbed(n, &p, ctx, depth)?,
+        "blendbsdf" => blend(n, &p, ctx, depth)?,
+        "mixturebsdf" => mixture(n, &p, ctx, depth)?,
         "dielectric" => MaterialDesc::Dielectric {
             int_ior: ior(&p, "int_ior", 1.5046)?,
             ext_ior: ior(&p, "ext_ior", 1.000277)?,
@@ -141,7 +145,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 .unwrap_or(Param::grey(1.0)),
         },
         "roughdielectric" => {
-            let (distribution, alpha, alpha_u, alpha_v) = roughness(n, &p)?;
+            let (distribution, alpha, alpha_u, alpha_v) = roughness(n, &p, ctx)?;
             MaterialDesc::RoughDielectric {
                 distribution,
                 alpha,
@@ -149,8 +153,12 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 alpha_v,
                 int_ior: ior(&p, "int_ior", 1.5046)?,
                 ext_ior: ior(&p, "ext_ior", 1.000277)?,
-                specular_reflectance: p.color("specular_reflectance")?.unwrap_or([1.0; 3]),
-                specular_transmittance: p.color("specular_transmittance")?.unwrap_or([1.0; 3]),
+                specular_reflectance: p
+                    .param("specular_reflectance", ctx)?
+                    .unwrap_or(Param::grey(1.0)),
+                specular_transmittance: p
+                    .param("specular_transmittance", ctx)?
+                    .unwrap_or(Param::grey(1.0)),
             }
         }
         "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
@@ -168,8 +176,8 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
                 return Err(n.err(format!(
                     "unknown or unsupported BSDF plugin \"{other}\": caustic imports diffuse, \
                  dielectric, roughdielectric, thindielectric, conductor, roughconductor, \
-                 plastic, roughplastic, twosided, mask, normalmap, bumpmap, null (and stands in for principled, \
-                 pplastic, hair and measured)"
+                 plastic, roughplastic, twosided, mask, normalmap, bumpmap, blendbsdf, mixturebsdf, null (and stands in \
+                 for principled,                  pplastic, hair and measured)"
                 )))
             }
         },
@@ -179,7 +187,7 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
 }
 
 /// A cut-out: the nested BSDF with an opacity (Mitsuba's default 0.5).
-fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> {
     let inner = p
         .object(&["bsdf"], None)?
         .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
@@ -190,7 +198,7 @@ fn mask<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDe
     }
     Ok(MaterialDesc::Mask {
         opacity: super::texture::scalar(p.param("opacity", ctx)?.unwrap_or(Param::grey(0.5))),
-        material: Box::new(bsdf(inner, ctx)?),
+        material: Box::new(bsdf(inner, ctx, depth + 1)?),
     })
 }
 
@@ -199,6 +207,27 @@ fn through_twosided<'a>(inner: &'a Node, ctx: &Ctx<'a>) -> Result<Option<&'a Nod
     match inner.kind() {
         "twosided" => Params::new(inner, ctx)?.object(&["bsdf"], None),
         _ => Ok(Some(inner)),
+    }
+}
+
+/// Makes a reflecting material two-sided (a blend or mixture: each of its parts);
+/// false for one that transmits or holds a part that does.
+fn make_two_sided(desc: &mut MaterialDesc) -> bool {
+    match desc {
+        MaterialDesc::Diffuse { two_sided, .. }
+        | MaterialDesc::Phong { two_sided, .. }
+        | MaterialDesc::Mirror { two_sided, .. }
+        | MaterialDesc::Conductor { two_sided, .. }
+        | MaterialDesc::RoughConductor { two_sided, .. }
+        | MaterialDesc::Plastic { two_sided, .. }
+        | MaterialDesc::RoughPlastic { two_sided, .. } => {
+            *two_sided = true;
+            true
+        }
+        MaterialDesc::Mixture { materials, .. } | MaterialDesc::Blend { materials, .. } => {
+            materials.iter_mut().all(make_two_sided)
+        }
+        _ => false,
     }
 }
 
@@ -214,7 +243,12 @@ fn scattering_mut(desc: &mut MaterialDesc) -> &mut MaterialDesc {
 
 /// A normal map (its texture in slot `normalmap`) or bump map (any nested texture,
 /// with `scale`) over the nested BSDF, with Mitsuba's options and defaults.
-fn perturbed<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<MaterialDesc> {
+fn perturbed<'a>(
+    n: &'a Node,
+    p: &Params<'a>,
+    ctx: &mut Ctx<'a>,
+    depth: u32,
+) -> Result<MaterialDesc> {
     let inner = p
         .object(&["bsdf"], None)?
         .ok_or_else(|| n.err("needs a nested <bsdf>"))?;
@@ -229,7 +263,7 @@ fn perturbed<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
             n.kind()
         )));
     }
-    let material = Box::new(bsdf(inner, ctx)?);
+    let material = Box::new(bsdf(inner, ctx, depth + 1)?);
     let flip_invalid_normals = p.boolean("flip_invalid_normals")?.unwrap_or(true);
     let use_shadowing_function = p.boolean("use_shadowing_function")?.unwrap_or(true);
     if n.kind() == "normalmap" {
@@ -252,6 +286,76 @@ fn perturbed<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
         flip_invalid_normals,
         use_shadowing_function,
     })
+}
+
+/// Mitsuba 3's `blendbsdf`: `weight` (default 0.5, a float or texture) between two
+/// nested BSDFs, in document order (what Mitsuba 3.9 does, whatever their names).
+fn blend<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> {
+    let weight = p.scalar("weight", ctx)?.unwrap_or(Scalar::value(0.5));
+    let inner = p.objects("bsdf");
+    if inner.len() != 2 {
+        return Err(n.err(format!("needs two nested <bsdf>s, not {}", inner.len())));
+    }
+    Ok(MaterialDesc::Blend {
+        weight,
+        materials: components(&inner, ctx, depth)?,
+    })
+}
+
+/// Mitsuba 0.x's `mixturebsdf`: a comma-separated `weights` string, one weight per
+/// nested BSDF. (`ensureEnergyConservation`, true by default, divides weights that
+/// sum past 1 by their sum; the scene format always does.)
+fn mixture<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> {
+    let (wnode, text) = p
+        .string("weights")?
+        .ok_or_else(|| n.err("needs a \"weights\" string"))?;
+    let weights = (text.split([' ', ',', ';']).filter(|w| !w.is_empty()))
+        .map(|w| match w.parse::<f32>() {
+            Ok(x) if x >= 0.0 && x.is_finite() => Ok(x),
+            _ => Err(wnode.err(format!("weight \"{w}\" is not a number >= 0"))),
+        })
+        .collect::<Result<Vec<f32>>>()?;
+    if p.boolean("ensure_energy_conservation")? == Some(false) && weights.iter().sum::<f32>() > 1.0
+    {
+        return Err(n.err(
+            "weights summing past 1 without energy conservation would create energy; caustic \
+             divides them by their sum",
+        ));
+    }
+    let inner = p.objects("bsdf");
+    if inner.len() != weights.len() || inner.is_empty() {
+        return Err(wnode.err(format!(
+            "{} weights for {} nested <bsdf>s: give one weight per BSDF",
+            weights.len(),
+            inner.len()
+        )));
+    }
+    Ok(MaterialDesc::Mixture {
+        weights,
+        materials: components(&inner, ctx, depth)?,
+    })
+}
+
+/// The nested BSDFs of a blend or mixture (masks and null have nothing to weigh).
+fn components<'a>(inner: &[&'a Node], ctx: &mut Ctx<'a>, depth: u32) -> Result<Vec<MaterialDesc>> {
+    let mut out = Vec::with_capacity(inner.len());
+    for c in inner {
+        let m = bsdf(c, ctx, depth + 1)?;
+        if matches!(
+            m,
+            MaterialDesc::Mask { .. }
+                | MaterialDesc::Null {}
+                | MaterialDesc::NormalMap { .. }
+                | MaterialDesc::BumpMap { .. }
+        ) {
+            return Err(c.err(
+                "a mask, null, normalmap or bumpmap inside a blend or mixture: mix scattering \
+                 BSDFs only (put a mask or map outside the blend)",
+            ));
+        }
+        out.push(m);
+    }
+    Ok(out)
 }
 
 /// An index of refraction: a number or one of Mitsuba's names.
@@ -309,13 +413,7 @@ fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
             two_sided: false,
         });
     }
-    let Param::Value(specular_reflectance) = specular_reflectance else {
-        return Err(n.err(
-            "a textured specular_reflectance is supported on smooth conductors only; give an \
-             <rgb>",
-        ));
-    };
-    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p)?;
+    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p, ctx)?;
     Ok(MaterialDesc::RoughConductor {
         distribution,
         alpha,
@@ -331,9 +429,14 @@ fn conductor<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Mater
 /// A rough BSDF's `distribution` and `alpha` or `alpha_u` / `alpha_v`, as given (the
 /// scene format has Mitsuba's defaults). `sample_visible` is read and not needed:
 /// caustic always samples visible normals, which changes the noise, not the image.
-type Roughness = (DistributionDesc, Option<f32>, Option<f32>, Option<f32>);
+type Roughness = (
+    DistributionDesc,
+    Option<Scalar>,
+    Option<Scalar>,
+    Option<Scalar>,
+);
 
-fn roughness(n: &Node, p: &Params) -> Result<Roughness> {
+fn roughness<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Roughness> {
     p.ignore(&["sample_visible"]);
     let distribution = match p.string("distribution")? {
         None => DistributionDesc::Beckmann,
@@ -345,9 +448,10 @@ fn roughness(n: &Node, p: &Params) -> Result<Roughness> {
             )))
         }
     };
-    let f = |key| p.float(key).map(|v| v.map(|x| x as f32));
-    let (alpha, alpha_u, alpha_v) = (f("alpha")?, f("alpha_u")?, f("alpha_v")?);
-    match (alpha, alpha_u, alpha_v) {
+    let alpha = p.scalar("alpha", ctx)?;
+    let alpha_u = p.scalar("alpha_u", ctx)?;
+    let alpha_v = p.scalar("alpha_v", ctx)?;
+    match (&alpha, &alpha_u, &alpha_v) {
         (Some(_), None, None) | (None, Some(_), Some(_)) | (None, None, None) => {
             Ok((distribution, alpha, alpha_u, alpha_v))
         }
@@ -374,15 +478,21 @@ fn plastic<'a>(n: &'a Node, p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<Materia
             two_sided: false,
         });
     }
-    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p)?;
+    let (distribution, alpha, alpha_u, alpha_v) = roughness(n, p, ctx)?;
     if alpha_u.is_some() || alpha_v.is_some() {
         return Err(n.err(
             "roughplastic is isotropic (as in Mitsuba 3): give alpha, not alpha_u and alpha_v",
         ));
     }
+    let alpha = match alpha {
+        None => crate::scene::format::DEFAULT_ALPHA,
+        Some(a) => a.constant().ok_or_else(|| {
+            n.err("roughplastic's alpha is a number in Mitsuba 3, not a texture; give a <float>")
+        })?,
+    };
     Ok(MaterialDesc::RoughPlastic {
         distribution,
-        alpha: alpha.unwrap_or(crate::scene::format::DEFAULT_ALPHA),
+        alpha,
         diffuse_reflectance,
         specular_reflectance,
         int_ior,

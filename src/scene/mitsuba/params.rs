@@ -4,7 +4,7 @@
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{Param, Rotation, Scale, TransformDesc, V3};
+use crate::scene::format::{Param, Rotation, Scalar, Scale, TransformDesc, V3};
 use glam::{DMat4, DVec3, DVec4};
 use std::cell::Cell;
 
@@ -150,6 +150,30 @@ impl<'a> Params<'a> {
             return super::texture::texture(n, ctx).map(Some);
         }
         Ok(self.color(name)?.map(Param::Value))
+    }
+
+    /// A scalar: a `<float>` or a texture (nested, or a reference in slot `name`).
+    pub fn scalar(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Scalar>> {
+        let texture =
+            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture");
+        if let Some((_, n, used)) = texture {
+            used.set(true);
+            // Mitsuba reads one number through `eval_1` (see `texture::scalar`).
+            return super::texture::texture(n, ctx)
+                .map(|t| Some(Scalar(super::texture::scalar(t))));
+        }
+        Ok(self.float(name)?.map(|v| Scalar::value(v as f32)))
+    }
+
+    /// Every nested object of `tag`, in document order.
+    pub fn objects(&self, tag: &str) -> Vec<&'a Node> {
+        (self.objects.iter())
+            .filter(|(_, n, _)| n.tag == tag)
+            .map(|(_, n, used)| {
+                used.set(true);
+                *n
+            })
+            .collect()
     }
 
     pub fn color(&self, name: &str) -> Result<Option<V3>> {

@@ -8,7 +8,7 @@ use super::params::Params;
 use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{DistributionDesc, MaterialDesc, Param, V3};
+use crate::scene::format::{DistributionDesc, MaterialDesc, Param, Scalar};
 
 /// The stand-in for `<bsdf>` element `n`, or None when its plugin has none. Every
 /// parameter of the element counts as read; those the stand-in ignores are listed in
@@ -54,17 +54,9 @@ fn scalar(p: &Params, name: &str, default: f32) -> Result<f32> {
     Ok(p.float(name)?.map_or(default, |v| v as f32))
 }
 
-/// The constant colour of a parameter that may be a texture (its default then).
-fn constant(param: &Option<Param>, default: V3) -> V3 {
-    match param {
-        Some(Param::Value(v)) => *v,
-        _ => default,
-    }
-}
-
 /// Disney's BSDF as its dominant lobe: a transmissive one (`spec_trans` at least 0.5)
-/// as a rough glass of its `eta`, a metallic one (`metallic` at least 0.5) as a rough
-/// mirror tinted by `base_color`, any other as a rough plastic with base
+/// as a rough glass of its `eta` tinted by `base_color`, a metallic one (`metallic` at
+/// least 0.5) as a rough mirror tinted by `base_color`, any other as a rough plastic with base
 /// `base_color`; GGX of alpha = roughness^2 in each (the principled BSDF's own
 /// mapping; Burley 2012).
 fn principled<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<(MaterialDesc, String)> {
@@ -77,13 +69,13 @@ fn principled<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<(MaterialDesc, St
     if spec_trans >= 0.5 {
         let desc = MaterialDesc::RoughDielectric {
             distribution: DistributionDesc::Ggx,
-            alpha: Some(alpha),
+            alpha: Some(Scalar::value(alpha)),
             alpha_u: None,
             alpha_v: None,
             int_ior: eta,
             ext_ior: 1.0,
-            specular_reflectance: [1.0; 3],
-            specular_transmittance: constant(&base, [1.0; 3]),
+            specular_reflectance: Param::grey(1.0),
+            specular_transmittance: base.unwrap_or(Param::grey(1.0)),
         };
         return Ok((
             desc,
@@ -93,12 +85,12 @@ fn principled<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<(MaterialDesc, St
     if metallic >= 0.5 {
         let desc = MaterialDesc::RoughConductor {
             distribution: DistributionDesc::Ggx,
-            alpha: Some(alpha),
+            alpha: Some(Scalar::value(alpha)),
             alpha_u: None,
             alpha_v: None,
             eta: [0.0; 3],
             k: [1.0; 3],
-            specular_reflectance: constant(&base, [0.5; 3]),
+            specular_reflectance: base.unwrap_or(Param::grey(0.5)),
             two_sided: false,
         };
         return Ok((desc, format!("roughconductor (GGX, alpha {alpha})")));
