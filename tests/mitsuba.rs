@@ -137,7 +137,9 @@ fn every_plugin_fixture_imports_and_renders() {
 
 /// `blendbsdf` (weight a float or texture, nested BSDFs in document order whatever
 /// their names, as Mitsuba 3.9 orders them), 0.x's `mixturebsdf` (a weights string),
-/// and textured roughness and colours of the rough materials.
+/// and textured roughness and colours of the rough materials. A checkerboard read as
+/// one number (a weight, a roughness) has its colours swapped, as Mitsuba's `eval_1`
+/// swaps them (`mitsuba::texture::scalar`).
 #[test]
 fn mixtures_and_textured_rough_materials_import() {
     use caustic::scene::format::MaterialDesc;
@@ -149,7 +151,7 @@ fn mixtures_and_textured_rough_materials_import() {
     has(
         "bsdf-blendbsdf.xml",
         serde_json::json!({"type": "blend",
-            "weight": {"type": "checkerboard", "color0": 0.2, "color1": 0.9},
+            "weight": {"type": "checkerboard", "color0": 0.9, "color1": 0.2},
             "materials": [{"type": "dielectric"}, {"type": "diffuse", "reflectance": [0.2, 0.5, 0.8]}]}),
     );
     has(
@@ -167,13 +169,13 @@ fn mixtures_and_textured_rough_materials_import() {
     has(
         "bsdf-rough-textured.xml",
         serde_json::json!({"type": "roughconductor", "distribution": "ggx",
-            "alpha_u": {"type": "checkerboard", "color0": 0.05, "color1": 0.3}, "alpha_v": 0.2,
+            "alpha_u": {"type": "checkerboard", "color0": 0.3, "color1": 0.05}, "alpha_v": 0.2,
             "specular_reflectance": {"type": "checkerboard"}}),
     );
     has(
         "bsdf-rough-textured.xml",
         serde_json::json!({"type": "roughdielectric",
-            "alpha": {"type": "checkerboard", "color0": 0.1, "color1": 0.4},
+            "alpha": {"type": "checkerboard", "color0": 0.4, "color1": 0.1},
             "specular_transmittance": {"type": "checkerboard", "color0": [0.9, 0.9, 1], "color1": [1, 0.8, 0.8]}}),
     );
 }
