@@ -32,6 +32,7 @@ impl Mixture {
         }
     }
 
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: Mode) -> Rgb {
         let mut f = Rgb::ZERO;
         for (m, w) in self.components.iter().zip(&self.weights) {
@@ -42,6 +43,7 @@ impl Mixture {
         f
     }
 
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         (0..self.components.len())
             .map(|k| match self.prob(k) {
@@ -76,6 +78,7 @@ impl Mixture {
         Some((k, ((target - lo) / qk).clamp(0.0, 1.0 - f32::EPSILON)))
     }
 
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         let (k, u_lobe) = self.pick(u_lobe, |k| self.prob(k))?;
         let (w, p) = (self.weights[k], self.prob(k));
@@ -102,6 +105,7 @@ impl Mixture {
     }
 
     /// Probability that `sample` picks a delta lobe from `wo`.
+    #[inline(never)]
     pub fn delta_probability(&self, wo: Vec3) -> f32 {
         (0..self.components.len())
             .map(|k| self.delta_weight(k, wo))
@@ -111,6 +115,7 @@ impl Mixture {
     /// `sample` restricted to the delta lobes: one of them picked by `u_lobe` in
     /// proportion to its probability under `sample`, and weighted as `sample` weighs
     /// it (f over its overall probability).
+    #[inline(never)]
     pub fn sample_delta(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         let (k, u_lobe) = self.pick(u_lobe, |k| self.delta_weight(k, wo))?;
         let s = self.components[k].sample_delta(wo, u_lobe, u, mode)?;
@@ -130,14 +135,17 @@ impl Mixture {
         }
     }
 
+    #[inline(never)]
     pub fn is_delta(&self) -> bool {
         self.components.iter().all(Material::is_delta)
     }
 
+    #[inline(never)]
     pub fn is_black_from(&self, wo: Vec3) -> bool {
         self.components.iter().all(|m| m.is_black_from(wo))
     }
 
+    #[inline(never)]
     pub fn albedo(&self) -> Rgb {
         let mut a = Rgb::ZERO;
         for (m, w) in self.components.iter().zip(&self.weights) {

@@ -142,16 +142,47 @@ impl Shadowed {
         2.0 / (1.0 + (1.0 + self.alpha2 * tan2(w.dot(self.reference))).sqrt())
     }
 
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: Mode) -> Rgb {
         self.nested.eval(wo, wi, mode) * self.g(wo, wi, mode)
     }
 
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         let s = self.nested.sample(wo, u_lobe, u, mode)?;
         Some(self.shadow(wo, s, mode))
     }
 
+    // The nested material's queries, out of line like the rest: a call back into
+    // `Material` from one of its own arms would make its methods recursive, and the
+    // kernels would then call them instead of inlining them.
+    #[inline(never)]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.nested.pdf(wo, wi)
+    }
+
+    #[inline(never)]
+    pub fn is_delta(&self) -> bool {
+        self.nested.is_delta()
+    }
+
+    #[inline(never)]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        self.nested.delta_probability(wo)
+    }
+
+    #[inline(never)]
+    pub fn is_black_from(&self, wo: Vec3) -> bool {
+        self.nested.is_black_from(wo)
+    }
+
+    #[inline(never)]
+    pub fn albedo(&self) -> Rgb {
+        self.nested.albedo()
+    }
+
     /// [`Material::sample_delta`] of the nested BSDF, with the shadowing term.
+    #[inline(never)]
     pub fn sample_delta(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: Mode) -> Option<BsdfSample> {
         let s = self.nested.sample_delta(wo, u_lobe, u, mode)?;
         Some(self.shadow(wo, s, mode))

@@ -569,7 +569,7 @@ impl Scene {
     /// the shadowing term of its normal or bump map if it has one.
     ///
     /// [`material_at`]: Self::material_at
-    #[inline]
+    #[inline(always)]
     pub fn material_on(&self, index: u32, uv: Vec2, ng: Vec3, ns: Vec3) -> MaterialRef<'_> {
         match &self.perturb[index as usize] {
             Some(p) if p.use_shadowing_function => self.shadowed(index, uv, ng, ns),
