@@ -238,7 +238,7 @@ impl Scene {
             None => it.ng,
         };
         if let Some(t) = &shape.tangents {
-            it.ns = self.perturbed_normal(&it, shape, t, -ray.d);
+            it.ns = self.perturbed_normal(it, shape, t, -ray.d);
         }
         it
     }
@@ -247,24 +247,18 @@ impl Scene {
     /// arriving from `wo` (see `material::normal_map`).
     #[cold]
     #[inline(never)]
-    fn perturbed_normal(
-        &self,
-        it: &Interaction,
-        shape: &ShapeInfo,
-        t: &Tangents,
-        wo: Vec3,
-    ) -> Vec3 {
+    fn perturbed_normal(&self, it: Interaction, shape: &ShapeInfo, t: &Tangents, wo: Vec3) -> Vec3 {
         let (Some(p), Some(uvs)) = (&self.perturb[shape.material as usize], &shape.uvs) else {
             return it.ns;
         };
-        let (dpdu, dpdv) = t.at(it);
+        let (dpdu, dpdv) = t.at(&it);
         let frame = SurfaceFrame {
             ns: it.ns,
             ng: it.ng,
             dpdu,
             dpdv,
         };
-        p.normal(uvs.uv(it), &frame, wo)
+        p.normal(uvs.uv(&it), &frame, wo)
     }
 
     /// The next point where `ray` scatters: the closest hit that is not an
@@ -525,7 +519,7 @@ impl Scene {
 
     /// The texture coordinates of a hit (zero on shapes whose material reads no
     /// texture).
-    #[inline]
+    #[inline(always)]
     pub fn uv(&self, it: &Interaction) -> Vec2 {
         self.shapes[it.shape as usize]
             .uvs

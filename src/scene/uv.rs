@@ -25,7 +25,7 @@ pub enum TexCoords {
 }
 
 impl TexCoords {
-    #[inline]
+    #[inline(always)]
     pub fn uv(&self, it: &Interaction) -> Vec2 {
         match self {
             TexCoords::Mesh(maps) => {

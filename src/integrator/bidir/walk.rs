@@ -33,6 +33,17 @@ pub(crate) struct Eval {
 }
 
 impl Surface<'_> {
+    /// Veach's adjoint correction for importance leaving towards `wi` (world space):
+    /// tested on the normals first, so flat shading computes nothing more.
+    #[inline(always)]
+    fn adjoint(&self, wi: Vec3) -> f32 {
+        if self.frame.n == self.ng {
+            1.0
+        } else {
+            adjoint_correction(self.frame.n, self.ng, self.frame.to_world(self.wo), wi)
+        }
+    }
+
     #[inline(always)]
     pub fn eval(&self, wi_world: Vec3, mode: Mode) -> Option<Eval> {
         let wi = self.frame.to_local(wi_world);
@@ -43,12 +54,7 @@ impl Surface<'_> {
         }
         let (mut f, pdf_dir, pdf_rev) = self.m.eval_pdfs(self.wo, wi, mode);
         if mode == Mode::Importance {
-            f *= adjoint_correction(
-                self.frame.n,
-                self.ng,
-                self.frame.to_world(self.wo),
-                wi_world,
-            );
+            f *= self.adjoint(wi_world);
         }
         if f == Rgb::ZERO {
             return None;
@@ -115,8 +121,7 @@ pub(crate) fn scatter(
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
     if mode == Mode::Importance {
-        let wo = surface.frame.to_world(surface.wo);
-        walk.throughput *= adjoint_correction(surface.frame.n, it.ng, wo, wi);
+        walk.throughput *= surface.adjoint(wi);
     }
     if walk.throughput == Rgb::ZERO {
         return None;
