@@ -134,18 +134,18 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> 
         "normalmap" | "bumpmap" => perturbed(n, &p, ctx, depth)?,
         "blendbsdf" => blend(n, &p, ctx, depth)?,
         "mixturebsdf" => mixture(n, &p, ctx, depth)?,
-        "dielectric" => MaterialDesc::Dielectric {
-            int_ior: ior(&p, "int_ior", 1.5046)?,
-            ext_ior: ior(&p, "ext_ior", 1.000277)?,
-            specular_reflectance: p
-                .param("specular_reflectance", ctx)?
-                .unwrap_or(Param::grey(1.0)),
-            specular_transmittance: p
-                .param("specular_transmittance", ctx)?
-                .unwrap_or(Param::grey(1.0)),
-        },
+        "dielectric" => {
+            let (specular_reflectance, specular_transmittance) = specular_factors(&p, ctx)?;
+            MaterialDesc::Dielectric {
+                int_ior: ior(&p, "int_ior", 1.5046)?,
+                ext_ior: ior(&p, "ext_ior", 1.000277)?,
+                specular_reflectance,
+                specular_transmittance,
+            }
+        }
         "roughdielectric" => {
             let (distribution, alpha, alpha_u, alpha_v) = roughness(n, &p, ctx)?;
+            let (specular_reflectance, specular_transmittance) = specular_factors(&p, ctx)?;
             MaterialDesc::RoughDielectric {
                 distribution,
                 alpha,
@@ -153,12 +153,8 @@ fn bsdf<'a>(n: &'a Node, ctx: &mut Ctx<'a>, depth: u32) -> Result<MaterialDesc> 
                 alpha_v,
                 int_ior: ior(&p, "int_ior", 1.5046)?,
                 ext_ior: ior(&p, "ext_ior", 1.000277)?,
-                specular_reflectance: p
-                    .param("specular_reflectance", ctx)?
-                    .unwrap_or(Param::grey(1.0)),
-                specular_transmittance: p
-                    .param("specular_transmittance", ctx)?
-                    .unwrap_or(Param::grey(1.0)),
+                specular_reflectance,
+                specular_transmittance,
             }
         }
         "conductor" | "roughconductor" => conductor(n, &p, ctx)?,
@@ -356,6 +352,17 @@ fn components<'a>(inner: &[&'a Node], ctx: &mut Ctx<'a>, depth: u32) -> Result<V
         out.push(m);
     }
     Ok(out)
+}
+
+/// A dielectric's `specular_reflectance` and `specular_transmittance` (default 1).
+fn specular_factors<'a>(p: &Params<'a>, ctx: &mut Ctx<'a>) -> Result<(Param, Param)> {
+    let factor = |name, ctx: &mut Ctx<'a>| -> Result<Param> {
+        Ok(p.param(name, ctx)?.unwrap_or(Param::grey(1.0)))
+    };
+    Ok((
+        factor("specular_reflectance", ctx)?,
+        factor("specular_transmittance", ctx)?,
+    ))
 }
 
 /// An index of refraction: a number or one of Mitsuba's names.
