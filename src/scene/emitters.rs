@@ -54,6 +54,10 @@ pub(super) fn area_light(
     if texture.max_value() <= 0.0 {
         return Ok(None);
     }
-    let uvs = uvs.clone().expect("textured emitters get texture coordinates");
-    Ok(Some(Light::Area(light(Rgb::ZERO, prims).with_texture(texture, uvs))))
+    let uvs = uvs
+        .clone()
+        .expect("textured emitters get texture coordinates");
+    Ok(Some(Light::Area(
+        light(Rgb::ZERO, prims).with_texture(texture, uvs),
+    )))
 }
