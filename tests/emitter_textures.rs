@@ -21,12 +21,13 @@ use std::path::Path;
 
 const C0: [f32; 3] = [4.0, 2.0, 1.0];
 const C1: [f32; 3] = [0.5, 1.0, 3.0];
-/// The checkerboard's `to_uv`: (1.5 u + 0.25, 1.5 v), so the checks change at u =
-/// 1/6, 1/2, 5/6 and v = 1/3, 2/3 ([`U_EDGES`], [`V_EDGES`]): a pattern that neither a
-/// swap of the colours nor a flip of u leaves alone.
-const TO_UV: [[f32; 3]; 2] = [[1.5, 0.0, 0.25], [0.0, 1.5, 0.0]];
-const U_EDGES: [f32; 5] = [0.0, 1.0 / 6.0, 0.5, 5.0 / 6.0, 1.0];
-const V_EDGES: [f32; 4] = [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
+/// The checkerboard's `to_uv`: (0.75 u, 0.75 v), so the checks change at u = 2/3 and
+/// v = 2/3 ([`U_EDGES`], [`V_EDGES`]): a large `color0` check, two of `color1` and a
+/// small `color0` one, a pattern that neither a swap of the colours nor a flip of an
+/// axis leaves alone, and coarse enough that the floor's lighting shows it.
+const TO_UV: [[f32; 3]; 2] = [[0.75, 0.0, 0.0], [0.0, 0.75, 0.0]];
+const U_EDGES: [f32; 3] = [0.0, 2.0 / 3.0, 1.0];
+const V_EDGES: [f32; 3] = [0.0, 2.0 / 3.0, 1.0];
 
 /// The light's corners: a vertical square of side 1.2 at the back of the floor,
 /// facing the camera (-y); u runs from corner 0 to 1 (+x), v from corner 0 to 3 (+z).
@@ -77,7 +78,7 @@ fn stage(lights: Vec<Value>) -> Value {
     shapes.extend(lights);
     json!({
         "format": 1,
-        "camera": {"look_at": {"origin": [0.2, -2.2, 1.0], "target": [0, 0.2, 0.35],
+        "camera": {"look_at": {"origin": [0.2, -2.4, 1.2], "target": [0, -0.4, 0],
                                "up": [0, 0, 1]}, "fov": 55},
         "film": {"width": 24, "height": 24},
         "materials": {
@@ -205,8 +206,8 @@ fn assert_agree_with_pt(cases: &[(&str, u64, f64)]) {
 
 #[test]
 fn pt_on_the_checker_light_matches_its_checks_as_separate_lights() {
-    let textured = estimate(&textured_stage(), "pt", 1024, 1);
-    let cells = estimate(&cells_stage(), "pt", 1024, 2);
+    let textured = estimate(&textured_stage(), "pt", 4096, 1);
+    let cells = estimate(&cells_stage(), "pt", 4096, 2);
     assert_same_image(
         &cells,
         &textured,
@@ -218,7 +219,7 @@ fn pt_on_the_checker_light_matches_its_checks_as_separate_lights() {
         ("swapped", checker(C1, C0)),
         ("mirrored", {
             let mut c = checker(C0, C1);
-            c["to_uv"] = json!([[-1.5, 0, 1.75], [0, 1.5, 0]]);
+            c["to_uv"] = json!([[-0.75, 0, 0.75], [0, 0.75, 0]]);
             c
         }),
     ] {
@@ -414,4 +415,3 @@ fn scene_errors_name_the_emission_field() {
         .to_string();
     assert!(e.contains("shapes[0].emission.radiance.color0"), "{e}");
 }
-
