@@ -415,3 +415,49 @@ fn scene_errors_name_the_emission_field() {
         .to_string();
     assert!(e.contains("shapes[0].emission.radiance.color0"), "{e}");
 }
+
+/// Mitsuba's `area` emitter with a `<texture name="radiance">` (checkerboard with a
+/// `to_uv`, bitmap) imports as textured emission and renders.
+#[test]
+fn mitsuba_textured_area_lights_import() {
+    use caustic::scene::mitsuba::import_file;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba");
+    let import = import_file(&dir.join("emitter-area-textured.xml")).unwrap();
+    assert!(import.warnings.is_empty(), "{:?}", import.warnings);
+    let emission: Vec<Value> = (import.scene.shapes.iter())
+        .filter_map(|s| s.common.emission.as_ref())
+        .map(|e| serde_json::to_value(e).unwrap())
+        .collect();
+    let checker = json!({"radiance": {"type": "checkerboard", "color0": [4.0, 2.0, 1.0],
+        "color1": [0.5, 1.0, 3.0], "to_uv": [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0]]},
+        "two_sided": false});
+    let bitmap = json!({"radiance": {"type": "bitmap", "filename": "heights.png",
+        "raw": false, "filter": "nearest", "wrap": "repeat"}, "two_sided": false});
+    assert_eq!(emission, [checker, bitmap]);
+    // The image is one of the scene's files (what an upload keeps, what `caustic
+    // import` copies).
+    let mut file = import.scene.clone();
+    let refs = caustic::scene::files::references_mut(&mut file);
+    // The disk, last, has the bitmap.
+    let last = import.scene.shapes.len() - 1;
+    assert!(
+        refs.iter().any(
+            |(f, name)| *f == format!("shapes[{last}].emission.radiance.filename")
+                && name.as_str() == "heights.png"
+        ),
+        "{:?}",
+        refs.iter().map(|(f, _)| f).collect::<Vec<_>>()
+    );
+    let scene = Scene::compile(&import.scene, Some(&dir)).unwrap();
+    assert_eq!(
+        scene
+            .lights
+            .iter()
+            .filter(|l| matches!(l, Light::Area(_)))
+            .count(),
+        2
+    );
+    let (film, n) = render(&scene, &settings("pt", json!({"max_depth": 3})), 1, 2);
+    assert_eq!(film.dropped(), 0);
+    assert!(common::channel(&film, n, 0).iter().any(|&v| v > 0.0));
+}
