@@ -414,21 +414,45 @@ fn sampled_points_carry_the_radiance_a_ray_finds_there() {
     }
 }
 
-/// A negative colour in the radiance's texture is refused, naming the field.
+/// A negative colour in the radiance's texture, or a negative or NaN texel in its
+/// image, is refused, naming the field.
 #[test]
 fn scene_errors_name_the_emission_field() {
-    let bad = json!({"format": 1,
-        "camera": {"look_at": {"origin": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0]},
-                   "fov": 40},
-        "film": {"width": 4, "height": 4},
-        "materials": {"black": {"type": "diffuse", "reflectance": 0}},
-        "shapes": [{"type": "rectangle", "material": "black", "emission": {"radiance":
-            {"type": "checkerboard", "color0": [1, -1, 1]}}}]});
-    let e = caustic::scene::Scene::compile(&parse_scene(&bad.to_string()).unwrap(), None)
-        .err()
-        .expect("refused")
-        .to_string();
-    assert!(e.contains("shapes[0].emission.radiance.color0"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let texels = vec![
+        Vec3::ONE,
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::ONE,
+        Vec3::splat(f32::NAN),
+    ];
+    let img = caustic::film::Image::from_pixels(2, 2, texels);
+    caustic::film::write_exr(dir.path().join("bad.exr"), &img).unwrap();
+    for (radiance, field, words) in [
+        (
+            json!({"type": "checkerboard", "color0": [1, -1, 1]}),
+            "shapes[0].emission.radiance.color0",
+            "negative",
+        ),
+        (
+            json!({"type": "bitmap", "filename": "bad.exr"}),
+            "shapes[0].emission.radiance",
+            "NaN, infinite or negative",
+        ),
+    ] {
+        let bad = json!({"format": 1,
+            "camera": {"look_at": {"origin": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0]},
+                       "fov": 40},
+            "film": {"width": 4, "height": 4},
+            "materials": {"black": {"type": "diffuse", "reflectance": 0}},
+            "shapes": [{"type": "rectangle", "material": "black",
+                        "emission": {"radiance": radiance}}]});
+        let file = parse_scene(&bad.to_string()).unwrap();
+        let e = Scene::compile(&file, Some(dir.path()))
+            .err()
+            .expect("refused");
+        assert_eq!(e.path, field, "{e}");
+        assert!(e.to_string().contains(words), "{e}");
+    }
 }
 
 /// Mitsuba's `area` emitter with a `<texture name="radiance">` (checkerboard with a
