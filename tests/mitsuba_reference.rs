@@ -260,6 +260,7 @@ against_mitsuba! {
     /// same mesh flat-shaded (texture-obj) agrees.
     #[ignore = "shading normals: caustic drops samples below the geometric surface, Mitsuba keeps them"]
     obj_normals, obj_normals_dense: "shape-obj-normals", 8;
+    emitter_area_textured, emitter_area_textured_dense: "emitter-area-textured", 8;
     filter_box, filter_box_dense: "filter-box", 8;
     filter_tent, filter_tent_dense: "filter-tent", 8;
     filter_gaussian, filter_gaussian_dense: "filter-gaussian", 8;

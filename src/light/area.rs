@@ -1,15 +1,26 @@
+use super::emitting::{grid, Emitting};
 use super::{Distribution1D, LightSample};
-use crate::geometry::Prim;
+use crate::geometry::{Interaction, Prim};
+use crate::material::texture::Texture;
 use crate::math::warp::{sin_cos_2pi, square_to_disk, square_to_triangle};
 use crate::math::{safe_sqrt, Frame, Rgb, Vec2, Vec3, PI};
+use crate::scene::TexCoords;
 
 /// Lambertian emission from a shape, on the side its (possibly flipped) normal points
 /// to, or both sides when `two_sided`.
+///
+/// The radiance is one colour, or a texture over the shape's (u, v) (`textured`).
+/// Every read of it goes through one branch on `textured`, so constant lights cost
+/// what they did before textures existed; the lookup itself is out of line.
 #[derive(Clone, Debug)]
 pub struct AreaLight {
     pub shape: u32,
+    /// The radiance; for a textured light, its mean over the surface (an estimate,
+    /// for the light's power).
     pub radiance: Rgb,
     pub two_sided: bool,
+    /// Radiance that varies over the surface, with the shape's texture coordinates.
+    textured: Option<Box<Emitting>>,
     /// World-space primitives of the shape.
     prims: Vec<Prim>,
     /// -1 when the shape's normals are flipped.
@@ -38,26 +49,82 @@ impl AreaLight {
             prims,
             normal_sign,
             area,
+            textured: None,
         }
+    }
+
+    /// The light with radiance `texture` over the shape's texture coordinates `uvs`
+    /// (computed for the same primitives, in the same order). Its `radiance` becomes
+    /// the texture's mean over the surface, estimated on a grid of samples uniform by
+    /// area, for the power that light selection weighs.
+    pub fn with_texture(mut self, texture: Texture, uvs: TexCoords) -> Self {
+        let t = Emitting { texture, uvs };
+        const SIDE: u32 = 64;
+        let sum: glam::DVec3 = grid(SIDE)
+            .map(|u| {
+                let (i, _, ux) = self.by_area.sample_discrete(u.x);
+                let u = Vec2::new(ux, u.y);
+                let (p, _) = self.point_on(i, u);
+                t.at_sample(&self.prims[i], i, u, p).as_dvec3()
+            })
+            .sum();
+        self.radiance = (sum / f64::from(SIDE * SIDE)).as_vec3();
+        self.textured = Some(Box::new(t));
+        self
     }
 
     pub fn area(&self) -> f32 {
         self.area
     }
 
-    /// Radiance leaving the light at a point with front normal `n` towards `w`.
+    /// Whether the light emits from a point with front normal `n` towards `w`.
+    #[inline(always)]
+    fn emits(&self, n: Vec3, w: Vec3) -> bool {
+        self.two_sided || n.dot(w) > 0.0
+    }
+
+    /// Radiance leaving the light towards `w` at `it`, a hit on its shape.
     #[inline]
-    pub fn le(&self, n: Vec3, w: Vec3) -> Rgb {
-        if self.two_sided || n.dot(w) > 0.0 {
-            self.radiance
+    pub fn le(&self, it: &Interaction, w: Vec3) -> Rgb {
+        if !self.emits(it.ng, w) {
+            return Rgb::ZERO;
+        }
+        match &self.textured {
+            None => self.radiance,
+            Some(t) => t.at_hit(it),
+        }
+    }
+
+    /// Radiance leaving towards `w` the point `es` (from [`AreaLight::sample_le`])
+    /// started a light path from.
+    #[inline]
+    pub fn le_sampled(&self, es: &super::EmissionSample, w: Vec3) -> Rgb {
+        if self.emits(es.n, w) {
+            es.le
         } else {
             Rgb::ZERO
         }
     }
 
+    /// Radiance at the point `point_on(i, u)` placed at `p`.
+    #[inline(always)]
+    fn radiance_on(&self, i: usize, u: Vec2, p: Vec3) -> Rgb {
+        match &self.textured {
+            None => self.radiance,
+            Some(t) => t.at_sample(&self.prims[i], i, u, p),
+        }
+    }
+
+    /// Emitted power. For a textured light, its mean radiance (estimated over the
+    /// surface) stands in for the radiance, as Mitsuba's area emitter takes its
+    /// texture's mean; a light whose estimate came out black is kept selectable.
     pub fn power(&self) -> Rgb {
         let sides = if self.two_sided { 2.0 } else { 1.0 };
-        self.radiance * (PI * self.area * sides)
+        let radiance = match &self.textured {
+            None => self.radiance,
+            Some(t) => self.radiance.max(Rgb::splat(1e-3 * t.texture.max_value())),
+        };
+        radiance * (PI * self.area * sides)
     }
 
     /// The analytic sphere to sample by solid angle, when the light is one and `p` is
@@ -141,7 +208,11 @@ impl AreaLight {
         }
         let wi = d / dist;
         let cos_l = n.dot(-wi);
-        let li = self.le(n, -wi);
+        let li = if self.emits(n, -wi) {
+            self.radiance_on(i, Vec2::new(ux, u.y), pl)
+        } else {
+            Rgb::ZERO
+        };
         if cos_l.abs() <= 0.0 || li == Rgb::ZERO {
             return None;
         }
@@ -185,7 +256,11 @@ impl AreaLight {
         let dist = d.length();
         let wi = d / dist;
         let n = n_out * self.normal_sign;
-        let li = self.le(n, -wi);
+        let li = if self.emits(n, -wi) {
+            self.radiance_on(0, Vec2::ZERO, pl)
+        } else {
+            Rgb::ZERO
+        };
         if li == Rgb::ZERO {
             return None;
         }
@@ -245,6 +320,10 @@ impl AreaLight {
         if local.z <= 0.0 {
             return None;
         }
+        let le = self.radiance_on(i, u_point, p);
+        if le == Rgb::ZERO {
+            return None;
+        }
         let d = Frame::from_normal(n * side).to_world(local);
         let (pdf_pos, pdf_dir) = self.pdf_le(n, d);
         Some(super::EmissionSample {
@@ -252,7 +331,7 @@ impl AreaLight {
             n,
             p_err: self.point_error(i, u_point),
             d,
-            le: self.radiance,
+            le,
             pdf_pos,
             pdf_dir,
             cos: local.z,

@@ -4,6 +4,7 @@
 mod area;
 pub mod distribution;
 mod emission;
+mod emitting;
 mod environment;
 mod point;
 mod selection;

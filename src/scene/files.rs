@@ -18,6 +18,9 @@ pub fn references_mut(scene: &mut SceneFile) -> Vec<(String, &mut String)> {
         if let GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } = &mut s.geometry {
             out.push((format!("shapes[{i}].filename"), filename));
         }
+        if let Some(e) = &mut s.common.emission {
+            (e.radiance).filenames_mut(format!("shapes[{i}].emission.radiance"), &mut out);
+        }
     }
     for (i, l) in scene.lights.iter_mut().enumerate() {
         if let LightDesc::Envmap { filename, .. } = l {

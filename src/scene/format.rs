@@ -787,7 +787,8 @@ pub enum Scale {
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct EmissionDesc {
-    pub radiance: V3,
+    /// A colour, or a texture over the shape's (u, v) (Mitsuba's textured `area`).
+    pub radiance: Param,
     #[serde(default)]
     pub two_sided: bool,
 }

@@ -2,6 +2,7 @@
 //! integrators render (BVH, materials, lights, camera).
 
 mod budget;
+mod emitters;
 pub mod error;
 pub mod files;
 pub mod format;

@@ -1,6 +1,7 @@
 //! Compiling a validated scene file: shapes to world-space primitives, materials and
 //! lights to their enums, and the camera.
 
+use super::emitters;
 use super::error::{Result, SceneError};
 use super::format::*;
 use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
@@ -11,7 +12,7 @@ use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;
 use crate::geometry::{Accel, Prim, PrimMeta};
 use crate::light::DirectionalLight;
-use crate::light::{AreaLight, EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
+use crate::light::{EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
 use crate::material::microfacet::{Distribution, Microfacet};
 use crate::material::{
     Coating, Conductor, Dielectric, Diffuse, Material, Mirror, Mixture, Phong, Plastic,
@@ -719,7 +720,8 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let mut lights = Vec::new();
     for (i, s) in file.shapes.iter().enumerate() {
         let path = format!("shapes[{i}]");
-        let uv = file.materials[&s.common.material].reads_uv();
+        let material_uv = file.materials[&s.common.material].reads_uv();
+        let uv = material_uv || emitters::reads_uv(&s.common.emission);
         let BuiltShape {
             prims,
             shading,
@@ -730,26 +732,19 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
         let tangents = (perturb[material_index as usize].as_ref())
             .and(uvs.as_ref())
             .map(|t| Tangents::new(&prims, t));
-        let mut light_index = None;
-        if let Some(e) = &s.common.emission {
-            if e.radiance.iter().any(|&x| x > 0.0) && !prims.is_empty() {
-                light_index = Some(lights.len() as u32);
-                lights.push(Light::Area(AreaLight::new(
-                    i as u32,
-                    prims,
-                    s.common.flip_normals,
-                    rgb(e.radiance),
-                    e.two_sided,
-                )));
-            }
-        }
+        let light = emitters::area_light(&mut textures, &path, i as u32, &s.common, prims, &uvs)?;
+        let light_index = light.map(|l| {
+            lights.push(l);
+            lights.len() as u32 - 1
+        });
         shapes.push(ShapeInfo {
             name: s.common.name.clone().unwrap_or_else(|| path.clone()),
             material: material_index,
             light: light_index,
             flip: s.common.flip_normals,
             shading,
-            uvs,
+            // Only the material reads them here (the light keeps its own).
+            uvs: uvs.filter(|_| material_uv),
             tangents,
             interior: medium_ref(&s.common.interior),
             exterior: medium_ref(&s.common.exterior),

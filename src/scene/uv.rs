@@ -27,18 +27,23 @@ pub enum TexCoords {
 impl TexCoords {
     #[inline(always)]
     pub fn uv(&self, it: &Interaction) -> Vec2 {
+        self.uv_on(it.local, it.uv, it.p)
+    }
+
+    /// The (u, v) of point `p` on primitive `local` of the shape, at primitive
+    /// coordinates `st` (a hit's `Interaction::uv`: barycentrics, edge or disk
+    /// coordinates; unused on spheres): for points that are not hits, such as the
+    /// points light sampling picks on an emitter.
+    #[inline]
+    pub fn uv_on(&self, local: u32, st: Vec2, p: Vec3) -> Vec2 {
         match self {
             TexCoords::Mesh(maps) => {
-                let [o, a, b] = maps[it.local as usize];
-                o + a * it.uv.x + b * it.uv.y
+                let [o, a, b] = maps[local as usize];
+                o + a * st.x + b * st.y
             }
-            TexCoords::Sphere { center, to_object } => sphere_uv(*to_object * (it.p - *center)),
+            TexCoords::Sphere { center, to_object } => sphere_uv(*to_object * (p - *center)),
             TexCoords::Disk { swapped } => {
-                let (x, y) = if *swapped {
-                    (it.uv.y, it.uv.x)
-                } else {
-                    (it.uv.x, it.uv.y)
-                };
+                let (x, y) = if *swapped { (st.y, st.x) } else { (st.x, st.y) };
                 Vec2::new((x * x + y * y).sqrt(), angle_fraction(y, x))
             }
         }

@@ -43,6 +43,14 @@ fn unit_param(path: &str, p: &Param) -> Result<()> {
     }
 }
 
+/// A non-negative colour, or a texture (an emitter's radiance).
+fn non_negative_param(path: &str, p: &Param) -> Result<()> {
+    match p {
+        Param::Value(v) => non_negative3(path, *v),
+        Param::Texture(t) => validate_texture(path, t),
+    }
+}
+
 fn validate_texture(path: &str, t: &TextureDesc) -> Result<()> {
     let to_uv = |rows: &Option<[[f32; 3]; 2]>| match rows {
         Some(r) if !r.iter().flatten().all(|x| x.is_finite()) => Err(SceneError::new(
@@ -51,10 +59,7 @@ fn validate_texture(path: &str, t: &TextureDesc) -> Result<()> {
         )),
         _ => Ok(()),
     };
-    let inner = |field: &str, p: &Param| match p {
-        Param::Value(v) => non_negative3(&format!("{path}.{field}"), *v),
-        Param::Texture(t) => validate_texture(&format!("{path}.{field}"), t),
-    };
+    let inner = |field: &str, p: &Param| non_negative_param(&format!("{path}.{field}"), p);
     match t {
         TextureDesc::Bitmap {
             filename, to_uv: r, ..
@@ -736,7 +741,7 @@ fn validate_shape(scene: &SceneFile, path: &str, s: &ShapeDesc) -> Result<()> {
         ));
     }
     if let Some(e) = &c.emission {
-        non_negative3(&format!("{path}.emission.radiance"), e.radiance)?;
+        non_negative_param(&format!("{path}.emission.radiance"), &e.radiance)?;
         if matches!(
             scene.materials.get(&c.material),
             Some(MaterialDesc::Null {})

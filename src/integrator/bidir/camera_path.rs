@@ -306,7 +306,7 @@ fn emitter_hit(
     let Some((li, area)) = scene.area_light(it) else {
         return Rgb::ZERO;
     };
-    let le = area.le(it.ng, -d);
+    let le = area.le(it, -d);
     if le == Rgb::ZERO {
         return Rgb::ZERO;
     }

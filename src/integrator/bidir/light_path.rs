@@ -795,7 +795,7 @@ fn splat_emitter<M: Media>(
     else {
         return;
     };
-    let le = area.le(es.n, dir);
+    let le = area.le_sampled(es, dir);
     let cos = es.n.dot(dir).abs();
     if le == Rgb::ZERO || cos <= 0.0 {
         return;

@@ -131,7 +131,7 @@ pub fn li<G: MediumGather>(
         };
         if specular && !seen {
             if let Some((_, area)) = scene.area_light(&it) {
-                l += walk.beta * area.le(it.ng, -ray.d);
+                l += walk.beta * area.le(&it, -ray.d);
             }
         }
         if depth + 1 >= d.max_depth {

@@ -180,7 +180,7 @@ pub fn seen_emission(
         let it = scene.interaction(&ray, &hit);
         if !scene.passes(&it, &ray) {
             return match scene.area_light(&it) {
-                Some((_, area)) => tr * area.le(it.ng, -ray.d),
+                Some((_, area)) => tr * area.le(&it, -ray.d),
                 None => Rgb::ZERO,
             };
         }

@@ -45,7 +45,7 @@ pub fn emitted(
     let Some((li, area)) = scene.area_light(it) else {
         return Rgb::ZERO;
     };
-    let le = area.le(it.ng, -d);
+    let le = area.le(it, -d);
     if le == Rgb::ZERO || specular {
         return le;
     }

@@ -81,7 +81,7 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
             Step::Scatter { .. } | Step::End => break,
         };
         if let Some((_, area)) = scene.area_light(&it) {
-            l += walk.beta * area.le(it.ng, -ray.d);
+            l += walk.beta * area.le(&it, -ray.d);
         }
         let frame = Frame::from_normal(it.ns);
         let wo = frame.to_local(-ray.d);

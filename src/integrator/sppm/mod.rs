@@ -377,7 +377,7 @@ impl PhotonMapper {
                 Step::Scatter { .. } | Step::End => return out,
             };
             if let Some((_, area)) = scene.area_light(&it) {
-                out.l += beta * area.le(it.ng, -ray.d);
+                out.l += beta * area.le(&it, -ray.d);
             }
             if depth + 1 >= self.s.max_depth {
                 return out;

@@ -116,6 +116,19 @@ impl Texture {
         }
     }
 
+    /// Whether every value is finite and not negative, as an emitter's radiance
+    /// must be (constants and scales are checked with the scene file; images here).
+    pub fn is_valid_radiance(&self) -> bool {
+        match self {
+            Texture::Constant(_) => true,
+            Texture::Bitmap(b) => b.texels.is_valid_radiance(),
+            Texture::Checkerboard { color0, color1, .. } => {
+                color0.is_valid_radiance() && color1.is_valid_radiance()
+            }
+            Texture::Scale { inner, .. } => inner.is_valid_radiance(),
+        }
+    }
+
     /// Largest value any channel takes anywhere (for energy checks and bounds).
     pub fn max_value(&self) -> f32 {
         match self {

@@ -71,6 +71,15 @@ impl Texels {
         }
     }
 
+    /// Whether every sample is finite and not negative (8-bit samples always are),
+    /// as radiance must be.
+    pub fn is_valid_radiance(&self) -> bool {
+        match &self.samples {
+            Samples::Bytes { .. } => true,
+            Samples::Floats(data) => data.iter().all(|x| x.is_finite() && *x >= 0.0),
+        }
+    }
+
     /// The largest sample, over every channel.
     pub fn max_value(&self) -> f32 {
         match &self.samples {

@@ -131,8 +131,9 @@ fn area<'a>(n: &'a Node, ctx: &mut Ctx<'a>) -> Result<EmissionDesc> {
         );
     }
     let p = Params::new(n, ctx)?;
+    // A colour or a texture over the shape's (u, v).
     let radiance = p
-        .color("radiance")?
+        .param("radiance", ctx)?
         .ok_or_else(|| n.err("needs a radiance"))?;
     p.finish("an area light")?;
     Ok(EmissionDesc {
