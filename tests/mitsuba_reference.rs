@@ -226,12 +226,6 @@ against_mitsuba! {
     roughplastic, roughplastic_dense: "bsdf-roughplastic", 8;
     roughconductor_ggx, roughconductor_ggx_dense: "bsdf-roughconductor-ggx", 8;
     roughconductor_beckmann, roughconductor_beckmann_dense: "bsdf-roughconductor-beckmann", 8;
-    /// caustic builds the shading frame from the normal alone (src/math/frame.rs,
-    /// `Frame::from_normal`, used by every integrator), so `alpha_u` and `alpha_v`
-    /// lie along arbitrary tangents; Mitsuba's lie along the shape's dp/du (on a
-    /// sphere, src/shapes/sphere.cpp, `si.sh_frame.s = si.dp_du`: along the azimuth).
-    /// The image means agree; the highlights do not (blocks 17 standard errors off).
-    #[ignore = "anisotropic roughness: caustic's tangent frame is not Mitsuba's dp/du"]
     roughconductor_anisotropic, roughconductor_anisotropic_dense:
         "bsdf-roughconductor-anisotropic", 8;
     roughdielectric, roughdielectric_dense: "bsdf-roughdielectric", 8;

@@ -719,16 +719,20 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let mut lights = Vec::new();
     for (i, s) in file.shapes.iter().enumerate() {
         let path = format!("shapes[{i}]");
-        let uv = file.materials[&s.common.material].reads_uv();
+        let desc = &file.materials[&s.common.material];
+        let oriented = super::shading::anisotropic(desc);
+        let uv = desc.reads_uv() || oriented;
         let BuiltShape {
             prims,
             shading,
             uvs,
         } = b.shape(i as u32, &path, s, uv)?;
         let material_index = names[s.common.material.as_str()];
-        // Normal and bump maps need dp/du; other shapes carry nothing more.
-        let tangents = (perturb[material_index as usize].as_ref())
-            .and(uvs.as_ref())
+        // Normal and bump maps and anisotropic roughness need dp/du; other shapes
+        // carry nothing more.
+        let tangents = (perturb[material_index as usize].is_some() || oriented)
+            .then_some(uvs.as_ref())
+            .flatten()
             .map(|t| Tangents::new(&prims, t));
         let mut light_index = None;
         if let Some(e) = &s.common.emission {
@@ -751,6 +755,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
             shading,
             uvs,
             tangents,
+            oriented,
             interior: medium_ref(&s.common.interior),
             exterior: medium_ref(&s.common.exterior),
         });
