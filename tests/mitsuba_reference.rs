@@ -234,6 +234,9 @@ against_mitsuba! {
     conductor, conductor_dense: "bsdf-conductor", 8;
     conductor_named, conductor_named_dense: "bsdf-conductor-named", 8;
     mask, mask_dense: "bsdf-mask", 8;
+    blend, blend_dense: "bsdf-blend", 8;
+    normalmap, normalmap_dense: "bsdf-normalmap", 8;
+    bumpmap, bumpmap_dense: "bsdf-bumpmap", 8;
     /// Mitsuba 3.9.1's checkerboard disagrees with itself: its scalar lookup
     /// (`eval_1`, which the mask's opacity uses) swaps color0 and color1 against its
     /// colour lookup; the importer follows it (`mitsuba::texture::scalar`).
