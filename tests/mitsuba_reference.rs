@@ -226,12 +226,6 @@ against_mitsuba! {
     roughplastic, roughplastic_dense: "bsdf-roughplastic", 8;
     roughconductor_ggx, roughconductor_ggx_dense: "bsdf-roughconductor-ggx", 8;
     roughconductor_beckmann, roughconductor_beckmann_dense: "bsdf-roughconductor-beckmann", 8;
-    /// caustic builds the shading frame from the normal alone (src/math/frame.rs,
-    /// `Frame::from_normal`, used by every integrator), so `alpha_u` and `alpha_v`
-    /// lie along arbitrary tangents; Mitsuba's lie along the shape's dp/du (on a
-    /// sphere, src/shapes/sphere.cpp, `si.sh_frame.s = si.dp_du`: along the azimuth).
-    /// The image means agree; the highlights do not (blocks 17 standard errors off).
-    #[ignore = "anisotropic roughness: caustic's tangent frame is not Mitsuba's dp/du"]
     roughconductor_anisotropic, roughconductor_anisotropic_dense:
         "bsdf-roughconductor-anisotropic", 8;
     roughdielectric, roughdielectric_dense: "bsdf-roughdielectric", 8;
@@ -240,6 +234,9 @@ against_mitsuba! {
     conductor, conductor_dense: "bsdf-conductor", 8;
     conductor_named, conductor_named_dense: "bsdf-conductor-named", 8;
     mask, mask_dense: "bsdf-mask", 8;
+    blend, blend_dense: "bsdf-blend", 8;
+    normalmap, normalmap_dense: "bsdf-normalmap", 8;
+    bumpmap, bumpmap_dense: "bsdf-bumpmap", 8;
     /// Mitsuba 3.9.1's checkerboard disagrees with itself: its scalar lookup
     /// (`eval_1`, which the mask's opacity uses) swaps color0 and color1 against its
     /// colour lookup; the importer follows it (`mitsuba::texture::scalar`).

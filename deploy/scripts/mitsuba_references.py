@@ -58,8 +58,25 @@ def textures():
     }
 
 
+def perturbation_textures():
+    """name -> uint8 image of the normal and bump map scenes: a normal map of bumps
+    tilted differently along x and y (a swapped or flipped tangent shows), and a
+    smooth height field (its bilinear gradient is what bumpmap reads)."""
+    y, x = np.mgrid[0:16, 0:16]
+    a = 0.6 * np.sin(2 * np.pi * x / 8)
+    b = 0.3 * np.cos(2 * np.pi * y / 16) + 0.1
+    n = np.stack([a, b, np.ones_like(a)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    y, x = np.mgrid[0:12, 0:16]
+    h = 0.5 + 0.3 * np.sin(2 * np.pi * x / 16) + 0.15 * np.cos(2 * np.pi * y / 6)
+    return {
+        "normals.png": np.round((n * 0.5 + 0.5) * 255),
+        "height.png": np.round(h * 255)[..., None],
+    }
+
+
 def make_textures():
-    for name, img in textures().items():
+    for name, img in {**textures(), **perturbation_textures()}.items():
         path = ROOT / name
         if not path.exists():
             mi.Bitmap(np.ascontiguousarray(img.astype(np.uint8))).write(str(path))

@@ -247,7 +247,7 @@ impl PathKernel for PtPass<'_> {
         if p.depth + 1 >= self.t.s.max_depth {
             return Some(p.l);
         }
-        let frame = Frame::from_normal(it.ns);
+        let frame = scene.shading_frame(&it);
         let wo = frame.to_local(-p.ray.d);
         let survival = self.t.albedo_survival(&m, p.depth + 1);
         let v = Vertex {

@@ -25,7 +25,7 @@ use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, Ray};
 use crate::light::Light;
-use crate::math::{Frame, Rgb, Rng, Vec3};
+use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Homogeneous;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -294,7 +294,7 @@ impl VolPath {
             if depth + 1 >= self.s.max_depth {
                 break;
             }
-            let frame = Frame::from_normal(it.ns);
+            let frame = scene.shading_frame(&it);
             let wo = frame.to_local(-ray.d);
             if !m.is_delta() && !scene.lights.is_empty() {
                 let at = Origin::Surface {

@@ -64,7 +64,7 @@ impl Perturb {
         let n = match &self.source {
             NormalSource::Map(t) => {
                 let c = t.eval(uv) * 2.0 - Rgb::ONE;
-                let f = tangent_frame(s);
+                let f = tangent_frame(s.ns, s.dpdu);
                 f.s * c.x + f.t * c.y + f.n * c.z
             }
             NormalSource::Bump { height, scale } => {
@@ -93,18 +93,18 @@ impl Perturb {
     }
 }
 
-/// The unperturbed shading frame: x along dp/du made orthogonal to the shading
-/// normal (Mitsuba's `initialize_sh_frame`), an arbitrary basis where dp/du is
-/// degenerate.
-pub fn tangent_frame(s: &SurfaceFrame) -> Frame {
-    let t = (s.dpdu - s.ns * s.ns.dot(s.dpdu)).normalize_or_zero();
+/// The shading frame of normal `ns` on a surface with tangent `dpdu`: x along dp/du
+/// made orthogonal to the normal (Mitsuba's `initialize_sh_frame`), an arbitrary
+/// basis where dp/du is degenerate.
+pub fn tangent_frame(ns: Vec3, dpdu: Vec3) -> Frame {
+    let t = (dpdu - ns * ns.dot(dpdu)).normalize_or_zero();
     if t == Vec3::ZERO || !t.is_finite() {
-        return Frame::from_normal(s.ns);
+        return Frame::from_normal(ns);
     }
     Frame {
         s: t,
-        t: s.ns.cross(t),
-        n: s.ns,
+        t: ns.cross(t),
+        n: ns,
     }
 }
 
@@ -121,10 +121,10 @@ pub struct Shadowed {
 }
 
 impl Shadowed {
-    /// `nested` at a hit whose perturbed shading normal is `ns` and geometric normal
-    /// `ng` (the local frame is `Frame::from_normal(ns)`, as the integrators build it).
-    pub fn new(nested: Material, ng: Vec3, ns: Vec3) -> Shadowed {
-        let reference = Frame::from_normal(ns).to_local(ng);
+    /// `nested` at a hit whose geometric normal is `ng`, evaluated in `frame` (the
+    /// integrators' local frame, about the perturbed shading normal).
+    pub fn new(nested: Material, ng: Vec3, frame: &Frame) -> Shadowed {
+        let reference = frame.to_local(ng);
         Shadowed {
             nested,
             reference,
@@ -284,10 +284,10 @@ mod tests {
             two_sided: false,
         });
         let n = Vec3::new(0.5, 0.0, 1.0).normalize();
-        let s = Shadowed::new(d.clone(), Vec3::Z, n);
+        let f = Frame::from_normal(n);
+        let s = Shadowed::new(d.clone(), Vec3::Z, &f);
         // tan^2 of the normal's tilt is 1/4: a^2 = 1/32.
         assert!((s.alpha2 - 1.0 / 32.0).abs() < 1e-6);
-        let f = Frame::from_normal(n);
         let wo = f.to_local(Vec3::Z);
         let light = Vec3::new(0.6, 0.0, 0.8);
         let wi = f.to_local(light);

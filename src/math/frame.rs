@@ -22,6 +22,36 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// The angle about `n` from `from_normal(n)`'s x axis to this frame's: a frame
+    /// stored as its normal and this number comes back with [`Frame::twisted`].
+    pub fn twist(&self) -> f32 {
+        let base = Frame::from_normal(self.n);
+        self.s.dot(base.t).atan2(self.s.dot(base.s))
+    }
+
+    /// `from_normal(n)` turned by `angle` about `n`; exactly `from_normal(n)` for 0.
+    #[inline(always)]
+    pub fn twisted(n: Vec3, angle: f32) -> Self {
+        let f = Frame::from_normal(n);
+        if angle == 0.0 {
+            f
+        } else {
+            f.turned(angle)
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn turned(self, angle: f32) -> Self {
+        let (sin, cos) = angle.sin_cos();
+        let s = self.s * cos + self.t * sin;
+        Frame {
+            s,
+            t: self.n.cross(s),
+            n: self.n,
+        }
+    }
+
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))

@@ -10,6 +10,7 @@ pub mod load;
 mod media;
 pub mod mitsuba;
 mod param;
+mod shading;
 mod shapes;
 pub mod tangent;
 mod textures;
@@ -28,7 +29,7 @@ use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::texture::Texture;
 use crate::material::textured::{MaterialRef, Textured};
 use crate::material::Material;
-use crate::math::{Rgb, Rng, Vec2, Vec3};
+use crate::math::{Frame, Rgb, Rng, Vec2, Vec3};
 use crate::medium::Medium;
 use error::Result;
 use std::path::Path;
@@ -61,8 +62,11 @@ pub struct ShapeInfo {
     pub shading: Option<shapes::ShadingNormals>,
     /// Texture coordinates, for shapes whose material reads a texture.
     pub uvs: Option<TexCoords>,
-    /// dp/du and dp/dv, for shapes whose material has a normal or bump map.
+    /// dp/du and dp/dv, for shapes whose material has a normal or bump map or is
+    /// anisotropic.
     pub tangents: Option<tangent::Tangents>,
+    /// The material is anisotropic: its shading frame follows dp/du (`shading`).
+    pub oriented: bool,
     /// Medium on the side opposite the normal (index into `Scene::media`).
     pub interior: Option<u32>,
     /// Medium on the side the normal points to.
@@ -555,28 +559,43 @@ impl Scene {
         let s = &self.shapes[it.shape as usize];
         match &s.uvs {
             None => MaterialRef::plain(&self.materials[s.material as usize]),
-            Some(t) => self.material_on(s.material, t.uv(it), it.ng, it.ns),
+            Some(t) => self.material_in(s.material, t.uv(it), it.ng, || self.shading_frame(it)),
         }
     }
 
     /// Material `index` at texture coordinates `uv` on a surface with geometric normal
-    /// `ng` and shading normal `ns` (for stored vertices): [`material_at`], wrapped in
-    /// the shadowing term of its normal or bump map if it has one.
+    /// `ng`, evaluated in the local shading `frame` (for stored vertices):
+    /// [`material_at`], wrapped in the shadowing term of its normal or bump map if it
+    /// has one.
     ///
     /// [`material_at`]: Self::material_at
     #[inline(always)]
-    pub fn material_on(&self, index: u32, uv: Vec2, ng: Vec3, ns: Vec3) -> MaterialRef<'_> {
+    pub fn material_on(&self, index: u32, uv: Vec2, ng: Vec3, frame: &Frame) -> MaterialRef<'_> {
+        self.material_in(index, uv, ng, || *frame)
+    }
+
+    /// [`material_on`](Self::material_on), the frame built only if it is needed.
+    #[inline(always)]
+    fn material_in(
+        &self,
+        index: u32,
+        uv: Vec2,
+        ng: Vec3,
+        frame: impl FnOnce() -> Frame,
+    ) -> MaterialRef<'_> {
         match &self.perturb[index as usize] {
-            Some(p) if p.use_shadowing_function => self.shadowed(index, uv, ng, ns),
+            Some(p) if p.use_shadowing_function => self.shadowed(index, uv, ng, &frame()),
             _ => self.material_at(index, uv),
         }
     }
 
     #[cold]
     #[inline(never)]
-    fn shadowed(&self, index: u32, uv: Vec2, ng: Vec3, ns: Vec3) -> MaterialRef<'_> {
+    fn shadowed(&self, index: u32, uv: Vec2, ng: Vec3, frame: &Frame) -> MaterialRef<'_> {
         let nested = self.material_at(index, uv).clone();
-        MaterialRef::owned(Material::Shadowed(Box::new(Shadowed::new(nested, ng, ns))))
+        MaterialRef::owned(Material::Shadowed(Box::new(Shadowed::new(
+            nested, ng, frame,
+        ))))
     }
 
     /// Material `index` at texture coordinates `uv` (for stored vertices).

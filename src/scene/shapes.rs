@@ -720,7 +720,9 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
     let mut lights = Vec::new();
     for (i, s) in file.shapes.iter().enumerate() {
         let path = format!("shapes[{i}]");
-        let material_uv = file.materials[&s.common.material].reads_uv();
+        let desc = &file.materials[&s.common.material];
+        let oriented = super::shading::anisotropic(desc);
+        let material_uv = desc.reads_uv() || oriented;
         let uv = material_uv || emitters::reads_uv(&s.common.emission);
         let BuiltShape {
             prims,
@@ -728,9 +730,11 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
             uvs,
         } = b.shape(i as u32, &path, s, uv)?;
         let material_index = names[s.common.material.as_str()];
-        // Normal and bump maps need dp/du; other shapes carry nothing more.
-        let tangents = (perturb[material_index as usize].as_ref())
-            .and(uvs.as_ref())
+        // Normal and bump maps and anisotropic roughness need dp/du; other shapes
+        // carry nothing more.
+        let tangents = (perturb[material_index as usize].is_some() || oriented)
+            .then_some(uvs.as_ref())
+            .flatten()
             .map(|t| Tangents::new(&prims, t));
         let light = emitters::area_light(&mut textures, &path, i as u32, &s.common, prims, &uvs)?;
         let light_index = light.map(|l| {
@@ -746,6 +750,7 @@ pub fn compile(file: &SceneFile, base: Option<&Path>, budget: &CompileBudget) ->
             // Only the material reads them here (the light keeps its own).
             uvs: uvs.filter(|_| material_uv),
             tangents,
+            oriented,
             interior: medium_ref(&s.common.interior),
             exterior: medium_ref(&s.common.exterior),
         });

@@ -33,6 +33,9 @@ pub(crate) struct LightVertex {
     pub p_err: Vec3,
     pub ng: Vec3,
     pub ns: Vec3,
+    /// The shading frame's twist about `ns` (`Frame::twisted`): zero unless the
+    /// material is anisotropic.
+    pub twist: f32,
     /// Towards the previous vertex (where the light came from), world space.
     pub wo: Vec3,
     pub throughput: Rgb,
@@ -104,9 +107,9 @@ impl LightVertex {
                 return Scatterer::Medium(m);
             }
         }
-        let frame = Frame::from_normal(self.ns);
+        let frame = Frame::twisted(self.ns, self.twist);
         Scatterer::Surface(Surface {
-            m: (pass.scene).material_on(self.material, self.uv, self.ng, self.ns),
+            m: (pass.scene).material_on(self.material, self.uv, self.ng, &frame),
             frame,
             ng: self.ng,
             wo: frame.to_local(self.wo),
@@ -645,11 +648,12 @@ fn stored<M: Media>(
     d: Vec3,
     scene: &crate::scene::Scene,
 ) -> LightVertex {
-    let (p_err, ng, ns, material, uv) = match v {
-        Vertex::Surface { it, .. } => (
+    let (p_err, ng, ns, twist, material, uv) = match v {
+        Vertex::Surface { it, s, .. } => (
             it.p_err,
             it.ng,
             it.ns,
+            scene.frame_twist(it, &s.frame),
             scene.shapes[it.shape as usize].material,
             scene.uv(it),
         ),
@@ -657,6 +661,7 @@ fn stored<M: Media>(
             Vec3::ZERO,
             Vec3::ZERO,
             Vec3::ZERO,
+            0.0,
             MEDIUM_VERTEX,
             Vec2::ZERO,
         ),
@@ -666,6 +671,7 @@ fn stored<M: Media>(
         p_err,
         ng,
         ns,
+        twist,
         wo: -d,
         throughput: walk.throughput,
         material,

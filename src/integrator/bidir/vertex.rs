@@ -15,7 +15,7 @@ use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
 use crate::material::textured::MaterialRef;
 use crate::material::Mode;
-use crate::math::{Frame, Rgb, Rng, Vec3};
+use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Phase;
 use std::convert::Infallible;
 
@@ -184,7 +184,7 @@ impl<'a, M: Media> Vertex<'a, M> {
         if cos_in < MIN_COS {
             return None;
         }
-        let frame = Frame::from_normal(it.ns);
+        let frame = pass.scene.shading_frame(&it);
         let cont = pass.continuation(&m);
         let s = Surface {
             m,

@@ -15,7 +15,7 @@ use super::medium_walk::{
 use super::nee::{direct_unweighted, Origin};
 use crate::geometry::{spawn_ray, Ray};
 use crate::integrator::RenderStats;
-use crate::math::{Frame, Rgb, Rng};
+use crate::math::{Rgb, Rng};
 use crate::scene::Scene;
 
 /// A density estimate of the radiance scattered towards the camera in media.
@@ -137,7 +137,7 @@ pub fn li<G: MediumGather>(
         if depth + 1 >= d.max_depth {
             break;
         }
-        let frame = Frame::from_normal(it.ns);
+        let frame = scene.shading_frame(&it);
         let wo = frame.to_local(-ray.d);
         if !m.is_delta() {
             let at = Origin::Surface {

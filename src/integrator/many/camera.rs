@@ -10,7 +10,7 @@ use crate::integrator::bidir::extent;
 use crate::integrator::common::camera::{roulette, sample_bsdf, stop_or_follow_delta, Stop};
 use crate::integrator::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;
-use crate::math::{Frame, Rgb, Rng};
+use crate::math::{Rgb, Rng};
 
 /// Specular bounces before Russian roulette on the throughput.
 const RR_DEPTH: u32 = 5;
@@ -83,7 +83,7 @@ pub(super) fn li(g: &Gather, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStat
         if let Some((_, area)) = scene.area_light(&it) {
             l += walk.beta * area.le(&it, -ray.d);
         }
-        let frame = Frame::from_normal(it.ns);
+        let frame = scene.shading_frame(&it);
         let wo = frame.to_local(-ray.d);
         // The gather estimates the continuous lobes; a delta lobe mixed in (plastic's
         // coating) is followed instead with its sampling probability.

@@ -631,7 +631,7 @@ impl Gather<'_> {
         let (y, cos_y, j2) = match walk.next(scene, &mut ray, &mut (), rng, stats) {
             Step::Surface(it, m) if !m.is_delta() => {
                 let cos_y = it.ns.dot(ray.d).abs();
-                let frame = Frame::from_normal(it.ns);
+                let frame = scene.shading_frame(&it);
                 let wo = frame.to_local(-ray.d);
                 let g = cos_x * cos_y / (it.p - x.p()).length_squared();
                 let rw = (1.0 - b / g).max(0.0);
@@ -669,14 +669,14 @@ fn vpl_eval(scene: &Scene, y: &Vpl, v: Vec3) -> Option<(Rgb, f32)> {
             (ph > 0.0).then_some((Rgb::splat(ph), 1.0))
         }
         Some(mi) => {
-            let frame = Frame::from_normal(y.ns);
+            let frame = Frame::twisted(y.ns, y.twist);
             let wi = frame.to_local(v);
             if (v.dot(y.ng) > 0.0) != (wi.z > 0.0) {
                 return None;
             }
             let wo = frame.to_local(y.wo);
             let f = scene
-                .material_on(mi, y.uv, y.ng, y.ns)
+                .material_on(mi, y.uv, y.ng, &frame)
                 .eval_pdfs(wo, wi, Mode::Importance)
                 .0
                 * adjoint_correction(y.ns, y.ng, y.wo, v);

@@ -18,6 +18,8 @@ pub(super) struct Vpl {
     pub p_err: Vec3,
     pub ng: Vec3,
     pub ns: Vec3,
+    /// The shading frame's twist about `ns` (`Frame::twisted`).
+    pub twist: f32,
     /// Towards where the light came from.
     pub wo: Vec3,
     pub beta: Rgb,
@@ -39,6 +41,7 @@ impl Vpl {
             p_err: v.p_err,
             ng: v.ng,
             ns: v.ns,
+            twist: v.twist,
             wo: v.wo,
             beta: v.throughput * inv_paths,
             material: scatters.is_none().then_some(v.material),

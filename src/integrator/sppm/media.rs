@@ -114,7 +114,7 @@ impl PhotonMapper {
                     if depth + 3 > max_depth {
                         return;
                     }
-                    let Some((wi, weight)) = photon_bounce(&it, &m, -ray.d, rng) else {
+                    let Some((wi, weight)) = photon_bounce(scene, &it, &m, -ray.d, rng) else {
                         return;
                     };
                     let old = walk.beta;

@@ -382,7 +382,7 @@ impl PhotonMapper {
             if depth + 1 >= self.s.max_depth {
                 return out;
             }
-            let frame = Frame::from_normal(it.ns);
+            let frame = scene.shading_frame(&it);
             let wo = frame.to_local(-ray.d);
             // A visible point estimates the continuous lobes; a delta lobe mixed in
             // (plastic's coating) is followed instead with its sampling probability.
@@ -477,7 +477,7 @@ impl PhotonMapper {
             if depth + 3 > max_depth {
                 return;
             }
-            let frame = Frame::from_normal(it.ns);
+            let frame = scene.shading_frame(&it);
             let wo = frame.to_local(wo_world);
             let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance) else {
                 return;
@@ -591,7 +591,7 @@ impl PhotonMapper {
         r: f32,
         acc: &mut Gathered,
     ) {
-        let m = scene.material_on(vp.material, vp.uv, vp.ng, vp.frame.n);
+        let m = scene.material_on(vp.material, vp.uv, vp.ng, &vp.frame);
         let r2 = r * r;
         let mut phi = Rgb::ZERO;
         map.grid.query_in(vp.p, &map.data, |ph, d2| {

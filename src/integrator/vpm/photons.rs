@@ -11,7 +11,7 @@ use crate::integrator::common::medium_walk::{MediumWalk, Segment, Step};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::material::{Material, Mode};
-use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
+use crate::math::{max_component, Rgb, Rng, Vec3};
 use crate::scene::Scene;
 use rayon::prelude::*;
 
@@ -117,7 +117,7 @@ impl Vpm {
                     if walk.depth + 3 > self.s.max_depth {
                         return;
                     }
-                    let Some((wi, weight)) = photon_bounce(&it, &m, -ray.d, rng) else {
+                    let Some((wi, weight)) = photon_bounce(scene, &it, &m, -ray.d, rng) else {
                         return;
                     };
                     if !walk.scatter(weight, rng) {
@@ -186,12 +186,13 @@ pub(super) fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32
 /// the adjoint correction for shading normals |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)
 /// (Veach 1997, eq. (5.17)).
 pub(crate) fn photon_bounce(
+    scene: &Scene,
     it: &Interaction,
     m: &Material,
     wo_world: Vec3,
     rng: &mut Rng,
 ) -> Option<(Vec3, Rgb)> {
-    let frame = Frame::from_normal(it.ns);
+    let frame = scene.shading_frame(it);
     let wo = frame.to_local(wo_world);
     let s = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance)?;
     let wi = frame.to_world(s.wi.into());
