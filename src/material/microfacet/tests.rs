@@ -109,7 +109,8 @@ fn beckmann_speed() {
     };
     let (sample, a) = time(&|i| {
         let w = views[i % views.len()];
-        m.sample_visible(std::hint::black_box(w), us[i % us.len()]).z
+        m.sample_visible(std::hint::black_box(w), us[i % us.len()])
+            .z
     });
     let (g1, b) = time(&|i| {
         let w = views[i % views.len()];
