@@ -22,7 +22,7 @@ const U_EDGE: f32 = 1e-7;
 /// step, which it has already paid for).
 const TOLERANCE: f32 = 1e-4;
 /// Bound on the iterations; from the fitted guess three or fewer are the rule (over the
-/// test grid of views and u: one in 2 %, two in 48 %, three in 50 %).
+/// test grid of views and u: one in 3 %, two in 47 %, three in 50 %).
 const MAX_STEPS: usize = 12;
 
 /// D(m) = exp(-(x^2/au^2 + y^2/av^2) / z^2) / (pi au av z^4), for m.z > 0.
