@@ -66,12 +66,7 @@ impl RoughPlastic {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let (c, d) = (&self.coating, &self.distribution);
-        let m = (wo + wi).normalize();
-        let f = fresnel::dielectric(wo.dot(m), c.eta).0;
-        let spec = c.specular_reflectance * (f * d.d(m) * d.g(wo, wi, m) / (4.0 * wo.z));
-        let t = self.t(wo.z) * self.t(wi.z);
-        spec + c.base(self.internal) * (t * c.inv_eta2() * INV_PI * wi.z)
+        self.eval_upper(wo, wi).0
     }
 
     /// The specular lobe's visible-normal density through the reflection Jacobian,
@@ -81,11 +76,33 @@ impl RoughPlastic {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p = self.coating.prob_specular(1.0 - self.t(wo.z));
         let m = (wo + wi).normalize();
+        let d = &self.distribution;
+        self.pdf_given(wo, wi, m, d.g1(wo, m), d.d(m))
+    }
+
+    /// f cos_i for wo.z, wi.z > 0, with the half vector, G1(wo, m) and D(m), which
+    /// `pdf_given` reuses when `sample` needs both.
+    #[inline]
+    fn eval_upper(&self, wo: Vec3, wi: Vec3) -> (Rgb, Vec3, f32, f32) {
+        let (c, d) = (&self.coating, &self.distribution);
+        let m = (wo + wi).normalize();
+        let (dm, g1_o) = (d.d(m), d.g1(wo, m));
+        let f = fresnel::dielectric(wo.dot(m), c.eta).0;
+        let spec = c.specular_reflectance * (f * dm * (g1_o * d.g1(wi, m)) / (4.0 * wo.z));
+        let t = self.t(wo.z) * self.t(wi.z);
+        let value = spec + c.base(self.internal) * (t * c.inv_eta2() * INV_PI * wi.z);
+        (value, m, g1_o, dm)
+    }
+
+    /// `pdf` for wo.z, wi.z > 0, from the half vector, G1(wo, m) and D(m).
+    #[inline]
+    fn pdf_given(&self, wo: Vec3, wi: Vec3, m: Vec3, g1_o: f32, dm: f32) -> f32 {
+        let p = self.coating.prob_specular(1.0 - self.t(wo.z));
         let dot = wo.dot(m);
         let spec = if dot > 0.0 {
-            self.distribution.pdf_visible(wo, m) / (4.0 * dot)
+            // The visible-normal density, as `Microfacet::pdf_visible` forms it.
+            g1_o * dot * dm / wo.z / (4.0 * dot)
         } else {
             0.0
         };
@@ -103,13 +120,17 @@ impl RoughPlastic {
         } else {
             square_to_cosine_hemisphere(u)
         };
-        let pdf = self.pdf(wo, wi);
-        if wi.z <= 0.0 || pdf <= 0.0 {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let (value, m, g1_o, dm) = self.eval_upper(wo, wi);
+        let pdf = self.pdf_given(wo, wi, m, g1_o, dm);
+        if pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
             wi: wi.into(),
-            weight: (self.eval(wo, wi) / pdf).into(),
+            weight: (value / pdf).into(),
             pdf,
             delta: false,
         })

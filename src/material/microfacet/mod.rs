@@ -7,6 +7,7 @@
 
 pub mod albedo;
 mod beckmann;
+mod erf;
 mod ggx;
 
 use crate::math::{Vec2, Vec3};

@@ -82,3 +82,39 @@ fn smooth_below_threshold_and_clamped_above() {
     assert!(!r.is_smooth());
     assert_eq!(r.alpha_u, MIN_ALPHA);
 }
+
+/// Speed of Beckmann visible-normal sampling and masking, in ns per call over a spread
+/// of incident angles (a measurement, not a check): `cargo test --release --lib
+/// microfacet::tests::beckmann_speed -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn beckmann_speed() {
+    let m = Microfacet::new(Distribution::Beckmann, 0.15, 0.15);
+    let views: Vec<Vec3> = (0..64)
+        .map(|i| {
+            let c = (i as f32 + 0.5) / 64.0;
+            Vec3::new((1.0 - c * c).sqrt(), 0.0, c)
+        })
+        .collect();
+    let mut rng = crate::math::Rng::new(3, 0, 0);
+    let us: Vec<Vec2> = (0..4096).map(|_| rng.next_2d()).collect();
+    let n = 2_000_000;
+    let time = |f: &dyn Fn(usize) -> f32| {
+        let start = std::time::Instant::now();
+        let mut acc = 0.0f32;
+        for i in 0..n {
+            acc += f(i);
+        }
+        (start.elapsed().as_nanos() as f64 / n as f64, acc)
+    };
+    let (sample, a) = time(&|i| {
+        let w = views[i % views.len()];
+        m.sample_visible(std::hint::black_box(w), us[i % us.len()])
+            .z
+    });
+    let (g1, b) = time(&|i| {
+        let w = views[i % views.len()];
+        m.g1(std::hint::black_box(w), Vec3::Z)
+    });
+    println!("beckmann sample_visible {sample:.1} ns, g1 {g1:.1} ns (checksums {a} {b})");
+}
