@@ -91,7 +91,7 @@ impl AreaLight {
         }
         match &self.textured {
             None => self.radiance,
-            Some(t) => t.at_hit(it),
+            Some(t) => t.at_hit(*it),
         }
     }
 

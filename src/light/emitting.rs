@@ -16,10 +16,11 @@ pub(super) struct Emitting {
 }
 
 impl Emitting {
-    /// Radiance at a hit on the light's shape.
+    /// Radiance at a hit on the light's shape (the hit by value, so that the callers'
+    /// kernels never take its address: see `Scene::material`).
     #[inline(never)]
-    pub fn at_hit(&self, it: &Interaction) -> Rgb {
-        self.texture.eval(self.uvs.uv(it))
+    pub fn at_hit(&self, it: Interaction) -> Rgb {
+        self.texture.eval(self.uvs.uv(&it))
     }
 
     /// Radiance at the point `p` that `AreaLight::point_on(i, u)` placed on

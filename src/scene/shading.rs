@@ -45,7 +45,7 @@ impl Scene {
     #[inline(always)]
     pub fn shading_frame(&self, it: &Interaction) -> Frame {
         if self.shapes[it.shape as usize].oriented {
-            self.oriented_frame(it)
+            self.oriented_frame(*it)
         } else {
             Frame::from_normal(it.ns)
         }
@@ -65,9 +65,9 @@ impl Scene {
 
     #[cold]
     #[inline(never)]
-    fn oriented_frame(&self, it: &Interaction) -> Frame {
+    fn oriented_frame(&self, it: Interaction) -> Frame {
         match &self.shapes[it.shape as usize].tangents {
-            Some(t) => tangent_frame(it.ns, t.at(it).0),
+            Some(t) => tangent_frame(it.ns, t.at(&it).0),
             None => Frame::from_normal(it.ns),
         }
     }
