@@ -569,9 +569,8 @@ impl Scene {
     /// box, with 1 % more instructions).
     #[inline(never)]
     fn material_with_uv(&self, it: Interaction) -> MaterialRef<'_> {
-        let s = &self.shapes[it.shape as usize];
-        let uv = s.uvs.as_ref().map_or(Vec2::ZERO, |t| t.uv(&it));
-        self.material_in(s.material, uv, it.ng, || self.shading_frame(&it))
+        let material = self.shapes[it.shape as usize].material;
+        self.material_in(material, self.uv(&it), it.ng, || self.shading_frame(&it))
     }
 
     /// Material `index` at texture coordinates `uv` on a surface with geometric normal
