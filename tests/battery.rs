@@ -2994,11 +2994,11 @@ fn bad_request_battery() {
             let settings =
                 caustic::integrator::Settings::resolve(None, None, &serde_json::Map::new())
                     .unwrap();
-            let direct = caustic::integrator::driver::render(
+            let direct = caustic::integrator::drive::render(
                 &compiled,
                 settings.build().as_ref(),
                 LONG_SEED,
-                caustic::integrator::driver::Halt {
+                caustic::integrator::drive::Halt {
                     iterations: Some(LONG_SPP),
                     time: None,
                 },

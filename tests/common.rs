@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use caustic::film::Film;
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::Settings;
 use caustic::scene::{load::parse_scene, Scene};
 
@@ -19,7 +19,7 @@ pub fn settings(alg: &str, params: serde_json::Value) -> Settings {
 /// Renders `spp` iterations and returns the film (sums) and the iteration count.
 pub fn render(scene: &Scene, s: &Settings, seed: u64, spp: u64) -> (Film, u64) {
     let integ = s.build();
-    let out = driver::render(
+    let out = drive::render(
         scene,
         integ.as_ref(),
         seed,

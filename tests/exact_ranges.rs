@@ -1,10 +1,10 @@
 //! A job's exact sums do not depend on how its iterations are grouped into ranges or
-//! in which order the ranges are added (film::exact, driver::iterate_exact): what lets
+//! in which order the ranges are added (film::exact, drive::iterate_exact): what lets
 //! a pool of workers render the same image, bit for bit, as one process.
 
 mod common;
 use caustic::film::{ExactSums, Film};
-use caustic::integrator::driver::iterate_exact;
+use caustic::integrator::drive::iterate_exact;
 use caustic::integrator::Integrator;
 use caustic::scene::Scene;
 use common::*;

@@ -6,7 +6,7 @@
 
 mod common;
 use caustic::film::{ExactSums, Film, Filter};
-use caustic::integrator::driver::iterate_exact;
+use caustic::integrator::drive::iterate_exact;
 use caustic::integrator::Integrator;
 use caustic::scene::format::FilterDesc;
 use caustic::scene::{load::parse_scene, Scene};

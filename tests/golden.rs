@@ -9,7 +9,7 @@
 //! `CAUSTIC_GOLDEN_WRITE=1 cargo test --release --test golden` and say in the commit
 //! which images changed and why.
 
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::{Settings, ALGORITHMS};
 use caustic::scene::Scene;
 use sha2::{Digest, Sha256};
@@ -64,7 +64,7 @@ fn render(scene: &Scene, algorithm: &str) -> String {
         iterations: Some(ITERATIONS),
         time: None,
     };
-    let out = driver::render(scene, settings.build().as_ref(), SEED, halt, |_, _| {});
+    let out = drive::render(scene, settings.build().as_ref(), SEED, halt, |_, _| {});
     let mut h = Sha256::new();
     for p in out.film.sums() {
         for c in p {

@@ -208,11 +208,11 @@ fn job_runs_to_completion_with_events_images_and_log() {
     let scene = caustic::scene::Scene::compile(&file, None).unwrap();
     let settings =
         caustic::integrator::Settings::resolve(Some("pt"), None, &Default::default()).unwrap();
-    let out = caustic::integrator::driver::render(
+    let out = caustic::integrator::drive::render(
         &scene,
         settings.build().as_ref(),
         3,
-        caustic::integrator::driver::Halt {
+        caustic::integrator::drive::Halt {
             iterations: Some(6),
             time: None,
         },

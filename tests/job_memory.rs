@@ -13,7 +13,7 @@
 
 mod common;
 
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::memory::{human, Estimate};
 use caustic::integrator::Settings;
 use caustic::job::{JobSpec, Service, ServiceConfig};
@@ -99,7 +99,7 @@ fn peak_since(before: usize) -> u64 {
 fn render_peak(scene: &Scene, s: &Settings, iterations: u64) -> u64 {
     let before = begin();
     let integrator = s.build();
-    let out = driver::render(
+    let out = drive::render(
         scene,
         integrator.as_ref(),
         1,

@@ -92,7 +92,7 @@ fn smoke_room_every_method_agrees_with_volpath() {
     // ray lights diverges (the streaks of the VRL thesis). Its noise estimate is then
     // no bound, and in this dense smoke the mean of 200 iterations sits ~10% low in
     // the brightest blocks. Its estimator is checked against quadrature on a fixed
-    // pair (`integrator::vrl::tests::estimates`) and in full on the thinner scenes.
+    // pair (`integrator::many::vrl::tests::estimates`) and in full on the thinner scenes.
     let cases: Vec<_> = every_method(200)
         .into_iter()
         .filter(|(_, p, _)| p["sampler"] != "uniform")
@@ -115,7 +115,7 @@ fn point_light_in_an_unbounded_medium_every_method_agrees_with_volpath() {
 #[test]
 fn vbl_tends_to_vrl_as_the_radius_shrinks() {
     // A beam averages the ray light's transport over a disk of offsets
-    // (`integrator::vrl::beam`); with a vanishing radius it is the ray light, block by
+    // (`integrator::many::vrl::beam`); with a vanishing radius it is the ray light, block by
     // block, through both offset densities (uniform volume to volume, polar about the
     // point volume to surface, whose weights must average to one).
     let scene = shipped("fog-cornell");

@@ -24,7 +24,7 @@
 //! failed before its fix).
 
 use caustic::film::{write_bytes_atomic, write_exr, Film, Image};
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::{Settings, ALGORITHMS};
 use caustic::math::Rgb;
 use caustic::scene::{load::parse_scene, Scene};
@@ -1204,7 +1204,7 @@ fn panic_text(e: Box<dyn std::any::Any + Send>) -> String {
 fn render2(scene: &Scene, s: &Settings, seed: u64) -> Result<Film, String> {
     catch_unwind(AssertUnwindSafe(|| {
         let integrator = s.build();
-        driver::render(
+        drive::render(
             scene,
             integrator.as_ref(),
             seed,

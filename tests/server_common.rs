@@ -213,11 +213,11 @@ pub fn direct_render(
         params.as_object().unwrap_or(&empty),
     )
     .unwrap();
-    caustic::integrator::driver::render(
+    caustic::integrator::drive::render(
         &compiled,
         settings.build().as_ref(),
         seed,
-        caustic::integrator::driver::Halt {
+        caustic::integrator::drive::Halt {
             iterations: Some(iterations),
             time: None,
         },

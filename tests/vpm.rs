@@ -9,7 +9,7 @@ mod common;
 mod stats;
 
 use caustic::film::Film;
-use caustic::integrator::vpm::{radius_schedule, Estimate};
+use caustic::integrator::photon::vpm::{radius_schedule, Estimate};
 use caustic::integrator::{RenderStats, Settings};
 use caustic::scene::Scene;
 use common::*;

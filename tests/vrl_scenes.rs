@@ -11,7 +11,7 @@ mod common;
 mod stats;
 
 use caustic::geometry::Ray;
-use caustic::integrator::common::nee::{direct_unweighted, Origin};
+use caustic::integrator::transport::nee::{direct_unweighted, Origin};
 use caustic::integrator::RenderStats;
 use caustic::light::Light;
 use caustic::math::{Frame, Rng, Vec2, Vec3};

@@ -6,7 +6,7 @@ use super::render::{load_scene, progress_bar, render_with_progress, show_progres
 use anyhow::{bail, Context, Result};
 use caustic::client::parse_params;
 use caustic::film;
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::Settings;
 use caustic::scene::Scene;
 use std::time::Duration;
@@ -60,7 +60,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     for (label, settings) in all {
         // Each algorithm's own peak: the scene, plus what its iterations allocate.
         caustic::bench::reset_peak_rss();
-        driver::render(
+        drive::render(
             &scene,
             settings.build().as_ref(),
             1,
@@ -76,7 +76,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
             // A fresh integrator per run: algorithms with state start over.
             let integrator = settings.build();
             let sw = caustic::bench::Stopwatch::start();
-            let out = driver::render(
+            let out = drive::render(
                 &scene,
                 integrator.as_ref(),
                 r as u64,

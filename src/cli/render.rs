@@ -5,7 +5,7 @@ use super::args::{ReferenceArgs, RenderArgs};
 use anyhow::{Context, Result};
 use caustic::client::parse_params;
 use caustic::film::{self, Image};
-use caustic::integrator::driver::{self, Halt};
+use caustic::integrator::drive::{self, Halt};
 use caustic::integrator::{RenderStats, Settings};
 use caustic::scene::Scene;
 use caustic::tev::TevClient;
@@ -126,14 +126,14 @@ pub fn show_progress(bar: &ProgressBar, by_count: bool, i: u64, elapsed: Duratio
     bar.set_message(format!("{i} it"));
 }
 
-/// `driver::render` with a progress bar on stderr.
+/// `drive::render` with a progress bar on stderr.
 pub fn render_with_progress(
     scene: &Scene,
     settings: &Settings,
     seed: u64,
     halt: Halt,
     label: &str,
-) -> driver::RenderOutcome {
+) -> drive::RenderOutcome {
     render_streamed(scene, settings, seed, halt, label, None)
 }
 
@@ -149,12 +149,12 @@ fn render_streamed(
     halt: Halt,
     label: &str,
     tev: Option<&TevClient>,
-) -> driver::RenderOutcome {
+) -> drive::RenderOutcome {
     let integrator = settings.build();
     let bar = progress_bar(halt, label);
     let by_count = halt.iterations.is_some();
     let mut sent: Option<Duration> = None;
-    let out = driver::render_observed(scene, integrator.as_ref(), seed, halt, |p| {
+    let out = drive::render_observed(scene, integrator.as_ref(), seed, halt, |p| {
         show_progress(&bar, by_count, p.iterations, p.elapsed);
         if let Some(t) = tev {
             if sent.is_none_or(|s| p.elapsed >= s + TEV_EVERY) {
@@ -212,7 +212,7 @@ fn write_outputs(
     let aovs;
     if a.exr_layers {
         let aov = |s: Settings| {
-            driver::render(
+            drive::render(
                 scene,
                 s.build().as_ref(),
                 a.seed,

@@ -1,9 +1,9 @@
 //! Debug views: shading normals and albedo at the first visible surface.
 
 use super::memory::{Estimate, Facts};
-use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
+use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::math::Rgb;
 use crate::scene::Scene;
 

@@ -23,7 +23,7 @@
 //! allocates at its peak, for every algorithm.
 
 use super::bidir::{Bidir, BidirSettings, Technique};
-use super::ppb::beams::{collect, BeamForm};
+use crate::integrator::estimators::beams::{collect, BeamForm};
 use crate::scene::Scene;
 use std::cell::RefCell;
 
@@ -270,7 +270,7 @@ fn pilot(scene: &Scene, max_depth: u32, roulette: bool) -> Walk {
             }
         }
         w.segments = store.segments().count() as f64;
-        let piece = scene.sphere.radius * super::ppb::PIECE;
+        let piece = scene.sphere.radius * crate::integrator::estimators::beams::PIECE;
         let mut out = Vec::new();
         for form in [BeamForm::Short, BeamForm::Long] {
             let segments = store.segments().copied();

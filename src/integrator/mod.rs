@@ -5,24 +5,21 @@
 //! iteration i depends only on (scene, settings, seed, i), so iterations can run
 //! anywhere, in any order, and be summed. The image is sum / iterations.
 
-pub mod accel;
 pub mod bidir;
-pub mod common;
 mod debug;
-pub mod driver;
+pub mod drive;
+pub mod estimators;
 pub mod many;
 pub mod memory;
-mod pixels;
-pub mod ppb;
+pub mod photon;
 pub mod pt;
-pub mod sppm;
+pub mod transport;
 pub mod volpath;
-pub mod vpm;
-pub mod vrl;
 
 use crate::film::Film;
 use crate::scene::Scene;
 use bidir::Technique;
+use photon::{ppb, sppm, vpm};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -2,15 +2,15 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
-use super::common::camera::sample_bsdf;
-use super::common::nee::{sample_light, Origin};
-use super::common::{emitted, escaped, Heuristic};
 use super::memory::{Estimate, Facts};
-use super::pixels::{render_paths, tile_memory, PathKernel};
 use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::integrator::drive::pixels::{render_paths, tile_memory, PathKernel};
+use crate::integrator::transport::camera::sample_bsdf;
+use crate::integrator::transport::nee::{sample_light, Origin};
+use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::material::Material;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
 use crate::scene::{Scene, Surfacing};

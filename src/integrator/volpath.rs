@@ -11,19 +11,19 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
-use super::common::camera::{roulette, sample_bsdf};
-use super::common::equiangular::EquiAngular;
-use super::common::medium_walk::{
-    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
-};
-use super::common::nee::{sample_light, Origin};
-use super::common::{emitted, escaped, Heuristic};
 use super::memory::{Estimate, Facts};
-use super::pixels::{render_pixels, tile_memory};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, Ray};
+use crate::integrator::drive::pixels::{render_pixels, tile_memory};
+use crate::integrator::transport::camera::{roulette, sample_bsdf};
+use crate::integrator::transport::equiangular::EquiAngular;
+use crate::integrator::transport::medium_walk::{
+    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
+};
+use crate::integrator::transport::nee::{sample_light, Origin};
+use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::light::Light;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Homogeneous;

@@ -16,7 +16,7 @@ use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, Snapsho
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::JobError;
 use crate::film::{self, ExactSums, Film, Image};
-use crate::integrator::driver::iterate_exact;
+use crate::integrator::drive::iterate_exact;
 use crate::integrator::{Integrator, RenderStats, Settings};
 use crate::scene::Scene;
 use std::path::PathBuf;

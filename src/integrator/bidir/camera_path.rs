@@ -10,9 +10,9 @@ use super::vertex::{Media, MediumPoint, Vertex};
 use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
-use crate::integrator::common::medium_walk::{seen_emission, sees_emission};
-use crate::integrator::common::nee::pick_light;
-use crate::integrator::pixels::PathKernel;
+use crate::integrator::drive::pixels::PathKernel;
+use crate::integrator::transport::medium_walk::{seen_emission, sees_emission};
+use crate::integrator::transport::nee::pick_light;
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
@@ -21,7 +21,7 @@ use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The camera pass of one iteration, as
-/// [`render_paths`](crate::integrator::pixels::render_paths) drives it: `M` says whether
+/// [`render_paths`](crate::integrator::drive::pixels::render_paths) drives it: `M` says whether
 /// the scene has media (decided once per pass).
 pub(super) struct CameraPass<'a, M> {
     pass: &'a Pass<'a>,

@@ -9,10 +9,10 @@ use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, W
 use super::walk::{Eval, Surface, Walk};
 use super::{MergeSet, Pass, Splat, Workspace};
 use crate::geometry::{spawn_ray_to, Ray};
-use crate::integrator::accel::{huge, HashGrid};
-use crate::integrator::common::emit::{sample_emission, LightStart};
-use crate::integrator::common::{Stream, PATHS_PER_TASK};
+use crate::integrator::estimators::{huge, HashGrid};
 use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimate};
+use crate::integrator::transport::emit::{sample_emission, LightStart};
+use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;

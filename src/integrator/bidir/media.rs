@@ -12,7 +12,7 @@ use super::segments::SegmentSink;
 use super::vertex::Media;
 use super::walk::Walk;
 use crate::geometry::{Interaction, Ray};
-use crate::integrator::common::medium_walk::{MediumWalk, Segment, Segments, Step};
+use crate::integrator::transport::medium_walk::{MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;
 use crate::material::textured::MaterialRef;
 

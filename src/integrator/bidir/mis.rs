@@ -43,7 +43,7 @@
 //! heterogeneous media ranks merging against connecting less well, still unbiased.) T is clamped below at exp(-MAX_MIS_DEPTH) so
 //! that 1 / T stays finite under the power heuristic's squares.
 
-use crate::integrator::common::Heuristic;
+use crate::integrator::transport::Heuristic;
 use crate::math::Vec3;
 
 /// Where a merge estimator can sit. Each site has its own kernel, whose normalisation

@@ -26,11 +26,12 @@ mod segments;
 mod vertex;
 mod walk;
 
-use super::accel::HashGrid;
-use super::pixels::{film_sample, render_paths};
-use super::vpm::radius_schedule;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
+use crate::integrator::drive::pixels::{film_sample, render_paths};
+use crate::integrator::estimators::HashGrid;
+use crate::integrator::transport::light_paths::light_path_count;
+use crate::integrator::transport::radius::radius_schedule;
 use crate::material::Material;
 use crate::math::{max_component, Rgb, Vec3};
 use crate::scene::Scene;
@@ -194,7 +195,7 @@ impl Bidir {
         let t = self.technique;
         let n = light_paths as f32;
         // Point x point 3D, point x beam 2D and beam x beam 1D: the schedule of their
-        // kernel's dimension, from the iteration index (vpm::radius_schedule).
+        // kernel's dimension, from the iteration index (transport::radius).
         let volume = |r: Option<f32>, factor: f32, alpha: f32, k: u32| {
             let r0 = r.unwrap_or(factor * scene.sphere.radius);
             radius_schedule(r0, alpha, k, iteration)
@@ -329,11 +330,6 @@ fn add_layer_values(
             film.add_layer_sample(&scene.filter, id, (x, y, p), v);
         }
     }
-}
-
-/// Light paths per iteration: `multiple` x the pixel count, at least one.
-pub(crate) fn light_path_count(pixels: usize, multiple: f32) -> usize {
-    ((pixels as f64 * multiple as f64).round() as usize).max(1)
 }
 
 /// Light paths whose segments become photon beams (`upbp`'s `beam_paths`).

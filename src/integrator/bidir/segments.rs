@@ -9,7 +9,7 @@
 //! store never depends on the thread count.
 
 use super::mis::Partial;
-use crate::integrator::common::medium_walk::Segment;
+use crate::integrator::transport::medium_walk::Segment;
 use crate::math::{Rgb, Vec3};
 use crate::medium::Medium;
 

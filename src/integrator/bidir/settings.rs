@@ -5,11 +5,11 @@ use super::beams::BeamStore;
 use super::light_path::{store_memory, StorePlan};
 use super::mis::Merge;
 use super::MergeSet;
-use crate::integrator::common::params::check_radius;
-use crate::integrator::common::Heuristic;
+use crate::integrator::drive::pixels::tile_memory;
+use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
-use crate::integrator::pixels::tile_memory;
-use crate::integrator::ppb::beams::BeamForm;
+use crate::integrator::transport::params::check_radius;
+use crate::integrator::transport::Heuristic;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicU32;
 
@@ -359,7 +359,10 @@ impl BidirSettings {
     pub fn memory(&self, technique: Technique, facts: &Facts) -> Estimate {
         let mut e = Estimate::default();
         let has_media = facts.scene.has_media;
-        let paths = super::light_path_count(facts.pixels() as usize, self.light_paths);
+        let paths = crate::integrator::transport::light_paths::light_path_count(
+            facts.pixels() as usize,
+            self.light_paths,
+        );
         let driver = paths_driver(Some(self.light_paths), paths, facts);
         let walk = facts.walk(self.max_depth, self.russian_roulette);
         let plan = StorePlan {

@@ -4,7 +4,7 @@
 use super::mis::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::integrator::common::adjoint::adjoint_correction;
+use crate::integrator::transport::adjoint::adjoint_correction;
 use crate::material::textured::MaterialRef;
 use crate::material::Mode;
 use crate::math::{Frame, Rgb, Rng, Vec3};

@@ -26,15 +26,15 @@
 use super::lights::{Lights, Picker, RayLight, Vpl};
 use crate::geometry::offset::SHADOW_EPSILON;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::integrator::accel::light_tree::Query;
-use crate::integrator::common::adjoint::adjoint_correction;
-use crate::integrator::common::camera::sample_bsdf;
-use crate::integrator::common::equiangular::EquiAngular;
-use crate::integrator::common::medium_walk::{MediumWalk, Step};
-use crate::integrator::common::nee::{direct_unweighted, Origin};
-use crate::integrator::vrl::{
+use crate::integrator::estimators::light_tree::Query;
+use crate::integrator::many::vrl::{
     Beam, BeamOffset, Distance, Exponential, Pair, PairMedia, Phases, Sampler, Segment,
 };
+use crate::integrator::transport::adjoint::adjoint_correction;
+use crate::integrator::transport::camera::sample_bsdf;
+use crate::integrator::transport::equiangular::EquiAngular;
+use crate::integrator::transport::medium_walk::{MediumWalk, Step};
+use crate::integrator::transport::nee::{direct_unweighted, Origin};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::{Material, Mode};

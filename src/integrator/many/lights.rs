@@ -2,11 +2,11 @@
 //! point lights at light-subpath vertices, ray lights along their segments through
 //! media, and the distributions gathers draw them from.
 
-use crate::integrator::accel::light_tree::{Emitter, LightTree, Query};
 use crate::integrator::bidir::{extent, LightSegment, LightStore, LightVertex};
-use crate::integrator::common::Stream;
+use crate::integrator::estimators::light_tree::{Emitter, LightTree, Query};
+use crate::integrator::many::vrl::Segment;
 use crate::integrator::memory::{array, refilled};
-use crate::integrator::vrl::Segment;
+use crate::integrator::transport::Stream;
 use crate::math::{max_component, Rgb, Vec2, Vec3};
 use crate::scene::Scene;
 

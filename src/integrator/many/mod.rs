@@ -30,7 +30,7 @@
 //! normalised 2D kernel across the beam). A gather estimates it by displacing the ray
 //! light by one offset v drawn in the disk with density p(v) and multiplying the
 //! ray-light estimate on the displaced line by (1 / (pi r^2)) / p(v)
-//! ([`super::vrl::Beam`]). The displaced line keeps the ray light's medium: where the
+//! ([`crate::integrator::many::vrl::Beam`]). The displaced line keeps the ray light's medium: where the
 //! disk crosses a wall or a medium's boundary the beam is not exactly the blurred
 //! ray light, a bias of order r that the shrinking radius removes. With r = 0 the
 //! weight is 1 and the estimate is `vrl`'s.
@@ -42,16 +42,16 @@ mod camera;
 mod gather;
 mod lights;
 mod settings;
+pub mod vrl;
 
-pub(crate) use settings::check_common;
 pub use settings::{Clamp, LightPaths, VblSettings, VplSettings, VrlSettings};
 
 use super::bidir::{Bidir, BidirSettings, Technique};
-use super::pixels::render_pixels;
-use super::vpm::radius_schedule;
-use super::vrl::Sampler;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
+use crate::integrator::drive::pixels::render_pixels;
+use crate::integrator::many::vrl::Sampler;
+use crate::integrator::transport::radius::radius_schedule;
 use crate::scene::Scene;
 use gather::Gather;
 use lights::{Kinds, Lights};

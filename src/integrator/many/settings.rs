@@ -3,46 +3,14 @@
 
 use super::lights::{Kinds, Lights};
 use crate::integrator::bidir::{store_memory, BidirSettings, StorePlan, Technique};
-use crate::integrator::common::params::{check_alpha, check_radius};
+use crate::integrator::drive::pixels::tile_memory;
+use crate::integrator::many::vrl::Sampler;
 use crate::integrator::memory::{paths_driver, Estimate, Facts};
-use crate::integrator::pixels::tile_memory;
-use crate::integrator::vrl::Sampler;
+use crate::integrator::transport::light_paths::check_light_pass;
+pub use crate::integrator::transport::light_paths::LightPaths;
+use crate::integrator::transport::params::{check_alpha, check_radius};
 use serde::{Deserialize, Deserializer, Serialize};
 
-/// Light subpaths per iteration: a multiple of the pixel count (a number, as for every
-/// other algorithm) or an absolute count (`{"count": N}`), which suits these methods:
-/// their cost per camera sample does not grow with the number of virtual lights.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged, deny_unknown_fields)]
-pub enum LightPaths {
-    Multiple(f32),
-    Count { count: u32 },
-}
-
-impl LightPaths {
-    /// Paths for an image of `pixels` pixels (at least one).
-    pub fn count(self, pixels: usize) -> usize {
-        match self {
-            LightPaths::Multiple(m) => crate::integrator::bidir::light_path_count(pixels, m),
-            LightPaths::Count { count } => count.max(1) as usize,
-        }
-    }
-
-    fn check(self) -> Result<(), String> {
-        match self {
-            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(format!(
-                "light_paths as a multiple of the pixel count must be in (0, 64], got {m}"
-            )),
-            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => Err(format!(
-                "light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"
-            )),
-            _ => Ok(()),
-        }
-    }
-}
-
-/// Most light paths a count may ask for per iteration.
-pub const MAX_PATH_COUNT: u32 = 1 << 24;
 /// Most virtual lights drawn per query.
 pub const MAX_VL_SAMPLES: u32 = 4096;
 
@@ -247,25 +215,18 @@ impl VblSettings {
     }
 }
 
-/// The checks every many-light method shares.
+/// The checks every many-light method shares: the light pass's, then the number of
+/// virtual lights a query draws.
 pub(crate) fn check_common(
     max_depth: u32,
     light_paths: LightPaths,
     vl_samples: u32,
     max_vertex_mib: f32,
 ) -> Result<(), String> {
-    if max_depth == 0 {
-        return Err("max_depth must be at least 1".into());
-    }
-    light_paths.check()?;
+    check_light_pass(max_depth, light_paths, max_vertex_mib)?;
     if vl_samples > MAX_VL_SAMPLES {
         return Err(format!(
             "vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"
-        ));
-    }
-    if !(max_vertex_mib.is_finite() && max_vertex_mib > 0.0) {
-        return Err(format!(
-            "max_vertex_mib must be positive, got {max_vertex_mib}"
         ));
     }
     Ok(())

@@ -7,7 +7,7 @@ use super::{
     MAX_DELIVERIES, WORKERS, WORKERS_BUCKET,
 };
 use crate::film::{ExactSums, Film};
-use crate::integrator::driver::iterate_exact;
+use crate::integrator::drive::iterate_exact;
 use crate::integrator::RenderStats;
 use crate::job::scenes::SceneStore;
 use crate::job::store::Checkpoint;

@@ -9,7 +9,7 @@ use super::chi2;
 use super::estimates::{mean_se, reference_within};
 use super::quadrature::integrate;
 use super::{close_camera, light, medium, rng};
-use crate::integrator::vrl::{
+use crate::integrator::many::vrl::{
     estimate_volume_to_surface, estimate_volume_to_volume, volume_to_surface, Beam, BeamOffset,
     Grey, Pair, Sampler, Segment, SurfacePoint, SurfaceSampler,
 };

@@ -2,11 +2,11 @@
 //! tiles, one RNG stream per (seed, iteration, pixel), so the image never depends on
 //! the thread count.
 
-use super::memory::{Estimate, Facts};
-use super::{Counters, RenderStats};
 use crate::film::{tiles, Film, Tile, TileBuffer};
 use crate::geometry::Ray;
-use crate::integrator::common::Stream;
+use crate::integrator::memory::{Estimate, Facts};
+use crate::integrator::transport::Stream;
+use crate::integrator::{Counters, RenderStats};
 use crate::math::{Rgb, Rng, Vec2};
 use crate::scene::Scene;
 use rayon::prelude::*;

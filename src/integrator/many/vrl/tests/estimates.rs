@@ -5,7 +5,7 @@
 
 use super::quadrature::{integrate, integrate2};
 use super::{light, medium, pair, rng, t_splits, u_splits, SAMPLERS};
-use crate::integrator::vrl::{
+use crate::integrator::many::vrl::{
     estimate_volume_to_surface, estimate_volume_to_volume, volume_to_surface, volume_to_volume,
     Grey, Pair, Sampler, SurfacePoint, SurfaceSampler,
 };

@@ -6,7 +6,7 @@
 
 use super::estimates::{estimate, reference};
 use super::{medium, pair, SAMPLERS};
-use crate::integrator::vrl::Sampler;
+use crate::integrator::many::vrl::Sampler;
 
 #[test]
 fn joint_samplers_have_the_lowest_variance_on_a_close_pair() {

@@ -1,11 +1,11 @@
 //! The beam x beam estimate's geometry and normalisation, and the beam BVH.
 
+use super::beam_estimate::{meet, Gather, Meeting, SIN_PARALLEL};
 use super::beams::{Beam, Weight};
-use super::estimate::{meet, Gather, Meeting, SIN_PARALLEL};
 use crate::geometry::Ray;
-use crate::integrator::accel::Lbvh;
-use crate::integrator::common::density_camera::MediumGather;
-use crate::integrator::common::medium_walk::Segment;
+use crate::integrator::estimators::Lbvh;
+use crate::integrator::transport::density_camera::MediumGather;
+use crate::integrator::transport::medium_walk::Segment;
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::scene::Scene;

@@ -1,8 +1,8 @@
 //! Running a range of progressive iterations with a halting rule, for the CLI, the
 //! benchmarks and the tests (the server schedules iterations itself).
 
-use super::{Integrator, RenderStats};
 use crate::film::{ExactSums, Film};
+use crate::integrator::{Integrator, RenderStats};
 use crate::scene::Scene;
 use std::time::{Duration, Instant};
 

@@ -10,7 +10,7 @@ use super::densities::cases;
 use super::joint::{mass, media};
 use super::quadrature::integrate;
 use super::{pair, rng, GS, SAMPLERS};
-use crate::integrator::vrl::{Pair, PairMedia, Sampler};
+use crate::integrator::many::vrl::{Pair, PairMedia, Sampler};
 
 /// Sorted edges without repeats, covering [0, len].
 fn edges(mut e: Vec<f64>, len: f64) -> Vec<f64> {

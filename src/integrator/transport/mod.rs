@@ -6,10 +6,12 @@ pub mod camera;
 pub mod density_camera;
 pub mod emit;
 pub mod equiangular;
+pub mod light_paths;
 pub mod medium_walk;
 pub mod mis;
 pub mod nee;
 pub mod params;
+pub mod radius;
 pub mod streams;
 
 pub use mis::{emitted, escaped, Heuristic};

@@ -3,7 +3,7 @@
 //! the point), and refuses only segments without length.
 
 use super::{cameras, light, pair, pair_with, rng, SAMPLERS};
-use crate::integrator::vrl::{
+use crate::integrator::many::vrl::{
     estimate_volume_to_volume, Grey, Pair, PairMedia, Phases, Sampler, Segment,
 };
 use crate::math::Vec3;

@@ -1,7 +1,7 @@
 //! The sampler's settings form: tagged by `type`, snake case, `nodes` defaulted and
 //! range-checked with an error that names it.
 
-use crate::integrator::vrl::Sampler;
+use crate::integrator::many::vrl::Sampler;
 
 #[test]
 fn samplers_round_trip_and_default_their_nodes() {

@@ -43,24 +43,25 @@
 mod media;
 mod state;
 
-use super::{Integrator, RenderStats};
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::spawn_ray;
-use crate::integrator::accel::HashGrid;
-use crate::integrator::accel::PointBvh;
-use crate::integrator::common::camera::{sample_bsdf, stop_or_follow_delta, Stop};
-use crate::integrator::common::emit::sample_emission;
-use crate::integrator::common::medium_walk::{MediumWalk, Step};
-use crate::integrator::common::nee::{direct_unweighted, Origin};
-use crate::integrator::common::params::check_radius;
-use crate::integrator::common::params::{check_alpha, check_photon_params};
-use crate::integrator::common::{Stream, PATHS_PER_TASK};
+use crate::integrator::estimators::HashGrid;
+use crate::integrator::estimators::PointBvh;
 use crate::integrator::memory::{
     array, capped, paths_driver, pushed, refilled, Estimate as Memory, Facts,
 };
-use crate::integrator::vpm::{
-    photon_budget, photon_paths, radius_schedule, BeamQuery, Photon as MediumPhoton,
+use crate::integrator::photon::vpm::{
+    photon_budget, photon_paths, BeamQuery, Photon as MediumPhoton,
 };
+use crate::integrator::transport::camera::{sample_bsdf, stop_or_follow_delta, Stop};
+use crate::integrator::transport::emit::sample_emission;
+use crate::integrator::transport::medium_walk::{MediumWalk, Step};
+use crate::integrator::transport::nee::{direct_unweighted, Origin};
+use crate::integrator::transport::params::check_radius;
+use crate::integrator::transport::params::{check_alpha, check_photon_params};
+use crate::integrator::transport::radius::radius_schedule;
+use crate::integrator::transport::{Stream, PATHS_PER_TASK};
+use crate::integrator::{Integrator, RenderStats};
 use crate::material::Mode;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::{Scene, Surfacing};

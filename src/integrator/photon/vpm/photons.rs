@@ -5,10 +5,10 @@
 use super::{Vpm, Workspace};
 use crate::film::is_valid_sample;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::integrator::accel::Point;
-use crate::integrator::common::emit::sample_emission;
-use crate::integrator::common::medium_walk::{MediumWalk, Segment, Step};
-use crate::integrator::common::{Stream, PATHS_PER_TASK};
+use crate::integrator::estimators::Point;
+use crate::integrator::transport::emit::sample_emission;
+use crate::integrator::transport::medium_walk::{MediumWalk, Segment, Step};
+use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::material::{Material, Mode};
 use crate::math::{max_component, Rgb, Rng, Vec3};

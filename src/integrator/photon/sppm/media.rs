@@ -16,8 +16,8 @@
 
 use super::{PhotonChunk, PhotonMapper};
 use crate::geometry::{spawn_ray, Ray};
-use crate::integrator::common::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
-use crate::integrator::vpm::{photon_bounce, BeamQuery, Photon};
+use crate::integrator::photon::vpm::{photon_bounce, BeamQuery, Photon};
+use crate::integrator::transport::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng};
 use crate::scene::Scene;

@@ -3,9 +3,9 @@
 //! closest points, or for near-parallel pairs the 2D-blurred one along their overlap.
 
 use super::beams::Beam;
-use crate::integrator::accel::Lbvh;
-use crate::integrator::common::density_camera::MediumGather;
-use crate::integrator::common::medium_walk::Segment;
+use crate::integrator::estimators::Lbvh;
+use crate::integrator::transport::density_camera::MediumGather;
+use crate::integrator::transport::medium_walk::Segment;
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;

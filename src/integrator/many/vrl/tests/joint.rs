@@ -3,7 +3,7 @@
 
 use super::quadrature::integrate;
 use super::{cameras, medium, pair_with, rng, t_splits, u_splits, GS, SAMPLERS};
-use crate::integrator::vrl::{Pair, PairMedia, Sampler};
+use crate::integrator::many::vrl::{Pair, PairMedia, Sampler};
 
 /// Both ends in `medium(g)`.
 pub fn media(g: f32) -> PairMedia {

@@ -4,6 +4,10 @@
 //! are built in parallel and report points in an order that does not depend on the
 //! number of threads, so an iteration's image is the same on any machine.
 
+pub(crate) mod beam_estimate;
+#[cfg(test)]
+mod beam_tests;
+pub(crate) mod beams;
 pub mod hashgrid;
 pub(crate) mod huge;
 pub mod lbvh;

@@ -2,7 +2,7 @@
 //! 2011, "Progressive photon beams"): light in media estimated from photon beams
 //! against camera beams, surfaces path traced and direct light at surfaces by
 //! next-event estimation, as `vpm` does with photon points
-//! ([`super::common::density_camera`]).
+//! ([`crate::integrator::transport::density_camera`]).
 //!
 //! ## An iteration
 //! 1. Light pass on the bidirectional core's store ([`Bidir::light_pass`]), keeping the
@@ -39,33 +39,28 @@
 //!
 //! ## Progressive radius
 //! A 1D kernel: r_{i+1} = r_i (i + alpha) / (i + 1) (Knaus and Zwicker 2011 with k = 1,
-//! `vpm::radius_schedule`), alpha = 4 / 5 by default, the balance of variance ~ r^-1
+//! `transport::radius`), alpha = 4 / 5 by default, the balance of variance ~ r^-1
 //! and squared bias ~ r^4 (see `vpm`'s notes). The 2D fallback shares the radius.
 //!
 //! `max_depth` counts segments over both halves: a beam that is segment k of its light
 //! path lights a camera segment reached after j surface events when k + j + 1 <=
 //! max_depth (the camera point lies on the beam).
 
-pub(crate) mod beams;
-pub(crate) mod estimate;
-#[cfg(test)]
-mod tests;
+pub use crate::integrator::estimators::beams::BeamForm;
 
-pub use beams::BeamForm;
-
-use super::accel::Lbvh;
-use super::bidir::{store_memory, Bidir, BidirSettings, StorePlan, Technique};
-use super::common::density_camera::{self, Depths};
-use super::common::params::{check_alpha, check_radius};
-use super::many::LightPaths;
-use super::memory::{array, paths_driver, refilled, Estimate, Facts};
-use super::pixels::{render_pixels, tile_memory};
-use super::vpm::radius_schedule;
-use super::{Integrator, RenderStats};
 use crate::film::Film;
+use crate::integrator::bidir::{store_memory, Bidir, BidirSettings, StorePlan, Technique};
+use crate::integrator::drive::pixels::{render_pixels, tile_memory};
+use crate::integrator::estimators::beam_estimate::Gather;
+use crate::integrator::estimators::beams::{self, Beam, PIECE};
+use crate::integrator::estimators::Lbvh;
+use crate::integrator::memory::{array, paths_driver, refilled, Estimate, Facts};
+use crate::integrator::transport::density_camera::{self, Depths};
+use crate::integrator::transport::light_paths::{check_light_pass, LightPaths};
+use crate::integrator::transport::params::{check_alpha, check_radius};
+use crate::integrator::transport::radius::radius_schedule;
+use crate::integrator::{Integrator, RenderStats};
 use crate::scene::Scene;
-use beams::Beam;
-use estimate::Gather;
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
@@ -146,7 +141,7 @@ impl PpbSettings {
     }
 
     pub fn validate(&self) -> Result<(), String> {
-        super::many::check_common(self.max_depth, self.light_paths, 0, self.max_beam_mib)
+        check_light_pass(self.max_depth, self.light_paths, self.max_beam_mib)
             .map_err(|e| e.replace("max_vertex_mib", "max_beam_mib"))?;
         check_radius(self.radius, self.radius_factor)?;
         check_alpha(self.alpha)
@@ -160,13 +155,6 @@ impl PpbSettings {
         radius_schedule(r1, self.alpha, 1, iteration)
     }
 }
-
-/// Beams are stored in pieces of at most this fraction of the scene's bounding-sphere
-/// radius. Measured on fog-cornell (256 x 256, `light_paths` 0.05: 11k beams, 3.3 M
-/// merges per iteration, r = 0.006): 2.27 s per iteration whole, 1.07 s in pieces of
-/// R / 32, 0.82-0.87 s at R / 16 and R / 8, 1.50 s at R / 64 (vertex storage 5.7, 41,
-/// 23 and 79 MiB).
-pub(crate) const PIECE: f32 = 1.0 / 16.0;
 
 #[derive(Default)]
 struct Workspace {
