@@ -9,7 +9,8 @@ mod common;
 mod stats;
 
 use caustic::film::Film;
-use caustic::integrator::photon::vpm::{radius_schedule, Estimate};
+use caustic::integrator::photon::vpm::Estimate;
+use caustic::integrator::transport::radius::radius_schedule;
 use caustic::integrator::{RenderStats, Settings};
 use caustic::scene::Scene;
 use common::*;

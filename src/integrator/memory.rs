@@ -5,8 +5,8 @@
 //! `validate`, dispatched from [`super::Settings::memory`]), from the sizes of the
 //! types those stores hold and the way they grow. This module has what they share:
 //! the estimate and its parts, Vec growth as the standard library does it, and what a
-//! light path of the scene stores on average, measured by a pilot of the
-//! bidirectional light pass ([`Walk`]).
+//! light path of the scene stores on average ([`Walk`], measured by the pilot of
+//! `paths::pilot`).
 //!
 //! Counted: per-pixel state (the film an iteration renders into, the exact sums,
 //! layers, tile buffers, photon mapping's per-pixel statistics), the light pass's
@@ -22,8 +22,6 @@
 //! `tests/job_memory.rs` holds the estimate to within a factor of the bytes a render
 //! allocates at its peak, for every algorithm.
 
-use super::bidir::{Bidir, BidirSettings, Technique};
-use crate::integrator::estimators::beams::{collect, BeamForm};
 use crate::scene::Scene;
 use std::cell::RefCell;
 
@@ -176,14 +174,7 @@ impl Walk {
         self.surface + self.medium
     }
 
-    pub fn pieces(&self, form: BeamForm) -> f64 {
-        match form {
-            BeamForm::Short => self.short_pieces,
-            BeamForm::Long => self.long_pieces,
-        }
-    }
-
-    fn scaled(self, k: f64) -> Walk {
+    pub(crate) fn scaled(self, k: f64) -> Walk {
         Walk {
             surface: self.surface * k,
             direct: self.direct * k,
@@ -194,13 +185,6 @@ impl Walk {
         }
     }
 }
-
-/// Light paths of the pilot.
-const PILOT_PATHS: usize = 1024;
-/// The pilot's paths are at most this long; deeper jobs are extrapolated (see
-/// [`pilot`]), so that a `max_depth` of 10^9 costs no more to estimate than 64.
-const PILOT_DEPTH: u32 = 64;
-const PILOT_SEED: u64 = 0x6d656d;
 
 /// What an estimate reads of the job's scene.
 pub struct Facts<'a> {
@@ -226,113 +210,22 @@ impl<'a> Facts<'a> {
         format!("film {}x{}", self.scene.width(), self.scene.height())
     }
 
-    /// What a light path of this scene stores (the pilot's, run once per depth and
-    /// roulette).
-    pub fn walk(&self, max_depth: u32, roulette: bool) -> Walk {
+    /// What a light path of this scene stores, at `max_depth` and with or without
+    /// roulette: `pilot`'s figure, run once per depth and roulette.
+    pub fn walk_or(&self, max_depth: u32, roulette: bool, pilot: impl FnOnce() -> Walk) -> Walk {
         let key = (max_depth, roulette);
         if let Some((_, w)) = self.walks.borrow().iter().find(|(k, _)| *k == key) {
             return *w;
         }
-        let w = pilot(self.scene, max_depth, roulette);
+        let w = pilot();
         self.walks.borrow_mut().push((key, w));
         w
     }
 }
 
-/// The pilot (see [`Walk`]). Paths cut at PILOT_DEPTH when the job's are longer are
-/// extended as if each stored a vertex (and a segment and piece) at every further
-/// bounce, an upper bound: the share of pilot paths that reached the cut, times the
-/// bounces beyond it.
-fn pilot(scene: &Scene, max_depth: u32, roulette: bool) -> Walk {
-    if scene.lights.is_empty() {
-        return Walk::default();
-    }
-    let depth = max_depth.min(PILOT_DEPTH);
-    let s = BidirSettings {
-        max_depth: depth,
-        russian_roulette: roulette,
-        ..Default::default()
-    };
-    let bidir = Bidir::new(Technique::Store, s)
-        .keeping_segments()
-        .with_path_count(PILOT_PATHS);
-    let ((mut w, at_cut), _) = bidir.light_pass(scene, PILOT_SEED, 0, |store| {
-        let mut w = Walk::default();
-        let mut at_cut = 0.0;
-        for v in store.vertices() {
-            match v.scattering_medium() {
-                Some(_) => w.medium += 1.0,
-                None if v.len == 1 => (w.surface, w.direct) = (w.surface + 1.0, w.direct + 1.0),
-                None => w.surface += 1.0,
-            }
-            if v.len + 1 >= depth {
-                at_cut += 1.0;
-            }
-        }
-        w.segments = store.segments().count() as f64;
-        let piece = scene.sphere.radius * crate::integrator::estimators::beams::PIECE;
-        let mut out = Vec::new();
-        for form in [BeamForm::Short, BeamForm::Long] {
-            let segments = store.segments().copied();
-            collect(
-                scene,
-                segments,
-                PILOT_PATHS,
-                form,
-                piece,
-                PILOT_SEED,
-                0,
-                &mut out,
-            );
-            match form {
-                BeamForm::Short => w.short_pieces = out.len() as f64,
-                BeamForm::Long => w.long_pieces = out.len() as f64,
-            }
-        }
-        (w, at_cut)
-    });
-    let n = PILOT_PATHS as f64;
-    w = w.scaled(1.0 / n);
-    let vertices = w.vertices();
-    if max_depth > depth && vertices > 0.0 {
-        let more = at_cut / n * (max_depth - depth) as f64;
-        w = w.scaled((vertices + more) / vertices);
-    }
-    w
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A point light inside a white two-sided sphere: without roulette every light
-    /// path stores a vertex at every bounce, to `max_depth`.
-    fn furnace() -> Scene {
-        let json = r#"{"format": 1,
-            "camera": {"look_at": {"origin": [0, 0, 0.5], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 40},
-            "film": {"width": 4, "height": 4},
-            "materials": {"white": {"type": "diffuse", "reflectance": [1, 1, 1], "two_sided": true}},
-            "shapes": [{"type": "sphere", "radius": 1, "material": "white"}],
-            "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]}]}"#;
-        let file = crate::scene::load::parse_scene(json).unwrap();
-        Scene::compile(&file, None).unwrap()
-    }
-
-    #[test]
-    fn the_pilot_counts_vertices_and_extends_paths_beyond_its_depth() {
-        let scene = furnace();
-        let facts = Facts::new(&scene);
-        // Stored at lengths 1 to max_depth - 1; the first straight from the light.
-        let short = facts.walk(8, false);
-        assert!((short.surface - 7.0).abs() < 0.05, "{short:?}");
-        assert!((short.direct - 1.0).abs() < 0.01, "{short:?}");
-        assert_eq!(short.medium, 0.0);
-        // Deeper than the pilot: extended, not cut at its depth.
-        let deep = facts.walk(640, false);
-        assert!(deep.surface > 600.0, "{deep:?}");
-        // Russian roulette by albedo 1 keeps every path too.
-        assert_eq!(facts.walk(8, true), short);
-    }
 
     #[test]
     fn human_figures() {

@@ -21,15 +21,16 @@
 //! have no closed-form P: there both kinds are long (to the surface, weight T by ratio
 //! tracking), still an unbiased estimate of the same MIS-weighted integral.
 
-use super::light_path::{path_segments, Chunk, LightVertex, MEDIUM_VERTEX};
-use super::mis::{self, Merge, Partial, Site, MIN_BEAM_SIN};
-use super::segments::{LightSegment, NO_AREA};
-use super::vertex::{mis_sigma, MediumPoint};
 use super::Pass;
 use crate::integrator::estimators::beam_estimate::{meet, Meeting};
 use crate::integrator::estimators::beams::{collect, Beam, BeamForm};
 use crate::integrator::estimators::{Lbvh, Point, PointBvh};
 use crate::integrator::memory::{array, refilled};
+use crate::integrator::paths::light_vertex::{LightVertex, MEDIUM_VERTEX};
+use crate::integrator::paths::partial::{self as mis, Merge, Partial, Site, MIN_BEAM_SIN};
+use crate::integrator::paths::segments::{LightSegment, NO_AREA};
+use crate::integrator::paths::store::{path_segments, Chunk};
+use crate::integrator::paths::vertex::{mis_sigma, MediumPoint};
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Medium;

@@ -2,15 +2,15 @@
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
 use super::beams;
-use super::light_path::LightVertex;
-use super::media::{next_event, next_event_with, shadow, Event};
-use super::mis::{Merge, Site};
-use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
-use super::vertex::{Media, MediumPoint, Vertex};
-use super::walk::{Surface, Walk, MIN_COS};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
+use crate::integrator::paths::light_vertex::LightVertex;
+use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event};
+use crate::integrator::paths::partial::{Merge, Site};
+use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
+use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
+use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
 use crate::integrator::transport::medium_walk::{seen_emission, sees_emission};
 use crate::integrator::transport::nee::pick_light;
 use crate::integrator::RenderStats;
@@ -75,10 +75,10 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
         let ws = self.ws;
         CameraPath {
             pixel,
-            light: if ws.paths == 0 {
+            light: if ws.store.paths == 0 {
                 &[]
             } else {
-                ws.light_path(pixel % ws.paths)
+                ws.store.light_path(pixel % ws.store.paths)
             },
             walk: Walk {
                 origin: ray.o,

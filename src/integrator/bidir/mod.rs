@@ -19,88 +19,44 @@
 
 mod beams;
 mod camera_path;
-mod light_path;
-mod media;
+mod merge;
 pub mod mis;
-mod segments;
-mod vertex;
-mod walk;
 
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::integrator::drive::pixels::{film_sample, render_paths};
-use crate::integrator::estimators::HashGrid;
+use crate::integrator::paths::layers::Layers;
+use crate::integrator::paths::light_path::trace_light_paths;
+use crate::integrator::paths::partial::{Merge, Merges, Mis};
+use crate::integrator::paths::store::Store;
+use crate::integrator::paths::vertex::{NoMedia, WithMedia};
 use crate::integrator::transport::light_paths::light_path_count;
 use crate::integrator::transport::radius::radius_schedule;
-use crate::material::Material;
-use crate::math::{max_component, Rgb, Vec3};
+use crate::math::Rgb;
 use crate::scene::Scene;
 use beams::BeamStore;
 use camera_path::CameraPass;
-pub(crate) use light_path::LightVertex;
-pub(crate) use light_path::{store_memory, StorePlan};
-use light_path::{trace_light_paths, Chunk, MergeVertex};
-use mis::{Merge, Merges, Mis};
-pub(crate) use segments::{extent, LightSegment};
+use merge::MergeSet;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
-use vertex::{NoMedia, WithMedia};
 
 mod settings;
-pub(crate) use settings::Layers;
 pub use settings::{BidirSettings, Estimators, Technique, UpbpTechnique, MAX_STRATEGY_LENGTH};
 
-/// Per-iteration constants shared by both subpath tracers.
+/// An iteration's constants: the subpaths' ([`crate::integrator::paths::Pass`], which
+/// this derefs to) and the family's own settings and technique.
 pub(crate) struct Pass<'a> {
-    pub scene: &'a Scene,
+    pub core: crate::integrator::paths::Pass<'a>,
     pub s: &'a BidirSettings,
     pub technique: Technique,
-    pub mis: Mis,
-    /// Each merge estimator's radius in this iteration, and its kernel's
-    /// normalisation 1 / eta (0 where it is not used).
-    pub radii: [f32; Merge::COUNT],
-    pub norms: [f32; Merge::COUNT],
-    pub light_paths: usize,
-    /// Light paths whose segments become photon beams (`upbp`).
-    pub beam_paths: usize,
-    pub layers: &'a Layers,
-    /// Light subpaths keep their segments through media (`segments`), for the
-    /// estimators made of them.
-    pub keep_segments: bool,
 }
 
-impl Pass<'_> {
-    /// Whether estimator `k` is used in this scene this iteration.
+impl<'a> std::ops::Deref for Pass<'a> {
+    type Target = crate::integrator::paths::Pass<'a>;
+
     #[inline(always)]
-    pub fn uses(&self, k: Merge) -> bool {
-        self.norms[k as usize] > 0.0
-    }
-
-    /// Whether camera segments through media are query beams (`upbp`'s beam
-    /// estimators).
-    #[inline(always)]
-    pub fn query_beams(&self) -> bool {
-        self.uses(Merge::PointBeam2d) || self.uses(Merge::BeamBeam1d)
-    }
-
-    /// Russian-roulette continuation probability at a vertex with material `m`.
-    #[inline]
-    pub fn continuation(&self, m: &Material) -> f32 {
-        if self.s.russian_roulette {
-            max_component(m.albedo()).clamp(0.0, 1.0)
-        } else {
-            1.0
-        }
-    }
-
-    /// The same at a medium vertex whose single-scattering albedo is `albedo`.
-    #[inline]
-    pub fn medium_continuation(&self, albedo: Rgb) -> f32 {
-        if self.s.russian_roulette {
-            max_component(albedo).clamp(0.0, 1.0)
-        } else {
-            1.0
-        }
+    fn deref(&self) -> &Self::Target {
+        &self.core
     }
 }
 
@@ -109,8 +65,7 @@ impl Pass<'_> {
 #[derive(Default)]
 struct Workspace {
     /// The light paths of the iteration, their vertices stored per chunk.
-    chunks: Vec<Chunk>,
-    paths: usize,
+    store: Store,
     /// Merging at surfaces and in media, each over its own vertices.
     surface: MergeSet,
     medium: MergeSet,
@@ -118,23 +73,11 @@ struct Workspace {
     beams: BeamStore,
 }
 
-/// The stored vertices of one merge site and the grid over them.
-#[derive(Default)]
-pub(super) struct MergeSet {
-    /// Every such vertex's position, chunk after chunk (only when merging).
-    pub positions: Vec<Vec3>,
-    pub grid: HashGrid,
-    /// What merging needs of each vertex, in the grid's storage order.
-    pub merge: Vec<MergeVertex>,
-}
-
 pub struct Bidir {
     s: BidirSettings,
     technique: Technique,
     layers: Layers,
     keep_segments: bool,
-    /// Light paths per iteration, when given as a count rather than by `light_paths`.
-    path_count: Option<usize>,
     ws: Mutex<Workspace>,
 }
 
@@ -145,45 +88,13 @@ impl Bidir {
             s,
             technique,
             keep_segments: technique.uses(Merge::BeamBeam1d),
-            path_count: None,
             ws: Mutex::new(Workspace::default()),
         }
     }
 
-    /// The same, with light subpaths keeping their segments through media.
-    pub(crate) fn keeping_segments(mut self) -> Self {
-        self.keep_segments = true;
-        self
-    }
-
-    /// The same, tracing `n` light paths per iteration whatever the image size.
-    pub(crate) fn with_path_count(mut self, n: usize) -> Self {
-        self.path_count = Some(n.max(1));
-        self
-    }
-
-    /// The light pass of `iteration` alone ([`Technique::Store`]): hands the stored
-    /// vertices and segments to `f` while the store is held.
-    pub(crate) fn light_pass<R>(
-        &self,
-        scene: &Scene,
-        seed: u64,
-        iteration: u64,
-        f: impl FnOnce(&LightStore) -> R,
-    ) -> (R, RenderStats) {
-        debug_assert_eq!(self.technique, Technique::Store);
-        let pass = self.pass(scene, iteration);
-        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
-        let mut stats = trace_light_paths(&pass, seed, iteration, &mut guard);
-        stats.vertex_bytes = guard.vertex_store_bytes() as u64;
-        (f(&LightStore { ws: &guard }), stats)
-    }
-
     fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
         let pixels = scene.width() as usize * scene.height() as usize;
-        let light_paths = self
-            .path_count
-            .unwrap_or_else(|| light_path_count(pixels, self.s.light_paths));
+        let light_paths = light_path_count(pixels, self.s.light_paths);
         let r0 = self
             .s
             .radius
@@ -228,10 +139,12 @@ impl Bidir {
         }
         let mut mis = Mis::new(self.s.heuristic, n, t.connects(), merges);
         mis.merge_first = self.s.merge_first;
-        Pass {
+        let core = crate::integrator::paths::Pass {
             scene,
-            s: &self.s,
-            technique: t,
+            tracing: t.tracing(),
+            max_depth: s.max_depth,
+            russian_roulette: s.russian_roulette,
+            max_vertex_mib: s.max_vertex_mib,
             mis,
             radii,
             norms: [
@@ -245,6 +158,11 @@ impl Bidir {
             light_paths,
             layers: &self.layers,
             keep_segments: self.keep_segments,
+        };
+        Pass {
+            core,
+            s: &self.s,
+            technique: t,
         }
     }
 }
@@ -254,7 +172,8 @@ impl Integrator for Bidir {
         let pass = self.pass(scene, iteration);
         let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
         let ws = &mut *guard;
-        let mut stats = trace_light_paths(&pass, seed, iteration, ws);
+        let mut stats = trace_light_paths(&pass, seed, iteration, &mut ws.store);
+        ws.gather_positions(&pass);
         if pass.technique.merges() {
             ws.surface.grid.build(&ws.surface.positions, pass.radii[0]);
             ws.medium.grid.build(&ws.medium.positions, pass.radii[1]);
@@ -262,10 +181,10 @@ impl Integrator for Bidir {
             stats.merge_radius = pass.radii[0];
         }
         if scene.has_media {
-            let Workspace { chunks, beams, .. } = ws;
-            beams.build(&pass, chunks, seed, iteration);
+            let Workspace { store, beams, .. } = ws;
+            beams.build(&pass, &store.chunks, seed, iteration);
         }
-        stats.vertex_bytes = (ws.vertex_store_bytes()
+        stats.vertex_bytes = (ws.store.vertex_store_bytes()
             + ws.surface.index_bytes()
             + ws.medium.index_bytes()
             + ws.beams.bytes()) as u64;
@@ -294,11 +213,9 @@ impl Integrator for Bidir {
         add_layer_values(scene, (seed, iteration), film, &ids, &side);
         // Splats go in after the camera pass, in chunk order: the sum never depends on
         // which thread traced which chunk.
-        for c in &ws.chunks {
-            for &(p, v, layer) in &c.splats {
-                let id = ids.get(layer as usize).copied();
-                film.add_splat(&scene.filter, p, v, id);
-            }
+        for &(p, v, layer) in ws.store.splats() {
+            let id = ids.get(layer as usize).copied();
+            film.add_splat(&scene.filter, p, v, id);
         }
         stats
     }
@@ -336,28 +253,3 @@ fn add_layer_values(
 fn beam_path_count(light_paths: usize, share: f32) -> usize {
     ((light_paths as f64 * share as f64).round() as usize).max(1)
 }
-
-/// An iteration's light subpaths as a light pass stored them ([`Bidir::light_pass`]).
-pub(crate) struct LightStore<'a> {
-    ws: &'a Workspace,
-}
-
-impl LightStore<'_> {
-    /// Light paths traced (including those that stored nothing).
-    pub fn paths(&self) -> usize {
-        self.ws.paths
-    }
-
-    /// Every stored vertex, path after path, each path's in order of length.
-    pub fn vertices(&self) -> impl Iterator<Item = &LightVertex> {
-        self.ws.chunks.iter().flat_map(|c| c.vertices.iter())
-    }
-
-    /// Every kept segment through a medium, in the same order.
-    pub fn segments(&self) -> impl Iterator<Item = &LightSegment> {
-        self.ws.chunks.iter().flat_map(|c| c.segments.iter())
-    }
-}
-
-/// A light-tracing contribution: (film position, value, layer or u16::MAX).
-pub(crate) type Splat = (crate::math::Vec2, Rgb, u16);

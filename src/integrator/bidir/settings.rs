@@ -2,12 +2,14 @@
 //! extra images it can split its estimate into.
 
 use super::beams::BeamStore;
-use super::light_path::{store_memory, StorePlan};
-use super::mis::Merge;
-use super::MergeSet;
+use super::merge::MergeSet;
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
+use crate::integrator::paths::layers::Layers;
+use crate::integrator::paths::partial::Merge;
+use crate::integrator::paths::store::{store_memory, StorePlan};
+use crate::integrator::paths::Tracing;
 use crate::integrator::transport::params::check_radius;
 use crate::integrator::transport::Heuristic;
 use serde::{Deserialize, Serialize};
@@ -27,9 +29,6 @@ pub enum Technique {
     /// Unifying points, beams and paths (Křivánek et al. 2014): any subset of
     /// connections, surface photons and the three volume estimators, under one MIS.
     Upbp(Estimators),
-    /// The light pass alone, for estimators outside this family (virtual point and ray
-    /// lights): vertices (and segments, when kept) stored, nothing connected.
-    Store,
 }
 
 /// The techniques of `upbp`: connections (bidirectional path tracing) and the four
@@ -71,6 +70,16 @@ impl Technique {
     /// Light vertices connect to the camera (splats).
     pub(crate) fn splats(self) -> bool {
         self.connects() || self == Technique::Lt
+    }
+
+    /// What the light tracer does for this technique.
+    pub(crate) fn tracing(self) -> Tracing {
+        Tracing {
+            lt: self == Technique::Lt,
+            stores: self.stores(),
+            splats: self.splats(),
+            merges: self.merges(),
+        }
     }
 }
 
@@ -364,9 +373,9 @@ impl BidirSettings {
             self.light_paths,
         );
         let driver = paths_driver(Some(self.light_paths), paths, facts);
-        let walk = facts.walk(self.max_depth, self.russian_roulette);
+        let walk = crate::integrator::pilot::walk(facts, self.max_depth, self.russian_roulette);
         let plan = StorePlan {
-            technique,
+            tracing: technique.tracing(),
             paths,
             walk,
             keep_segments: technique.uses(Merge::BeamBeam1d),
@@ -420,17 +429,6 @@ impl BidirSettings {
 /// Longest path with per-strategy images (lengths 1..=8 give 44 layers).
 pub const MAX_STRATEGY_LENGTH: u32 = 8;
 
-/// Extra images a pass splits its estimate into.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Layers {
-    pub names: Vec<String>,
-    /// Split by connection strategy up to this path length (0: no).
-    strategies: u32,
-    /// Split by technique: connections in layer 0, merges in `merges[k]`.
-    techniques: bool,
-    merges: [u8; Merge::COUNT],
-}
-
 impl Layers {
     pub(super) fn new(s: &BidirSettings, technique: Technique) -> Self {
         let mut layers = Layers {
@@ -458,21 +456,5 @@ impl Layers {
             }
         }
         layers
-    }
-
-    /// The layer of a connection with `s` light and `t` camera vertices.
-    #[inline]
-    pub fn connection(&self, s: u32, t: u32) -> Option<usize> {
-        if self.techniques {
-            return Some(0);
-        }
-        let k = s + t - 1;
-        (k >= 1 && k <= self.strategies).then(|| ((k - 1) * (k + 2) / 2 + s) as usize)
-    }
-
-    /// The layer of a merge by estimator `k`.
-    #[inline]
-    pub fn merge(&self, k: Merge) -> Option<usize> {
-        self.techniques.then_some(self.merges[k as usize] as usize)
     }
 }

@@ -18,8 +18,8 @@
 //!   a grey medium's weight is exactly 1. Spectral tracking in heterogeneous media has no
 //!   closed-form P: there, beams are long whatever the setting.
 
-use crate::integrator::bidir::{extent, LightSegment};
 use crate::integrator::estimators::Bounded;
+use crate::integrator::paths::segments::{extent, LightSegment};
 use crate::integrator::transport::Stream;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::{channel_probabilities, Medium};

@@ -6,7 +6,7 @@
 
 use super::gather::{At, CamSeg, Gather};
 use crate::geometry::{spawn_ray, Ray};
-use crate::integrator::bidir::extent;
+use crate::integrator::paths::segments::extent;
 use crate::integrator::transport::camera::{roulette, sample_bsdf, stop_or_follow_delta, Stop};
 use crate::integrator::transport::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
 use crate::integrator::RenderStats;

@@ -2,10 +2,12 @@
 //! point lights at light-subpath vertices, ray lights along their segments through
 //! media, and the distributions gathers draw them from.
 
-use crate::integrator::bidir::{extent, LightSegment, LightStore, LightVertex};
 use crate::integrator::estimators::light_tree::{Emitter, LightTree, Query};
 use crate::integrator::many::vrl::Segment;
 use crate::integrator::memory::{array, refilled};
+use crate::integrator::paths::light_vertex::LightVertex;
+use crate::integrator::paths::segments::{extent, LightSegment};
+use crate::integrator::paths::store::Store as LightStore;
 use crate::integrator::transport::Stream;
 use crate::math::{max_component, Rgb, Vec2, Vec3};
 use crate::scene::Scene;

@@ -46,11 +46,11 @@ pub mod vrl;
 
 pub use settings::{Clamp, LightPaths, VblSettings, VplSettings, VrlSettings};
 
-use super::bidir::{Bidir, BidirSettings, Technique};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::integrator::drive::pixels::render_pixels;
 use crate::integrator::many::vrl::Sampler;
+use crate::integrator::paths::light_pass::LightPass;
 use crate::integrator::transport::radius::radius_schedule;
 use crate::scene::Scene;
 use gather::Gather;
@@ -80,7 +80,7 @@ pub struct ManyLights {
     method: Method,
     max_depth: u32,
     vl_samples: u32,
-    bidir: Bidir,
+    light: LightPass,
     lights: Mutex<Lights>,
 }
 
@@ -94,27 +94,15 @@ impl ManyLights {
     ) -> Self {
         // The light pass: the core's walk with its defaults (roulette by albedo), every
         // vertex stored, no connection.
-        let s = BidirSettings {
-            max_depth,
-            max_vertex_mib: mib,
-            light_paths: match light_paths {
-                LightPaths::Multiple(m) => m,
-                LightPaths::Count { .. } => 1.0,
-            },
-            ..Default::default()
-        };
-        let mut bidir = Bidir::new(Technique::Store, s);
-        if let LightPaths::Count { count } = light_paths {
-            bidir = bidir.with_path_count(count as usize);
-        }
+        let mut light = LightPass::new(max_depth, light_paths, mib);
         if !matches!(method, Method::Vpl { .. }) {
-            bidir = bidir.keeping_segments();
+            light = light.keeping_segments();
         }
         ManyLights {
             method,
             max_depth,
             vl_samples,
-            bidir,
+            light,
             lights: Mutex::new(Lights::default()),
         }
     }
@@ -207,10 +195,9 @@ impl ManyLights {
 
 impl Integrator for ManyLights {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
-        let bidir = &self.bidir;
         let mut lights = self.lights.lock().unwrap_or_else(|e| e.into_inner());
         let kinds = self.kinds();
-        let ((), mut stats) = bidir.light_pass(scene, seed, iteration, |store| {
+        let ((), mut stats) = self.light.run(scene, seed, iteration, |store| {
             lights.build(scene, store, kinds, seed, iteration)
         });
         stats.light_vertices = (lights.vpls.len() + lights.rays.len()) as u64;

@@ -2,10 +2,11 @@
 //! comment is its parameter table (the README repeats it).
 
 use super::lights::{Kinds, Lights};
-use crate::integrator::bidir::{store_memory, BidirSettings, StorePlan, Technique};
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::many::vrl::Sampler;
 use crate::integrator::memory::{paths_driver, Estimate, Facts};
+use crate::integrator::paths::store::{store_memory, StorePlan};
+use crate::integrator::paths::Tracing;
 use crate::integrator::transport::light_paths::check_light_pass;
 pub use crate::integrator::transport::light_paths::LightPaths;
 use crate::integrator::transport::params::{check_alpha, check_radius};
@@ -161,9 +162,9 @@ fn memory(vpl: bool, light_pass: (u32, LightPaths, f32), facts: &Facts) -> Estim
     };
     let driver = paths_driver(multiple, paths, facts);
     let plan = StorePlan {
-        technique: Technique::Store,
+        tracing: Tracing::STORE,
         paths,
-        walk: facts.walk(max_depth, BidirSettings::default().russian_roulette),
+        walk: crate::integrator::pilot::walk(facts, max_depth, true),
         keep_segments: kinds.ray_lights,
         max_vertex_mib,
         driver: &driver,

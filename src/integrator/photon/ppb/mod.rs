@@ -49,12 +49,15 @@
 pub use crate::integrator::estimators::beams::BeamForm;
 
 use crate::film::Film;
-use crate::integrator::bidir::{store_memory, Bidir, BidirSettings, StorePlan, Technique};
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::integrator::estimators::beam_estimate::Gather;
 use crate::integrator::estimators::beams::{self, Beam, PIECE};
 use crate::integrator::estimators::Lbvh;
 use crate::integrator::memory::{array, paths_driver, refilled, Estimate, Facts};
+use crate::integrator::paths::light_pass::LightPass;
+use crate::integrator::paths::store::{store_memory, StorePlan};
+use crate::integrator::paths::Tracing;
+use crate::integrator::pilot;
 use crate::integrator::transport::density_camera::{self, Depths};
 use crate::integrator::transport::light_paths::{check_light_pass, LightPaths};
 use crate::integrator::transport::params::{check_alpha, check_radius};
@@ -118,9 +121,9 @@ impl PpbSettings {
                 LightPaths::Count { .. } => None,
             };
             let driver = paths_driver(multiple, paths, facts);
-            let walk = facts.walk(self.max_depth, BidirSettings::default().russian_roulette);
+            let walk = pilot::walk(facts, self.max_depth, true);
             let plan = StorePlan {
-                technique: Technique::Store,
+                tracing: Tracing::STORE,
                 paths,
                 walk,
                 keep_segments: true,
@@ -130,7 +133,7 @@ impl PpbSettings {
             };
             let stored = store_memory(&mut e, &plan, true);
             let pieces = match walk.segments > 0.0 {
-                true => stored.segments * walk.pieces(self.beams) / walk.segments,
+                true => stored.segments * pilot::pieces(&walk, self.beams) / walk.segments,
                 false => 0.0,
             };
             let bytes = array::<Beam>(refilled(pieces, 0.0)) + Lbvh::<Beam>::bytes_for(pieces);
@@ -164,28 +167,16 @@ struct Workspace {
 
 pub struct Ppb {
     s: PpbSettings,
-    bidir: Bidir,
+    light: LightPass,
     ws: Mutex<Workspace>,
 }
 
 impl Ppb {
     pub fn new(s: PpbSettings) -> Self {
-        let light = BidirSettings {
-            max_depth: s.max_depth,
-            max_vertex_mib: s.max_beam_mib,
-            light_paths: match s.light_paths {
-                LightPaths::Multiple(m) => m,
-                LightPaths::Count { .. } => 1.0,
-            },
-            ..Default::default()
-        };
-        let mut bidir = Bidir::new(Technique::Store, light).keeping_segments();
-        if let LightPaths::Count { count } = s.light_paths {
-            bidir = bidir.with_path_count(count as usize);
-        }
+        let light = LightPass::new(s.max_depth, s.light_paths, s.max_beam_mib).keeping_segments();
         Ppb {
             s,
-            bidir,
+            light,
             ws: Mutex::new(Workspace::default()),
         }
     }
@@ -201,7 +192,7 @@ impl Integrator for Ppb {
         ws.beams.clear();
         let mut count = 0;
         if scene.has_media && !scene.lights.is_empty() {
-            let (n, st) = self.bidir.light_pass(scene, seed, iteration, |store| {
+            let (n, st) = self.light.run(scene, seed, iteration, |store| {
                 let segs = store.segments().copied();
                 let piece = scene.sphere.radius * PIECE;
                 let out = &mut ws.beams;

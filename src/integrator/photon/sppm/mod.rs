@@ -164,7 +164,7 @@ impl SppmSettings {
         let paths = photon_paths(self.light_paths, px);
         let wave = paths.min(WAVE);
         let driver = paths_driver(Some(self.light_paths), paths, facts);
-        let walk = facts.walk(self.max_depth, true);
+        let walk = crate::integrator::pilot::walk(facts, self.max_depth, true);
         let chunks = wave.div_ceil(PATHS_PER_TASK);
         let per_chunk = wave as f64 / chunks as f64;
         let surface = per_chunk * (walk.surface - walk.direct);

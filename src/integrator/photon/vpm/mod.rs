@@ -199,7 +199,7 @@ impl VpmSettings {
         if scene.has_media && !scene.lights.is_empty() {
             let paths = photon_paths(self.light_paths, facts.pixels());
             let driver = paths_driver(Some(self.light_paths), paths, facts);
-            let walk = facts.walk(self.max_depth, true);
+            let walk = crate::integrator::pilot::walk(facts, self.max_depth, true);
             let chunks = paths.div_ceil(PATHS_PER_TASK);
             let budget = photon_budget(self.max_photon_mib as f32, chunks) as f64;
             let wanted = paths as f64 / chunks as f64 * walk.medium;

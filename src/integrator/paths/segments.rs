@@ -8,7 +8,7 @@
 //! weighted by transmittance). Kept in path order per chunk, like the vertices, so the
 //! store never depends on the thread count.
 
-use super::mis::Partial;
+use super::partial::Partial;
 use crate::integrator::transport::medium_walk::Segment;
 use crate::math::{Rgb, Vec3};
 use crate::medium::Medium;
@@ -133,8 +133,8 @@ impl SegmentSink<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::light_path::trace_light_paths;
-    use super::super::{Bidir, BidirSettings, Technique};
+    use super::super::light_pass::LightPass;
+    use crate::integrator::transport::light_paths::LightPaths;
     use crate::math::PI;
     use crate::scene::Scene;
 
@@ -158,59 +158,50 @@ mod tests {
     fn light_subpaths_keep_their_segments_through_media_on_request() {
         let sigma_t = 2.0f32;
         let scene = fog(sigma_t);
-        let s = BidirSettings {
-            light_paths: 4.0,
-            ..Default::default()
-        };
-        let bidir = Bidir::new(Technique::Bpt, s.clone()).keeping_segments();
-        let pass = bidir.pass(&scene, 0);
-        let mut ws = bidir.ws.lock().unwrap();
-        trace_light_paths(&pass, 5, 0, &mut ws);
-        let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0usize);
-        let power = 4.0 * PI * 3.0;
-        for path in 0..ws.paths {
-            let segs = ws.light_segments(path);
-            assert!(
-                !segs.is_empty(),
-                "path {path}: no segment in an infinite medium"
-            );
-            let first = &segs[0];
-            assert!((first.o - glam::Vec3::new(0.5, 0.0, 2.0)).length() < 1e-6);
-            assert!(
-                (first.beta.x - power).abs() < 1e-5 * power,
-                "{:?}",
-                first.beta
-            );
-            assert_eq!(first.len, 1);
-            for (a, b) in segs.iter().zip(&segs[1..]) {
-                // Each segment starts where the previous flight scattered.
-                let gap = (b.o - a.end()).length();
-                assert!(gap <= 1e-5 * (1.0 + a.end().length()), "gap {gap}");
-                assert_eq!(b.len, a.len + 1);
+        let pass = || LightPass::new(64, LightPaths::Multiple(4.0), 2048.0);
+        let ((), _) = pass().keeping_segments().run(&scene, 5, 0, |ws| {
+            let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0usize);
+            let power = 4.0 * PI * 3.0;
+            for path in 0..ws.paths() {
+                let segs = ws.light_segments(path);
+                assert!(
+                    !segs.is_empty(),
+                    "path {path}: no segment in an infinite medium"
+                );
+                let first = &segs[0];
+                assert!((first.o - glam::Vec3::new(0.5, 0.0, 2.0)).length() < 1e-6);
+                assert!(
+                    (first.beta.x - power).abs() < 1e-5 * power,
+                    "{:?}",
+                    first.beta
+                );
+                assert_eq!(first.len, 1);
+                for (a, b) in segs.iter().zip(&segs[1..]) {
+                    // Each segment starts where the previous flight scattered.
+                    let gap = (b.o - a.end()).length();
+                    assert!(gap <= 1e-5 * (1.0 + a.end().length()), "gap {gap}");
+                    assert_eq!(b.len, a.len + 1);
+                }
+                for seg in segs {
+                    assert!(seg.tmax.is_infinite() && seg.t.is_finite() && seg.t >= 0.0);
+                    assert!((seg.d.length() - 1.0).abs() < 1e-5);
+                }
+                let t = first.t as f64;
+                sum += t;
+                sum2 += t * t;
+                n += 1;
             }
-            for seg in segs {
-                assert!(seg.tmax.is_infinite() && seg.t.is_finite() && seg.t >= 0.0);
-                assert!((seg.d.length() - 1.0).abs() < 1e-5);
-            }
-            let t = first.t as f64;
-            sum += t;
-            sum2 += t * t;
-            n += 1;
-        }
-        // The first flight from the light is exponential with rate sigma_t.
-        let mean = sum / n as f64;
-        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
-        let expect = 1.0 / sigma_t as f64;
-        assert!(
-            (mean - expect).abs() < 4.0 * se,
-            "mean first segment {mean} +- {se}, expected {expect}"
-        );
-        drop(ws);
+            // The first flight from the light is exponential with rate sigma_t.
+            let mean = sum / n as f64;
+            let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+            let expect = 1.0 / sigma_t as f64;
+            assert!(
+                (mean - expect).abs() < 4.0 * se,
+                "mean first segment {mean} +- {se}, expected {expect}"
+            );
+        });
         // Without the request nothing is kept.
-        let plain = Bidir::new(Technique::Bpt, s);
-        let pass = plain.pass(&scene, 0);
-        let mut ws = plain.ws.lock().unwrap();
-        trace_light_paths(&pass, 5, 0, &mut ws);
-        assert!((0..ws.paths).all(|p| ws.light_segments(p).is_empty()));
+        let (kept, _) = pass().run(&scene, 5, 0, |ws| ws.segments().count());
+        assert_eq!(kept, 0);
     }
 }

@@ -1,13 +1,13 @@
 //! How bidirectional subpaths and their connections pass through participating media:
 //! the walk to the next event along a ray (a surface, a scattering point in the
 //! current medium, or escape) and the transmittance of connection segments, each with
-//! the segment's MIS transmittance (see the media notes in [`super::mis`]).
+//! the segment's MIS transmittance (see the media notes in [`super::partial`]).
 //!
 //! Both come in two compilations chosen once per path (`Media`, `Scene::has_media`):
 //! without media the walk is `Scene::next_scattering` and a connection is a visibility
 //! test, exactly the surface-only code, with MIS transmittance 1.
 
-use super::mis;
+use super::partial as mis;
 use super::segments::SegmentSink;
 use super::vertex::Media;
 use super::walk::Walk;

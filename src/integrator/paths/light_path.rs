@@ -2,212 +2,47 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
+use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event};
-use super::mis::{Merge, Partial, Site};
-use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
-use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
-use super::walk::{Eval, Surface, Walk};
-use super::{MergeSet, Pass, Splat, Workspace};
+use super::segments::{FlightStart, SegmentSink, NO_AREA};
+use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
+use super::vertex::{Media, NoMedia, Vertex, WithMedia};
+use super::walk::{Eval, Walk};
+use super::Pass;
 use crate::geometry::{spawn_ray_to, Ray};
-use crate::integrator::estimators::{huge, HashGrid};
-use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimate};
 use crate::integrator::transport::emit::{sample_emission, LightStart};
 use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
-use crate::math::{gamma, Frame, Rgb, Rng, Vec2, Vec3};
+use crate::math::{gamma, Rgb, Rng, Vec2, Vec3};
 use rayon::prelude::*;
 
-/// `LightVertex::material` of a scattering point in a medium.
-pub(crate) const MEDIUM_VERTEX: u32 = u32::MAX;
-
-/// `LightVertex::medium` of a vertex in vacuum.
-const NO_MEDIUM: u32 = u32::MAX;
-
-/// A stored light-subpath vertex (where connections and merges attach).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LightVertex {
-    pub p: Vec3,
-    /// Error bound and normals of a surface vertex (zero for a medium vertex).
-    pub p_err: Vec3,
-    pub ng: Vec3,
-    pub ns: Vec3,
-    /// The shading frame's twist about `ns` (`Frame::twisted`): zero unless the
-    /// material is anisotropic.
-    pub twist: f32,
-    /// Towards the previous vertex (where the light came from), world space.
-    pub wo: Vec3,
-    pub throughput: Rgb,
-    /// The surface's material, or MEDIUM_VERTEX.
-    pub material: u32,
-    /// Texture coordinates of a surface vertex (zero where no texture is read).
-    pub uv: Vec2,
-    /// The medium the light arrived in (NO_MEDIUM: vacuum): a medium vertex's own,
-    /// and at a surface the one on the side `wo` points to.
-    pub medium: u32,
-    /// Russian-roulette continuation probability of the material (or of the medium's
-    /// albedo there).
-    pub cont: f32,
-    /// Segments from the light to this vertex.
-    pub len: u32,
-    pub q: Partial,
-}
-
-impl LightVertex {
-    /// The medium of a medium vertex (None at a surface).
-    #[inline]
-    pub fn scattering_medium(&self) -> Option<u32> {
-        (self.material == MEDIUM_VERTEX).then_some(self.medium)
-    }
-
-    /// The medium the light arrived in (None: vacuum).
-    #[inline]
-    pub fn arrival_medium(&self) -> Option<u32> {
-        (self.medium != NO_MEDIUM).then_some(self.medium)
-    }
-}
-
-/// The part of a light vertex that merging reads, stored in hash-grid order: a range
-/// query then reads memory in runs instead of jumping across the path-ordered store.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct MergeVertex {
-    pub wo: Vec3,
-    pub throughput: Rgb,
-    pub len: u32,
-    pub cont: f32,
-    /// As `LightVertex::medium` (a medium vertex merges only in its own medium).
-    pub medium: u32,
-    pub q: Partial,
-}
-
-impl LightVertex {
-    /// Where a merge at the vertex would sit.
-    #[inline(always)]
-    pub fn site(&self) -> Site {
-        if self.material == MEDIUM_VERTEX {
-            Site::Medium
-        } else {
-            Site::Surface
-        }
-    }
-
-    /// What scatters at the vertex, for connections (only surfaces without media).
-    #[inline(always)]
-    pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
-        if M::ON && self.material == MEDIUM_VERTEX {
-            let medium = &pass.scene.media[self.medium as usize];
-            let m = MediumPoint {
-                phase: medium.phase(),
-                wo: self.wo,
-                sigma: mis_sigma(pass, self.medium),
-                cont: self.cont,
-            };
-            if let Some(m) = M::wrap(m) {
-                return Scatterer::Medium(m);
-            }
-        }
-        let frame = Frame::twisted(self.ns, self.twist);
-        Scatterer::Surface(Surface {
-            m: (pass.scene).material_on(self.material, self.uv, self.ng, &frame),
-            frame,
-            ng: self.ng,
-            wo: frame.to_local(self.wo),
-            cont: self.cont,
-        })
-    }
-}
-
-impl From<&LightVertex> for MergeVertex {
-    #[inline(always)]
-    fn from(v: &LightVertex) -> Self {
-        MergeVertex {
-            wo: v.wo,
-            throughput: v.throughput,
-            len: v.len,
-            cont: v.cont,
-            medium: v.medium,
-            q: v.q,
-        }
-    }
-}
-
-/// The segments light path `path` kept, in the order it traced them (empty unless the
-/// pass keeps segments).
-pub(super) fn path_segments(chunks: &[Chunk], path: usize) -> &[LightSegment] {
-    let chunk = &chunks[path / PATHS_PER_TASK];
-    let i = path % PATHS_PER_TASK;
-    if chunk.segment_ends.is_empty() {
-        return &[];
-    }
-    let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
-    &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
-}
-
-/// How many vertices and segments one chunk may store (`max_vertex_mib` each).
-#[derive(Clone, Copy)]
-struct Budget {
-    vertices: usize,
-    segments: usize,
-}
-
-impl Budget {
-    /// Each of `chunks` chunks' share of `max_vertex_mib`.
-    fn new(max_vertex_mib: f32, chunks: usize) -> Budget {
-        let per_chunk = |size: usize| {
-            (max_vertex_mib as f64 * 1048576.0 / size as f64 / chunks as f64) as usize
-        };
-        Budget {
-            vertices: per_chunk(std::mem::size_of::<LightVertex>()),
-            segments: per_chunk(std::mem::size_of::<LightSegment>()),
-        }
-    }
-}
-
-/// The first iteration's room per chunk, rather than growth by doubling, each step a
-/// copy into freshly faulted pages: light paths store two or three vertices in closed
-/// scenes, and splat about as many. Later iterations reuse it all.
-const RESERVED_VERTICES: usize = PATHS_PER_TASK * 3;
-const RESERVED_SPLATS: usize = PATHS_PER_TASK * 2;
-
-/// One chunk's output, kept between iterations to reuse its buffers.
-#[derive(Default)]
-pub(crate) struct Chunk {
-    pub(super) vertices: Vec<LightVertex>,
-    /// Per light path of the chunk, the end of its vertices within `vertices`.
-    ends: Vec<u32>,
-    /// Segments through media, when the pass keeps them, and per light path their end.
-    pub(super) segments: Vec<LightSegment>,
-    pub(super) segment_ends: Vec<u32>,
-    pub splats: Vec<Splat>,
-    stats: RenderStats,
-    /// A vertex was not stored because the budget was spent.
-    over_budget: bool,
-}
-
-pub(super) fn trace_light_paths(
+/// Traces the iteration's light paths into `store`, chunk by chunk in parallel (the
+/// store never depends on the thread count).
+pub(crate) fn trace_light_paths(
     pass: &Pass,
     seed: u64,
     iteration: u64,
-    ws: &mut Workspace,
+    ws: &mut Store,
 ) -> RenderStats {
     let n = pass.light_paths;
     let chunks = n.div_ceil(PATHS_PER_TASK);
     ws.chunks.resize_with(chunks, Chunk::default);
     ws.chunks.truncate(chunks);
-    let budget = Budget::new(pass.s.max_vertex_mib, chunks);
-    let t = pass.technique;
+    let budget = Budget::new(pass.max_vertex_mib, chunks);
+    let t = pass.tracing;
     ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
         if chunk.ends.capacity() == 0 {
             // Only what the technique fills: a light pass that stores no vertex (`lt`)
             // or splats none (the merging and many-light passes) reserves none.
-            if t.stores() {
+            if t.stores {
                 chunk
                     .vertices
                     .reserve(RESERVED_VERTICES.min(budget.vertices));
             }
             chunk.ends.reserve(PATHS_PER_TASK);
-            if t.splats() {
+            if t.splats {
                 chunk.splats.reserve(RESERVED_SPLATS);
             }
         }
@@ -221,8 +56,6 @@ pub(super) fn trace_light_paths(
         let paths = c * PATHS_PER_TASK..((c + 1) * PATHS_PER_TASK).min(n);
         trace_chunk(pass, seed, iteration, paths, chunk, budget);
     });
-    // Connections and merging read the vertices where the chunks stored them; only
-    // the grid's positions are gathered into one array.
     ws.paths = n;
     let mut total = 0;
     let mut stats = RenderStats::default();
@@ -233,183 +66,11 @@ pub(super) fn trace_light_paths(
     if ws.chunks.iter().any(|c| c.over_budget) {
         tracing::warn!(
             "light vertices or segments beyond max_vertex_mib = {} were not stored this iteration; raise it or lower light_paths",
-            pass.s.max_vertex_mib
+            pass.max_vertex_mib
         );
-    }
-    ws.surface.positions.clear();
-    ws.medium.positions.clear();
-    if pass.technique.merges() {
-        // Only the sites whose estimator is in use.
-        let keep = |site: Site| match site {
-            Site::Surface => pass.uses(Merge::Surface),
-            Site::Medium => pass.uses(Merge::Point3d),
-        };
-        let vertices = || {
-            let all = ws.chunks.iter().flat_map(|c| c.vertices.iter());
-            all.filter(move |v| keep(v.site()))
-        };
-        let media = vertices().filter(|v| v.site() == Site::Medium).count();
-        huge::reserve(&mut ws.surface.positions, total - media);
-        huge::reserve(&mut ws.medium.positions, media);
-        for v in vertices() {
-            match v.site() {
-                Site::Surface => ws.surface.positions.push(v.p),
-                Site::Medium => ws.medium.positions.push(v.p),
-            }
-        }
     }
     stats.light_vertices = total as u64;
     stats
-}
-
-impl Workspace {
-    /// The stored vertices of light path `path`, in order of length.
-    #[inline(always)]
-    pub(super) fn light_path(&self, path: usize) -> &[LightVertex] {
-        let chunk = &self.chunks[path / PATHS_PER_TASK];
-        let i = path % PATHS_PER_TASK;
-        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
-        &chunk.vertices[begin as usize..chunk.ends[i] as usize]
-    }
-
-    /// The segments light path `path` kept, in the order it traced them (empty unless
-    /// the pass keeps segments).
-    #[allow(dead_code)] // read by the tests
-    pub(super) fn light_segments(&self, path: usize) -> &[LightSegment] {
-        path_segments(&self.chunks, path)
-    }
-
-    /// The merging copy of every vertex, per site in its hash grid's storage order.
-    pub(super) fn fill_merge(&mut self) {
-        for (set, site) in [
-            (&mut self.surface, Site::Surface),
-            (&mut self.medium, Site::Medium),
-        ] {
-            let vertices = self.chunks.iter().flat_map(|c| c.vertices.iter());
-            set.fill(vertices.filter(|v| v.site() == site));
-        }
-    }
-
-    /// Bytes held for light vertices and segments (the chunks' stores).
-    pub(super) fn vertex_store_bytes(&self) -> usize {
-        let stores: usize = self
-            .chunks
-            .iter()
-            .map(|c| {
-                c.vertices.capacity() * std::mem::size_of::<LightVertex>()
-                    + c.segments.capacity() * std::mem::size_of::<LightSegment>()
-            })
-            .sum();
-        stores
-    }
-}
-
-/// One iteration's light pass, as the memory estimate sees it.
-pub(crate) struct StorePlan<'a> {
-    pub technique: super::Technique,
-    pub paths: usize,
-    /// What a path stores on average (the pilot's).
-    pub walk: memory::Walk,
-    pub keep_segments: bool,
-    pub max_vertex_mib: f32,
-    /// How the client set the number of paths, and the budget's parameter name.
-    pub driver: &'a str,
-    pub budget_field: &'static str,
-}
-
-/// What the light store holds after the budget, per iteration: the vertices of each
-/// kind and the segments.
-pub(crate) struct Stored {
-    pub surface: f64,
-    pub medium: f64,
-    pub segments: f64,
-}
-
-/// Adds what [`trace_light_paths`] holds to `e`: per chunk of paths its vertices (the
-/// first iteration's reservation, then doubling, at most the chunk's share of the
-/// budget), path ends, segments when kept, and splats (at most one per vertex and one
-/// for the emitter, per path). Returns what was stored.
-pub(crate) fn store_memory(e: &mut Estimate, plan: &StorePlan, has_media: bool) -> Stored {
-    let chunks = plan.paths.div_ceil(PATHS_PER_TASK);
-    let budget = Budget::new(plan.max_vertex_mib, chunks);
-    let per_chunk = plan.paths as f64 / chunks as f64;
-    let cap = |what: f64, budget: usize| -> (f64, bool) {
-        let over = what > budget as f64;
-        (what.min(budget as f64), over)
-    };
-    let driver = |over| memory::capped(plan.driver, over, plan.budget_field, plan.max_vertex_mib);
-    let w = plan.walk;
-    let mut kept = 0.0;
-    if plan.technique.stores() {
-        let (v, over) = cap(per_chunk * w.vertices(), budget.vertices);
-        let room = RESERVED_VERTICES.min(budget.vertices) as f64;
-        let capacity = budgeted(v, room, budget.vertices as f64);
-        let bytes = chunks as f64 * array::<LightVertex>(capacity);
-        e.add("light vertices", driver(over), bytes);
-        kept = if w.vertices() > 0.0 {
-            v / (per_chunk * w.vertices())
-        } else {
-            0.0
-        };
-    }
-    let keep_segments = plan.keep_segments && has_media;
-    let (sv, s_over) = cap(per_chunk * w.segments, budget.segments);
-    if keep_segments {
-        let capacity = budgeted(sv, 0.0, budget.segments as f64);
-        let bytes = chunks as f64 * array::<LightSegment>(capacity);
-        e.add("light segments", driver(s_over), bytes);
-    }
-    let mut ends = array::<Chunk>(chunks as f64) + array::<u32>((chunks * PATHS_PER_TASK) as f64);
-    if plan.keep_segments {
-        ends += chunks as f64 * array::<u32>(pushed(per_chunk, 0.0));
-    }
-    e.add("light path ends", plan.driver, ends);
-    if plan.technique.splats() {
-        let splats = per_chunk * (w.vertices() + 1.0);
-        let bytes = chunks as f64 * array::<Splat>(refilled(splats, RESERVED_SPLATS as f64));
-        e.add("splats", plan.driver, bytes);
-    }
-    let paths = plan.paths as f64;
-    Stored {
-        surface: paths * w.surface * kept,
-        medium: paths * w.medium * kept,
-        segments: if keep_segments {
-            chunks as f64 * sv
-        } else {
-            0.0
-        },
-    }
-}
-
-impl MergeSet {
-    /// The merging copies of `vertices` (this set's, in store order), in the grid's
-    /// storage order. The store is read in order and the copies written where the grid
-    /// ranks them: scattered writes overlap their cache misses, where gathering reads
-    /// would wait on each.
-    fn fill<'a>(&mut self, vertices: impl Iterator<Item = &'a LightVertex>) {
-        let n = self.positions.len();
-        self.merge.clear();
-        huge::reserve(&mut self.merge, n);
-        self.merge.resize(n, MergeVertex::default());
-        let rank = self.grid.rank();
-        for (&at, v) in rank.iter().zip(vertices) {
-            self.merge[at as usize] = MergeVertex::from(v);
-        }
-    }
-
-    /// Bytes a set over `n` vertices holds once filled (what
-    /// [`MergeSet::index_bytes`] then reports).
-    pub(super) fn bytes_for(n: f64) -> f64 {
-        let copies = std::mem::size_of::<Vec3>() + std::mem::size_of::<MergeVertex>();
-        (huge::reserved(n as usize) * copies) as f64 + HashGrid::bytes_for(n)
-    }
-
-    /// Bytes held for positions, grid and merging copies.
-    pub(super) fn index_bytes(&self) -> usize {
-        self.positions.capacity() * std::mem::size_of::<Vec3>()
-            + self.merge.capacity() * std::mem::size_of::<MergeVertex>()
-            + self.grid.bytes()
-    }
 }
 
 /// One chunk of light paths, compiled for AVX2 + FMA processors (chosen at run time)
@@ -528,7 +189,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     };
     let (es, li, pick) = (&ls.sample, ls.light, ls.pick);
     chunk.stats.samples += 1;
-    if pass.technique == super::Technique::Lt {
+    if pass.tracing.lt {
         splat_emitter::<M>(pass, rng, chunk, es, li, pick);
     }
     let Start {
@@ -540,8 +201,8 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     if M::ON {
         walk.medium = ls.medium;
     }
-    let store = pass.technique.stores();
-    let to_camera = pass.technique.splats();
+    let store = pass.tracing.stores;
+    let to_camera = pass.tracing.splats;
     // The last vertex's connection to the lens, whose shadow ray (without media) is
     // traced together with the ray that continues the path.
     let mut lens: Option<LensShadow> = None;
@@ -615,7 +276,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
                 lens = connect_to_camera(pass, rng, chunk, &walk, v);
             }
         }
-        if walk.len + 2 > pass.s.max_depth {
+        if walk.len + 2 > pass.max_depth {
             break;
         }
         let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None) else {
@@ -738,7 +399,7 @@ fn lens_value(
     tr_mis: f32,
 ) -> Rgb {
     let camera_a = camera_pdf * e.cos / (dist2 / tr_mis);
-    let w = if pass.technique == super::Technique::Lt {
+    let w = if pass.tracing.lt {
         1.0
     } else {
         pass.mis

@@ -1,7 +1,7 @@
 //! A subpath vertex as both subpath tracers and the connections see it: a surface with
 //! its BSDF, or a scattering point in a medium with its phase function. A medium
 //! vertex has no cosine anywhere: its contributions use the phase function alone, and
-//! its MIS factor D is the medium's grey sigma_t from both sides (see [`super::mis`]).
+//! its MIS factor D is the medium's grey sigma_t from both sides (see [`super::partial`]).
 //!
 //! The subpath loops are compiled twice, chosen once per path: for [`WithMedia`] and
 //! for [`NoMedia`], whose medium vertices are of an uninhabited type. Without media
@@ -9,7 +9,7 @@
 //! in registers and never tests for, and the surface-only code costs what it did
 //! before media existed.
 
-use super::mis::Site;
+use super::partial::Site;
 use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
@@ -108,7 +108,7 @@ impl<'a> MediumPoint<'a> {
 
 impl MediumPoint<'_> {
     /// M(x) of this point with `other` the direction of its other path segment (see
-    /// [`Mis::merges`](super::mis::Mis::merges)), `camera_len` as there.
+    /// [`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline]
     pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
         let sin = pass.mis.sine(self.wo, other);
@@ -249,7 +249,7 @@ impl<'a, M: Media> Vertex<'a, M> {
     }
 
     /// M(x) of the vertex with `other` the direction of its other path segment
-    /// ([`Mis::merges`](super::mis::Mis::merges)), `camera_len` as there.
+    /// ([`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline(always)]
     pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
         match self {

@@ -1,7 +1,7 @@
 //! The state a subpath carries between vertices and the scattering move both subpaths
 //! make at surfaces: what the light and camera walks of the bidirectional core share.
 
-use super::mis::{Partial, Site};
+use super::partial::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::transport::adjoint::adjoint_correction;

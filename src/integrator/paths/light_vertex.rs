@@ -1,0 +1,93 @@
+//! A stored light-subpath vertex: where connections, merges and virtual lights attach.
+
+use super::partial::{Partial, Site};
+use super::vertex::{mis_sigma, Media, MediumPoint, Scatterer};
+use super::walk::Surface;
+use super::Pass;
+use crate::math::{Frame, Rgb, Vec2, Vec3};
+
+/// `LightVertex::material` of a scattering point in a medium.
+pub(crate) const MEDIUM_VERTEX: u32 = u32::MAX;
+
+/// `LightVertex::medium` of a vertex in vacuum.
+pub(crate) const NO_MEDIUM: u32 = u32::MAX;
+
+/// A stored light-subpath vertex (where connections and merges attach).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightVertex {
+    pub p: Vec3,
+    /// Error bound and normals of a surface vertex (zero for a medium vertex).
+    pub p_err: Vec3,
+    pub ng: Vec3,
+    pub ns: Vec3,
+    /// The shading frame's twist about `ns` (`Frame::twisted`): zero unless the
+    /// material is anisotropic.
+    pub twist: f32,
+    /// Towards the previous vertex (where the light came from), world space.
+    pub wo: Vec3,
+    pub throughput: Rgb,
+    /// The surface's material, or MEDIUM_VERTEX.
+    pub material: u32,
+    /// Texture coordinates of a surface vertex (zero where no texture is read).
+    pub uv: Vec2,
+    /// The medium the light arrived in (NO_MEDIUM: vacuum): a medium vertex's own,
+    /// and at a surface the one on the side `wo` points to.
+    pub medium: u32,
+    /// Russian-roulette continuation probability of the material (or of the medium's
+    /// albedo there).
+    pub cont: f32,
+    /// Segments from the light to this vertex.
+    pub len: u32,
+    pub q: Partial,
+}
+
+impl LightVertex {
+    /// The medium of a medium vertex (None at a surface).
+    #[inline]
+    pub fn scattering_medium(&self) -> Option<u32> {
+        (self.material == MEDIUM_VERTEX).then_some(self.medium)
+    }
+
+    /// The medium the light arrived in (None: vacuum).
+    #[inline]
+    pub fn arrival_medium(&self) -> Option<u32> {
+        (self.medium != NO_MEDIUM).then_some(self.medium)
+    }
+}
+
+impl LightVertex {
+    /// Where a merge at the vertex would sit.
+    #[inline(always)]
+    pub fn site(&self) -> Site {
+        if self.material == MEDIUM_VERTEX {
+            Site::Medium
+        } else {
+            Site::Surface
+        }
+    }
+
+    /// What scatters at the vertex, for connections (only surfaces without media).
+    #[inline(always)]
+    pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
+        if M::ON && self.material == MEDIUM_VERTEX {
+            let medium = &pass.scene.media[self.medium as usize];
+            let m = MediumPoint {
+                phase: medium.phase(),
+                wo: self.wo,
+                sigma: mis_sigma(pass, self.medium),
+                cont: self.cont,
+            };
+            if let Some(m) = M::wrap(m) {
+                return Scatterer::Medium(m);
+            }
+        }
+        let frame = Frame::twisted(self.ns, self.twist);
+        Scatterer::Surface(Surface {
+            m: (pass.scene).material_on(self.material, self.uv, self.ng, &frame),
+            frame,
+            ng: self.ng,
+            wo: frame.to_local(self.wo),
+            cont: self.cont,
+        })
+    }
+}
