@@ -12,6 +12,7 @@ pub mod lock;
 pub mod memory;
 pub mod remote;
 pub mod run;
+pub mod runtime;
 pub mod scenes;
 pub mod scheduler;
 pub mod service;

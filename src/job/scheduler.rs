@@ -9,7 +9,7 @@
 use super::context::{Context, JobSettings};
 use super::disk::{self, Finished, Retention};
 use super::events::Event;
-use super::run::{self, Held, Runtime, StepResult};
+use super::run::{self, Held, Live, StepResult};
 use super::spec::{unix_now, JobState, JobStatus};
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
@@ -41,7 +41,7 @@ pub struct Entry {
     pub served: u64,
     /// The scheduler holds the job right now (its runtime is out of the table).
     pub active: bool,
-    pub runtime: Option<Box<Runtime>>,
+    pub runtime: Option<Box<Live>>,
     /// job.json is behind `status` (a write failed); the scheduler retries it.
     pub unsaved: bool,
 }
@@ -154,7 +154,7 @@ pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
             let e = t.jobs.get_mut(&id).expect("picked job");
             e.active = true;
             let held = match e.runtime.take() {
-                Some(rt) => Held::Runtime(rt),
+                Some(rt) => Held::Live(rt),
                 None => Held::Settings(e.settings.clone()),
             };
             // A queued job is running from here on, and says so before its batch
@@ -203,7 +203,7 @@ fn evict(shared: &Shared, id: &str) -> bool {
 /// Takes a held job's runtime out of the table, marking the job active so that
 /// nothing else touches it, for work (a checkpoint write) done without the lock.
 /// The caller puts the runtime back or drops it, and clears `active`.
-pub fn take_runtime(shared: &Shared, id: &str) -> Option<(Box<Runtime>, JobStatus)> {
+pub fn take_runtime(shared: &Shared, id: &str) -> Option<(Box<Live>, JobStatus)> {
     let mut t = shared.table.lock().expect("job table");
     let e = t.jobs.get_mut(id)?;
     if e.active {
