@@ -19,6 +19,7 @@ pub mod service;
 pub mod spec;
 pub mod store;
 pub mod sweep;
+pub mod transition;
 pub mod watch;
 
 pub use service::{Service, ServiceConfig};

@@ -15,8 +15,9 @@ use super::disk;
 use super::failpoint;
 use super::remote::ranges::{remote_batch, RemoteJob};
 use super::runtime::Runtime;
-use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
+use super::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
+use super::transition::{self, To};
 use super::JobError;
 use crate::film::{self, Image};
 use crate::integrator::RenderStats;
@@ -63,9 +64,9 @@ pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
             Err(e) => return fail(ctx, status, e),
         },
     };
-    // The state event goes out from `finish_step`, which sees the change.
+    // The state event goes out from `scheduler::settle`, which sees the change.
     if status.state == JobState::Queued {
-        status.state = JobState::Running;
+        transition::enter(&mut status, To::Running);
     }
     let result = if status.iteration > 0 && halt_reached(&status) {
         // Resumed from a checkpoint written by the job's last snapshot: what is left
@@ -88,27 +89,13 @@ pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
 /// one it can act on (no server paths).
 pub fn fail(ctx: &Context, mut status: JobStatus, err: JobError) -> StepResult {
     tracing::warn!(job = %status.id, error = %err, "job failed");
-    status.state = JobState::Failed;
-    status.error = Some(err.client_message());
-    status.finished_at = Some(unix_now());
-    status.eta_s = None;
-    status.workers = None;
-    let saved = write_status(ctx, &status).is_ok();
+    let dir = ctx.job_dir(&status.id);
+    let saved = transition::make(&dir, &mut status, To::Failed(err.client_message())).is_ok();
     StepResult {
         status,
         runtime: None,
         saved,
     }
-}
-
-/// Writes job.json, logging a failure (the caller decides what it means).
-pub fn write_status(ctx: &Context, status: &JobStatus) -> Result<(), JobError> {
-    failpoint::hit("status", status.iteration);
-    let r = ctx.job_dir(&status.id).write_status(status);
-    if let Err(e) = &r {
-        tracing::warn!(job = %status.id, error = %e, "job.json not written");
-    }
-    r
 }
 
 /// Whether a job at its current iteration, time and error has met its halt rule.
@@ -241,7 +228,7 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, live: &mut Live) -> Result<b
     if done {
         complete(ctx, status, rt)?;
     } else {
-        write_status(ctx, status)?;
+        transition::store(&ctx.job_dir(&status.id), status)?;
     }
     Ok(done)
 }
@@ -270,11 +257,7 @@ fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), J
     film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
     failpoint::hit("final-png", status.iteration);
     film::write_png(dir.final_image("png"), &img, 0.0)?;
-    status.state = JobState::Completed;
-    status.finished_at = Some(unix_now());
-    status.eta_s = None;
-    status.workers = None;
-    write_status(ctx, status)?;
+    transition::make(&dir, status, To::Completed)?;
     disk::tidy_finished(&dir, &status.spec);
     Ok(())
 }

@@ -8,9 +8,9 @@
 
 use super::context::{Context, JobSettings};
 use super::disk::{self, Finished, Retention};
-use super::events::Event;
 use super::run::{self, Held, Live, StepResult};
 use super::spec::{unix_now, JobState, JobStatus};
+use super::transition::{self, To};
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Condvar, Mutex};
@@ -158,13 +158,11 @@ pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
                 None => Held::Settings(e.settings.clone()),
             };
             // A queued job is running from here on, and says so before its batch
-            // reports any progress: watchers see `state` before `progress`.
+            // reports any progress: watchers see `state` before `progress` (job.json
+            // says so when the batch writes it).
             if e.status.state == JobState::Queued {
-                e.status.state = JobState::Running;
-                shared.ctx.emit(Event::State {
-                    job: id.clone(),
-                    state: JobState::Running,
-                });
+                transition::enter(&mut e.status, To::Running);
+                transition::announce(&shared.ctx, &e.status);
             }
             (id, held, e.status.clone())
         };
@@ -332,41 +330,34 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
                 tracing::warn!(job = id, error = %err, "checkpoint not written");
             }
         }
-        r.status.workers = None;
-        r.status.eta_s = None;
-        r.status.state = if control == Control::Pause {
-            JobState::Paused
-        } else {
-            r.status.finished_at = Some(unix_now());
-            JobState::Cancelled
-        };
         r.runtime = None;
-        r.saved = run::write_status(&shared.ctx, &r.status).is_ok();
+        let to = match control {
+            Control::Pause => To::Paused,
+            _ => To::Cancelled,
+        };
+        r.saved = transition::make(&dir, &mut r.status, to).is_ok();
     }
-    let changed = r.status.state != e.status.state;
-    e.status = r.status;
     e.runtime = r.runtime;
-    e.unsaved = !r.saved;
-    if changed || e.status.state.is_terminal() {
-        // Under the lock: a client's next transition is said after this one.
-        announce(&shared.ctx, &e.status);
-    }
+    // Under the lock: a client's next transition is said after this one.
+    settle(&shared.ctx, e, r.status, r.saved);
     drop(t);
     shared.stepped.notify_all();
 }
 
-/// Tells watchers a job's new state, and `done` with its status if it has finished.
-/// Called with the job table locked, so that changes are said in the order made.
-pub(super) fn announce(ctx: &Context, status: &JobStatus) {
-    ctx.emit(Event::State {
-        job: status.id.clone(),
-        state: status.state,
-    });
-    if status.state.is_terminal() {
-        ctx.emit(Event::Done {
-            job: status.id.clone(),
-            status: Box::new(status.clone()),
-        });
+/// Makes `status` job `e`'s, and says the transition if its state changed or it has
+/// finished (`transition::announce`). `saved` says whether job.json holds `status`;
+/// if not, the scheduler writes it again until it does. A job that stops (paused or
+/// finished) drops its render state. Called with the job table locked, so that
+/// changes are said in the order made.
+pub(super) fn settle(ctx: &Context, e: &mut Entry, status: JobStatus, saved: bool) {
+    let changed = status.state != e.status.state;
+    e.status = status;
+    e.unsaved = !saved;
+    if !matches!(e.status.state, JobState::Queued | JobState::Running) {
+        e.runtime = None;
+    }
+    if changed || e.status.state.is_terminal() {
+        transition::announce(ctx, &e.status);
     }
 }
 

@@ -17,6 +17,7 @@ use super::scheduler::{self, Control, Entry, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
 use super::store::JobDir;
 use super::sweep::{Sweep, SweepSpec};
+use super::transition::{self, To};
 use super::JobError;
 use crate::integrator::Settings;
 use crate::job::remote::coordinator::NatsExecutor;
@@ -328,17 +329,11 @@ impl Service {
     fn enqueue(&self, jobs: Vec<(JobStatus, Settings)>) {
         let mut t = self.shared.table.lock().expect("job table");
         let tick = t.tick;
-        let ids: Vec<String> = jobs.iter().map(|(s, _)| s.id.clone()).collect();
+        // Said before the scheduler can start them, so `queued` comes before `running`.
         for (status, settings) in jobs {
+            transition::announce(&self.shared.ctx, &status);
             t.jobs
                 .insert(status.id.clone(), Entry::new(status, Ok(settings), tick));
-        }
-        // Said before the scheduler can start them, so `queued` comes before `running`.
-        for id in ids {
-            self.shared.ctx.emit(Event::State {
-                job: id,
-                state: JobState::Queued,
-            });
         }
         drop(t);
         self.shared.wake.notify_all();
@@ -449,16 +444,12 @@ impl Service {
                 self.set_aside(id)?;
                 continue;
             }
-            let mut status = e.status.clone();
-            status.workers = None;
-            status.eta_s = None;
-            status.state = if c == Control::Pause {
-                JobState::Paused
-            } else {
-                status.finished_at = Some(unix_now());
-                JobState::Cancelled
+            let to = match c {
+                Control::Pause => To::Paused,
+                _ => To::Cancelled,
             };
-            return self.commit(t, status);
+            let status = e.status.clone();
+            return self.commit(t, status, to);
         }
     }
 
@@ -516,23 +507,20 @@ impl Service {
         }
     }
 
-    /// Stores `status` for an idle job, then makes it the job's state: a transition
-    /// that cannot be stored is refused (the error says why) and changes nothing.
+    /// Moves an idle job, whose status is `status`, to `to` and stores that, then
+    /// makes it the job's: a transition that cannot be stored is refused (the error
+    /// says why) and changes nothing.
     fn commit(
         &self,
         mut t: std::sync::MutexGuard<'_, Table>,
-        status: JobStatus,
+        mut status: JobStatus,
+        to: To,
     ) -> Result<JobStatus, JobError> {
         let id = status.id.clone();
-        self.job_dir_of(&id).write_status(&status)?;
+        transition::make(&self.job_dir_of(&id), &mut status, to)?;
         let e = t.jobs.get_mut(&id).expect("job in table");
-        e.status = status.clone();
-        e.unsaved = false;
-        if !matches!(status.state, JobState::Queued | JobState::Running) {
-            e.runtime = None;
-        }
         // Under the lock: no other change of the job can be said before this one.
-        scheduler::announce(&self.shared.ctx, &status);
+        scheduler::settle(&self.shared.ctx, e, status.clone(), true);
         drop(t);
         if status.state == JobState::Queued {
             self.shared.wake.notify_all();
@@ -564,9 +552,8 @@ impl Service {
                 e.status.state.as_str()
             )));
         }
-        let mut status = e.status.clone();
-        status.state = JobState::Queued;
-        self.commit(t, status)
+        let status = e.status.clone();
+        self.commit(t, status, To::Queued)
     }
 
     /// Removes a job and its directory; a running job must be cancelled first.
