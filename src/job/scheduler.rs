@@ -31,6 +31,17 @@ pub enum Control {
     Cancel,
 }
 
+impl Control {
+    /// The state the request moves a job to.
+    pub fn to(self) -> Option<To> {
+        match self {
+            Control::None => None,
+            Control::Pause => Some(To::Paused),
+            Control::Cancel => Some(To::Cancelled),
+        }
+    }
+}
+
 pub struct Entry {
     pub status: JobStatus,
     /// What the job's runtime is built from, each time it starts or resumes;
@@ -322,7 +333,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
     e.served = tick;
     e.active = false;
     let control = std::mem::replace(&mut e.control, Control::None);
-    if !r.status.state.is_terminal() && control != Control::None {
+    if let Some(to) = control.to().filter(|_| !r.status.state.is_terminal()) {
         let dir = shared.ctx.job_dir(id);
         if let Some(rt) = &r.runtime {
             // Keep the exact state so a resume (even after a restart) loses nothing.
@@ -331,10 +342,6 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
             }
         }
         r.runtime = None;
-        let to = match control {
-            Control::Pause => To::Paused,
-            _ => To::Cancelled,
-        };
         r.saved = transition::make(&dir, &mut r.status, to).is_ok();
     }
     e.runtime = r.runtime;

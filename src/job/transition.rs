@@ -89,31 +89,13 @@ pub fn announce(ctx: &Context, status: &JobStatus) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::job::spec::JobSpec;
 
+    /// A running job with an estimate and workers.
     fn running() -> JobStatus {
-        let spec: JobSpec = serde_json::from_value(serde_json::json!({
-            "scene": "cornell-box", "halt": {"spp": 100}
-        }))
-        .unwrap();
-        JobStatus {
-            id: "j".into(),
-            spec,
-            settings: serde_json::json!({"algorithm": "pt"}),
-            state: JobState::Running,
-            iteration: 7,
-            elapsed_s: 9.0,
-            samples_per_s: 3.0,
-            last_rmse: None,
-            eta_s: Some(4.0),
-            dropped: 0,
-            width: 2,
-            height: 2,
-            created_at: 0.0,
-            finished_at: None,
-            error: None,
-            workers: Some(2),
-        }
+        let mut s = JobStatus::for_tests("j", JobState::Running, 7);
+        s.eta_s = Some(4.0);
+        s.workers = Some(2);
+        s
     }
 
     #[test]

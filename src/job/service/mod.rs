@@ -5,6 +5,7 @@ mod metrics;
 mod outputs;
 mod recover;
 mod retry;
+mod sweeps;
 
 use super::context::{Context, Metrics};
 use super::disk::{self, Retention};
@@ -16,7 +17,6 @@ use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
 use super::store::JobDir;
-use super::sweep::{Sweep, SweepSpec};
 use super::transition::{self, To};
 use super::JobError;
 use crate::integrator::Settings;
@@ -444,11 +444,10 @@ impl Service {
                 self.set_aside(id)?;
                 continue;
             }
-            let to = match c {
-                Control::Pause => To::Paused,
-                _ => To::Cancelled,
-            };
             let status = e.status.clone();
+            let to = c
+                .to()
+                .expect("pause or cancel (Control::None is never allowed)");
             return self.commit(t, status, to);
         }
     }
@@ -572,63 +571,5 @@ impl Service {
         drop(t);
         let dir = self.job_dir_of(id);
         std::fs::remove_dir_all(&dir.root).map_err(|e| JobError::io(&dir.root, e))
-    }
-
-    // ---- sweeps -------------------------------------------------------------
-
-    /// Expands a sweep into jobs and queues them all, or none: every job is
-    /// validated and stored before any is queued.
-    pub fn create_sweep(&self, spec: SweepSpec) -> Result<Sweep, JobError> {
-        if spec.base.sweep.is_some() {
-            return Err(bad("base.sweep is set by the server"));
-        }
-        if let Some(n) = &spec.name {
-            limits::check_text("name", n, limits::MAX_NAME)?;
-        }
-        let id = format!("s{}", &uuid::Uuid::new_v4().simple().to_string()[..12]);
-        let mut prepared = Vec::new();
-        for (point, job) in spec.expand(&id)? {
-            prepared.push((point, self.prepare(job)?));
-        }
-        let sweep = Sweep {
-            id,
-            spec,
-            jobs: prepared
-                .iter()
-                .map(|(point, (status, _))| (point.clone(), status.id.clone()))
-                .collect(),
-        };
-        let path = self
-            .config
-            .data_dir
-            .join("sweeps")
-            .join(format!("{}.json", sweep.id));
-        crate::film::write_bytes_atomic(&path, &serde_json::to_vec_pretty(&sweep).expect("sweep"))?;
-        let mut stored: Vec<(JobStatus, Settings)> = Vec::with_capacity(prepared.len());
-        for (_, job) in prepared {
-            if let Err(e) = self.store_new(&job.0) {
-                for (s, _) in &stored {
-                    let _ = std::fs::remove_dir_all(self.job_dir_of(&s.id).root);
-                }
-                let _ = std::fs::remove_file(&path);
-                return Err(e);
-            }
-            stored.push(job);
-        }
-        self.enqueue(stored);
-        Ok(sweep)
-    }
-
-    pub fn get_sweep(&self, id: &str) -> Result<Sweep, JobError> {
-        if !id.starts_with('s') || !id[1..].bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(JobError::NotFound(format!("sweep {id}")));
-        }
-        let path = self
-            .config
-            .data_dir
-            .join("sweeps")
-            .join(format!("{id}.json"));
-        let bytes = std::fs::read(&path).map_err(|_| JobError::NotFound(format!("sweep {id}")))?;
-        serde_json::from_slice(&bytes).map_err(|e| JobError::Internal(e.to_string()))
     }
 }

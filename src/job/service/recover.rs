@@ -87,31 +87,9 @@ fn fail_unreadable(dir: &JobDir, status: &mut JobStatus, why: &str) -> bool {
 mod tests {
     use super::*;
     use crate::film::Film;
-    use crate::job::spec::JobSpec;
 
     fn status(id: &str, state: JobState, iteration: u64) -> JobStatus {
-        let spec: JobSpec = serde_json::from_value(serde_json::json!({
-            "scene": "cornell-box", "halt": {"spp": 100}
-        }))
-        .unwrap();
-        JobStatus {
-            id: id.into(),
-            spec,
-            settings: serde_json::json!({"algorithm": "pt"}),
-            state,
-            iteration,
-            elapsed_s: 9.0,
-            samples_per_s: 0.0,
-            last_rmse: None,
-            eta_s: None,
-            dropped: 0,
-            width: 2,
-            height: 2,
-            created_at: 0.0,
-            finished_at: None,
-            error: None,
-            workers: None,
-        }
+        JobStatus::for_tests(id, state, iteration)
     }
 
     /// job.json is written every batch, the checkpoint every snapshot: after a kill
