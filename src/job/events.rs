@@ -43,6 +43,25 @@ impl Event {
         }
     }
 
+    /// What says a job's state: `state`, then `done` with its status if it has
+    /// finished. Both a transition ([`crate::job::transition::announce`]) and a new
+    /// watcher's first look at a job ([`crate::job::watch`]) say it so.
+    pub fn said(status: &JobStatus) -> Vec<Event> {
+        let state = Event::State {
+            job: status.id.clone(),
+            state: status.state,
+        };
+        if status.state.is_terminal() {
+            let done = Event::Done {
+                job: status.id.clone(),
+                status: Box::new(status.clone()),
+            };
+            vec![state, done]
+        } else {
+            vec![state]
+        }
+    }
+
     pub fn name(&self) -> &'static str {
         match self {
             Event::Progress { .. } => "progress",

@@ -1,6 +1,12 @@
 //! Render jobs: specs and states, the job directory, scene storage, the scheduler that
 //! runs progressive iterations on the worker pool, and the transport-neutral service
 //! that the HTTP and gRPC front ends call.
+//!
+//! Layers, each importing only those below it: `spec`, `store`, `events`, `scenes` and
+//! `runtime` (a job's render state and iteration loop) at the bottom; then `remote`
+//! (pools of workers), `context` (what running needs from the server), `transition`
+//! (the one writer of a state change), `run` (a job's batches), `scheduler`, and
+//! `service` and `watch` at the top.
 
 pub mod context;
 pub mod disk;
@@ -12,12 +18,14 @@ pub mod lock;
 pub mod memory;
 pub mod remote;
 pub mod run;
+pub mod runtime;
 pub mod scenes;
 pub mod scheduler;
 pub mod service;
 pub mod spec;
 pub mod store;
 pub mod sweep;
+pub mod transition;
 pub mod watch;
 
 pub use service::{Service, ServiceConfig};

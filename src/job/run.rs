@@ -1,5 +1,7 @@
-//! Running one job: its runtime (compiled scene, integrator, film, resumed from the
-//! checkpoint), a batch of iterations, its snapshots, and its end.
+//! Running one job in batches: starting its runtime (`runtime`) from the checkpoint,
+//! a batch of iterations (rendered here, or by a pool of workers through `remote`),
+//! its snapshots, and its end. The scheduler calls it; it sits above `runtime` and
+//! `remote` and never imports the scheduler or the service.
 //!
 //! Crash consistency rests on one order of writes. A snapshot writes its EXR and PNG,
 //! `latest.*`, a log row, then the checkpoint; completion then writes `final.*` and
@@ -12,84 +14,29 @@ use super::context::{Context, JobSettings};
 use super::disk;
 use super::failpoint;
 use super::remote::ranges::{remote_batch, RemoteJob};
-use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
+use super::runtime::Runtime;
+use super::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
+use super::transition::{self, To};
 use super::JobError;
-use crate::film::{self, ExactSums, Film, Image};
-use crate::integrator::drive::iterate_exact;
-use crate::integrator::{Integrator, RenderStats, Settings};
+use crate::film::{self, Image};
+use crate::integrator::RenderStats;
 use crate::scene::Scene;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-/// Target wall time of one batch.
-const BATCH: Duration = Duration::from_millis(250);
-
-/// Live state of an active job: everything needed to run its next iterations.
-pub struct Runtime {
-    scene: Arc<Scene>,
-    /// What `integrator` was built from, for work units sent to other processes.
-    pub(super) settings: Settings,
-    integrator: Box<dyn Integrator>,
-    /// The job's exact sums (`film::exact`): what its images and checkpoints hold.
-    pub(super) sums: ExactSums,
-    /// The film iterations render into (`driver::iterate_exact`).
-    scratch: Film,
-    /// Ranges out with a pool of workers, when the server has one.
-    pub(super) remote: Option<RemoteJob>,
-    samples: u64,
-    reference: Option<Image>,
-    /// Seconds per iteration, smoothed.
-    per_iter: f64,
-    last_snapshot: (u64, f64),
+/// A job held in memory between batches: its runtime, and its ranges out with a pool
+/// of workers when the server has one (dropping it withdraws those).
+pub struct Live {
+    runtime: Runtime,
+    remote: Option<RemoteJob>,
 }
 
-impl Runtime {
+impl Live {
     /// The exact state to resume from after `status.iteration` iterations.
     pub fn checkpoint(&self, status: &JobStatus) -> Checkpoint {
-        // A chained integrator's own film is what it resumes on.
-        let film = if self.integrator.chained() {
-            self.scratch.clone()
-        } else {
-            self.sums.to_film()
-        };
-        Checkpoint {
-            iteration: status.iteration,
-            elapsed_s: status.elapsed_s,
-            samples: self.samples,
-            film,
-            state: self.integrator.save_state(),
-            exact: Some(self.sums.clone()),
-        }
-    }
-}
-
-impl Runtime {
-    /// Whether the job's iterations continue each other (`Integrator::chained`).
-    pub(super) fn chained(&self) -> bool {
-        self.integrator.chained()
-    }
-
-    /// Continues from checkpoint `c` of a chained job, rendered elsewhere up to
-    /// `c.iteration`: its state, film and sums replace the job's.
-    pub(super) fn adopt(&mut self, c: Checkpoint) -> Result<(), JobError> {
-        let (w, h) = (self.scene.width(), self.scene.height());
-        let exact = c.exact.filter(|e| e.size() == (w, h));
-        let (Some(exact), true) = (exact, c.film.width() == w && c.film.height() == h) else {
-            return Err(JobError::Internal(
-                "a worker's checkpoint has the wrong size".into(),
-            ));
-        };
-        if let Some(state) = &c.state {
-            self.integrator
-                .load_state(state)
-                .map_err(|e| JobError::Internal(format!("a worker's checkpoint: {e}")))?;
-        }
-        self.scratch = c.film;
-        self.sums = exact;
-        Ok(())
+        self.runtime.checkpoint(status)
     }
 }
 
@@ -97,41 +44,41 @@ impl Runtime {
 /// (the scheduler retries until it can).
 pub struct StepResult {
     pub status: JobStatus,
-    pub runtime: Option<Box<Runtime>>,
+    pub runtime: Option<Box<Live>>,
     pub saved: bool,
 }
 
 /// What a step goes on from: the job's runtime, when it is held in memory, or else
 /// the settings to build one from.
 pub enum Held {
-    Runtime(Box<Runtime>),
+    Live(Box<Live>),
     Settings(JobSettings),
 }
 
 /// Runs the next batch of `status`'s job, building its runtime first if needed.
 pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
-    let mut rt = match held {
-        Held::Runtime(rt) => rt,
+    let mut live = match held {
+        Held::Live(live) => live,
         Held::Settings(settings) => match start(ctx, settings, &mut status) {
-            Ok(rt) => rt,
+            Ok(live) => Box::new(live),
             Err(e) => return fail(ctx, status, e),
         },
     };
-    // The state event goes out from `finish_step`, which sees the change.
+    // The state event goes out from `scheduler::settle`, which sees the change.
     if status.state == JobState::Queued {
-        status.state = JobState::Running;
+        transition::enter(&mut status, To::Running);
     }
     let result = if status.iteration > 0 && halt_reached(&status) {
         // Resumed from a checkpoint written by the job's last snapshot: what is left
         // is to finish, not to render one more iteration.
-        complete(ctx, &mut status, &rt).map(|()| true)
+        complete(ctx, &mut status, &live.runtime).map(|()| true)
     } else {
-        run_batch(ctx, &mut status, &mut rt)
+        run_batch(ctx, &mut status, &mut live)
     };
     match result {
         Ok(done) => StepResult {
             status,
-            runtime: (!done).then_some(rt),
+            runtime: (!done).then_some(live),
             saved: true,
         },
         Err(e) => fail(ctx, status, e),
@@ -142,27 +89,13 @@ pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
 /// one it can act on (no server paths).
 pub fn fail(ctx: &Context, mut status: JobStatus, err: JobError) -> StepResult {
     tracing::warn!(job = %status.id, error = %err, "job failed");
-    status.state = JobState::Failed;
-    status.error = Some(err.client_message());
-    status.finished_at = Some(unix_now());
-    status.eta_s = None;
-    status.workers = None;
-    let saved = write_status(ctx, &status).is_ok();
+    let dir = ctx.job_dir(&status.id);
+    let saved = transition::make(&dir, &mut status, To::Failed(err.client_message())).is_ok();
     StepResult {
         status,
         runtime: None,
         saved,
     }
-}
-
-/// Writes job.json, logging a failure (the caller decides what it means).
-pub fn write_status(ctx: &Context, status: &JobStatus) -> Result<(), JobError> {
-    failpoint::hit("status", status.iteration);
-    let r = ctx.job_dir(&status.id).write_status(status);
-    if let Err(e) = &r {
-        tracing::warn!(job = %status.id, error = %e, "job.json not written");
-    }
-    r
 }
 
 /// Whether a job at its current iteration, time and error has met its halt rule.
@@ -177,68 +110,33 @@ pub(super) fn halt_reached(status: &JobStatus) -> bool {
     by_count || by_time || by_error
 }
 
-/// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if any.
-fn start(
-    ctx: &Context,
-    settings: JobSettings,
-    status: &mut JobStatus,
-) -> Result<Box<Runtime>, JobError> {
+/// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if
+/// any, which the job's log and snapshots are cut back to.
+fn start(ctx: &Context, settings: JobSettings, status: &mut JobStatus) -> Result<Live, JobError> {
     let settings = settings.map_err(JobError::BadRequest)?;
     let scene = ctx.scenes.compiled(&status.spec.scene)?;
     let dir = ctx.job_dir(&status.id);
     let reference = load_reference(ctx, &status.spec, &scene)?;
     // A job stored before the budget was lowered fails here, saying why.
     super::memory::check(&settings, &scene, &status.spec, ctx.max_job)?;
-    let integrator = settings.build();
     let checkpoint = Checkpoint::read(&dir)
         .filter(|c| c.film.width() == scene.width() && c.film.height() == scene.height());
     let at = checkpoint.as_ref().map_or(0, |c| c.iteration);
     // Rows and snapshots past the checkpoint came from iterations that run again.
     truncate_log(&dir, at)?;
     disk::drop_snapshots_after(&dir, at);
-    let (w, h) = (scene.width(), scene.height());
-    let (sums, scratch, samples, elapsed) = match checkpoint {
-        Some(c) => {
-            if let Some(state) = &c.state {
-                // An unusable state is not fatal: the integrator then starts its
-                // statistics afresh and keeps the film consistent.
-                if let Err(e) = integrator.load_state(state) {
-                    tracing::warn!(job = %status.id, "checkpoint state not restored: {e}");
-                }
-            }
-            let sums = match c.exact.filter(|e| e.size() == (w, h)) {
-                Some(e) => e,
-                // Written before exact sums: resumes from the f64 sums, rounded once.
-                None => {
-                    let mut e = ExactSums::new(w, h);
-                    e.add_film(&c.film)
-                        .map_err(|e| JobError::Internal(e.to_string()))?;
-                    e
-                }
-            };
-            (sums, c.film, c.samples, c.elapsed_s)
-        }
-        None => (ExactSums::new(w, h), Film::new(w, h), 0, 0.0),
-    };
+    let runtime = Runtime::resume(&status.id, settings, scene, reference, checkpoint)?;
     status.iteration = at;
-    status.elapsed_s = elapsed;
-    status.dropped = sums.dropped();
+    status.elapsed_s = runtime.last_snapshot.1;
+    status.dropped = runtime.sums.dropped();
     status.last_rmse = read_log(&dir)
         .last()
         .filter(|r| r.iteration == at)
         .and_then(|r| r.rmse);
-    Ok(Box::new(Runtime {
-        integrator,
-        settings,
-        scene,
-        sums,
-        scratch,
+    Ok(Live {
+        runtime,
         remote: None,
-        samples,
-        reference,
-        per_iter: 0.0,
-        last_snapshot: (at, elapsed),
-    }))
+    })
 }
 
 pub fn load_reference(
@@ -283,33 +181,14 @@ pub fn reference_path(data_dir: &std::path::Path, id: &str) -> Result<PathBuf, J
     Ok(data_dir.join("references").join(format!("{id}.exr")))
 }
 
-/// How many iterations the next batch (or work unit) from `iteration` runs: about
-/// `target` of work at `per_iter` seconds each (1 while that is unknown), never past
-/// the iteration limit, and ending on the next snapshot iteration so snapshots land
-/// exactly.
-pub(super) fn batch_len(spec: &JobSpec, iteration: u64, per_iter: f64, target: Duration) -> u64 {
-    let mut n = if per_iter > 0.0 {
-        (target.as_secs_f64() / per_iter).floor().max(1.0) as u64
-    } else {
-        1
-    };
-    if let Some(m) = spec.halt.max_iterations() {
-        n = n.min(m.saturating_sub(iteration)).max(1);
-    }
-    if let SnapshotEvery::Iterations(k) = spec.snapshot_every {
-        let next = (iteration / k.max(1) + 1) * k.max(1);
-        n = n.min(next - iteration);
-    }
-    n
-}
-
 /// Runs one batch, writes snapshots that fall due, and reports whether the job is done.
-fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<bool, JobError> {
+fn run_batch(ctx: &Context, status: &mut JobStatus, live: &mut Live) -> Result<bool, JobError> {
     let spec = status.spec.clone();
     let start = Instant::now();
+    let rt = &mut live.runtime;
     let (n, stats) = match &ctx.remote {
-        Some(ex) => remote_batch(ctx, ex, status, rt)?,
-        None => local_batch(status, rt),
+        Some(ex) => remote_batch(&ctx.scenes, ex, status, rt, &mut live.remote)?,
+        None => rt.local_batch(status),
     };
     let secs = start.elapsed().as_secs_f64();
     if n > 0 {
@@ -349,27 +228,9 @@ fn run_batch(ctx: &Context, status: &mut JobStatus, rt: &mut Runtime) -> Result<
     if done {
         complete(ctx, status, rt)?;
     } else {
-        write_status(ctx, status)?;
+        transition::store(&ctx.job_dir(&status.id), status)?;
     }
     Ok(done)
-}
-
-/// About [`BATCH`] of iterations, rendered here.
-fn local_batch(status: &mut JobStatus, rt: &mut Runtime) -> (u64, RenderStats) {
-    let n = batch_len(&status.spec, status.iteration, rt.per_iter, BATCH);
-    let mut stats = RenderStats::default();
-    for _ in 0..n {
-        stats += iterate_exact(
-            &rt.scene,
-            rt.integrator.as_ref(),
-            status.spec.seed,
-            status.iteration,
-            &mut rt.scratch,
-            &mut rt.sums,
-        );
-        status.iteration += 1;
-    }
-    (n, stats)
 }
 
 /// Adds a batch to the server's counters.
@@ -396,11 +257,7 @@ fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), J
     film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
     failpoint::hit("final-png", status.iteration);
     film::write_png(dir.final_image("png"), &img, 0.0)?;
-    status.state = JobState::Completed;
-    status.finished_at = Some(unix_now());
-    status.eta_s = None;
-    status.workers = None;
-    write_status(ctx, status)?;
+    transition::make(&dir, status, To::Completed)?;
     disk::tidy_finished(&dir, &status.spec);
     Ok(())
 }

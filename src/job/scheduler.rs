@@ -8,9 +8,9 @@
 
 use super::context::{Context, JobSettings};
 use super::disk::{self, Finished, Retention};
-use super::events::Event;
-use super::run::{self, Held, Runtime, StepResult};
+use super::run::{self, Held, Live, StepResult};
 use super::spec::{unix_now, JobState, JobStatus};
+use super::transition::{self, To};
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Condvar, Mutex};
@@ -31,6 +31,17 @@ pub enum Control {
     Cancel,
 }
 
+impl Control {
+    /// The state the request moves a job to.
+    pub fn to(self) -> Option<To> {
+        match self {
+            Control::None => None,
+            Control::Pause => Some(To::Paused),
+            Control::Cancel => Some(To::Cancelled),
+        }
+    }
+}
+
 pub struct Entry {
     pub status: JobStatus,
     /// What the job's runtime is built from, each time it starts or resumes;
@@ -41,7 +52,7 @@ pub struct Entry {
     pub served: u64,
     /// The scheduler holds the job right now (its runtime is out of the table).
     pub active: bool,
-    pub runtime: Option<Box<Runtime>>,
+    pub runtime: Option<Box<Live>>,
     /// job.json is behind `status` (a write failed); the scheduler retries it.
     pub unsaved: bool,
 }
@@ -154,17 +165,15 @@ pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
             let e = t.jobs.get_mut(&id).expect("picked job");
             e.active = true;
             let held = match e.runtime.take() {
-                Some(rt) => Held::Runtime(rt),
+                Some(rt) => Held::Live(rt),
                 None => Held::Settings(e.settings.clone()),
             };
             // A queued job is running from here on, and says so before its batch
-            // reports any progress: watchers see `state` before `progress`.
+            // reports any progress: watchers see `state` before `progress` (job.json
+            // says so when the batch writes it).
             if e.status.state == JobState::Queued {
-                e.status.state = JobState::Running;
-                shared.ctx.emit(Event::State {
-                    job: id.clone(),
-                    state: JobState::Running,
-                });
+                transition::enter(&mut e.status, To::Running);
+                transition::announce(&shared.ctx, &e.status);
             }
             (id, held, e.status.clone())
         };
@@ -203,7 +212,7 @@ fn evict(shared: &Shared, id: &str) -> bool {
 /// Takes a held job's runtime out of the table, marking the job active so that
 /// nothing else touches it, for work (a checkpoint write) done without the lock.
 /// The caller puts the runtime back or drops it, and clears `active`.
-pub fn take_runtime(shared: &Shared, id: &str) -> Option<(Box<Runtime>, JobStatus)> {
+pub fn take_runtime(shared: &Shared, id: &str) -> Option<(Box<Live>, JobStatus)> {
     let mut t = shared.table.lock().expect("job table");
     let e = t.jobs.get_mut(id)?;
     if e.active {
@@ -324,7 +333,7 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
     e.served = tick;
     e.active = false;
     let control = std::mem::replace(&mut e.control, Control::None);
-    if !r.status.state.is_terminal() && control != Control::None {
+    if let Some(to) = control.to().filter(|_| !r.status.state.is_terminal()) {
         let dir = shared.ctx.job_dir(id);
         if let Some(rt) = &r.runtime {
             // Keep the exact state so a resume (even after a restart) loses nothing.
@@ -332,41 +341,30 @@ fn finish_step(shared: &Shared, id: &str, mut r: StepResult) {
                 tracing::warn!(job = id, error = %err, "checkpoint not written");
             }
         }
-        r.status.workers = None;
-        r.status.eta_s = None;
-        r.status.state = if control == Control::Pause {
-            JobState::Paused
-        } else {
-            r.status.finished_at = Some(unix_now());
-            JobState::Cancelled
-        };
         r.runtime = None;
-        r.saved = run::write_status(&shared.ctx, &r.status).is_ok();
+        r.saved = transition::make(&dir, &mut r.status, to).is_ok();
     }
-    let changed = r.status.state != e.status.state;
-    e.status = r.status;
     e.runtime = r.runtime;
-    e.unsaved = !r.saved;
-    if changed || e.status.state.is_terminal() {
-        // Under the lock: a client's next transition is said after this one.
-        announce(&shared.ctx, &e.status);
-    }
+    // Under the lock: a client's next transition is said after this one.
+    settle(&shared.ctx, e, r.status, r.saved);
     drop(t);
     shared.stepped.notify_all();
 }
 
-/// Tells watchers a job's new state, and `done` with its status if it has finished.
-/// Called with the job table locked, so that changes are said in the order made.
-pub(super) fn announce(ctx: &Context, status: &JobStatus) {
-    ctx.emit(Event::State {
-        job: status.id.clone(),
-        state: status.state,
-    });
-    if status.state.is_terminal() {
-        ctx.emit(Event::Done {
-            job: status.id.clone(),
-            status: Box::new(status.clone()),
-        });
+/// Makes `status` job `e`'s, and says the transition if its state changed or it has
+/// finished (`transition::announce`). `saved` says whether job.json holds `status`;
+/// if not, the scheduler writes it again until it does. A job that stops (paused or
+/// finished) drops its render state. Called with the job table locked, so that
+/// changes are said in the order made.
+pub(super) fn settle(ctx: &Context, e: &mut Entry, status: JobStatus, saved: bool) {
+    let changed = status.state != e.status.state;
+    e.status = status;
+    e.unsaved = !saved;
+    if !matches!(e.status.state, JobState::Queued | JobState::Running) {
+        e.runtime = None;
+    }
+    if changed || e.status.state.is_terminal() {
+        transition::announce(ctx, &e.status);
     }
 }
 

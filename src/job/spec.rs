@@ -298,3 +298,32 @@ pub fn unix_now() -> f64 {
         .map(|d| d.as_secs_f64())
         .unwrap_or(0.0)
 }
+
+#[cfg(test)]
+impl JobStatus {
+    /// A job of `state` at `iteration` on the built-in Cornell box, for tests.
+    pub(crate) fn for_tests(id: &str, state: JobState, iteration: u64) -> JobStatus {
+        let spec: JobSpec = serde_json::from_value(serde_json::json!({
+            "scene": "cornell-box", "halt": {"spp": 100}
+        }))
+        .unwrap();
+        JobStatus {
+            id: id.into(),
+            spec,
+            settings: serde_json::json!({"algorithm": "pt"}),
+            state,
+            iteration,
+            elapsed_s: 9.0,
+            samples_per_s: 0.0,
+            last_rmse: None,
+            eta_s: None,
+            dropped: 0,
+            width: 2,
+            height: 2,
+            created_at: 0.0,
+            finished_at: None,
+            error: None,
+            workers: None,
+        }
+    }
+}

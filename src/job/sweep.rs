@@ -1,8 +1,10 @@
 //! Sweeps: a base job and a grid of parameter values expand into one job per grid
 //! point, tagged with the sweep's id; the sweep's table summarises their results.
+//! The types only: the service creates, stores and tabulates sweeps
+//! (`service/sweeps.rs`), so this module imports nothing above the job's spec.
 
 use super::spec::{JobSpec, JobState};
-use super::{JobError, Service};
+use super::JobError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -128,33 +130,6 @@ pub struct SweepTable {
     pub id: String,
     pub name: Option<String>,
     pub rows: Vec<SweepRow>,
-}
-
-impl Service {
-    /// The sweep's table: each job's state, iterations, time and last RMSE. A job that
-    /// is gone (deleted) shows as failed with nothing rendered.
-    pub fn sweep_table(&self, sweep: Sweep) -> SweepTable {
-        let rows = sweep
-            .jobs
-            .iter()
-            .map(|(point, id)| {
-                let st = self.get_job(id);
-                SweepRow {
-                    job: id.clone(),
-                    point: point.clone(),
-                    state: st.as_ref().map(|j| j.state).unwrap_or(JobState::Failed),
-                    iterations: st.as_ref().map(|j| j.iteration).unwrap_or(0),
-                    time_s: st.as_ref().map(|j| j.elapsed_s).unwrap_or(0.0),
-                    rmse: st.as_ref().ok().and_then(|j| j.last_rmse),
-                }
-            })
-            .collect();
-        SweepTable {
-            id: sweep.id,
-            name: sweep.spec.name,
-            rows,
-        }
-    }
 }
 
 impl SweepTable {

@@ -73,7 +73,10 @@ impl Watch {
             events,
             closing,
             state: status.state,
-            pending: current(status).into_iter().map(Watched::Event).collect(),
+            pending: Event::said(&status)
+                .into_iter()
+                .map(Watched::Event)
+                .collect(),
             ended: false,
         }
     }
@@ -154,7 +157,7 @@ impl Watch {
         };
         let changed = status.state != self.state;
         let mut now = if status.state.is_terminal() {
-            current(status)
+            Event::said(&status)
         } else {
             vec![
                 Event::State {
@@ -169,23 +172,6 @@ impl Watch {
         }
         self.pending.extend(now.into_iter().map(Watched::Event));
         self.pending.pop_front().expect("an event after a lag")
-    }
-}
-
-/// The job as it stands: its state, then `done` if it has finished.
-fn current(status: JobStatus) -> Vec<Event> {
-    let state = Event::State {
-        job: status.id.clone(),
-        state: status.state,
-    };
-    if status.state.is_terminal() {
-        let done = Event::Done {
-            job: status.id.clone(),
-            status: Box::new(status),
-        };
-        vec![state, done]
-    } else {
-        vec![state]
     }
 }
 

@@ -1,6 +1,7 @@
 //! REST API under /v1 (axum). `app(service, token)` builds the router, so tests can
 //! serve it on an ephemeral port.
 
+use super::auth::Token;
 use super::error::ApiError;
 use crate::api::{AlgorithmInfo, ErrorBody, ErrorDetail, JobUrls, JobView};
 use crate::api::{SweepRow, SweepTable};
@@ -144,7 +145,7 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
     let protected = Router::new()
         .nest("/v1", v1)
         .route("/metrics", get(metrics))
-        .layer(middleware::from_fn_with_state(token, auth));
+        .layer(middleware::from_fn_with_state(Token::new(token), auth));
     Router::new()
         .merge(protected)
         .route("/healthz", get(healthz))
@@ -248,29 +249,21 @@ async fn json_errors(req: Request, next: Next) -> Response {
     out
 }
 
-/// Bearer-token check; a no-op when the server runs without a token.
-async fn auth(State(token): State<Option<String>>, req: Request, next: Next) -> Response {
-    if let Some(t) = token {
-        let ok = req
-            .headers()
-            .get(header::AUTHORIZATION)
-            .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.strip_prefix("Bearer "))
-            .is_some_and(|given| constant_time_eq(given.as_bytes(), t.as_bytes()));
-        if !ok {
-            return ApiError::new(
-                StatusCode::UNAUTHORIZED,
-                "unauthorized",
-                "missing or wrong bearer token",
-            )
-            .into_response();
-        }
+/// Bearer-token check (`server::auth`); a no-op when the server runs without a token.
+async fn auth(State(token): State<Token>, req: Request, next: Next) -> Response {
+    let given = req
+        .headers()
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok());
+    if token.check(given).is_err() {
+        return ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "unauthorized",
+            "missing or wrong bearer token",
+        )
+        .into_response();
     }
     next.run(req).await
-}
-
-fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 #[utoipa::path(post, path = "/v1/scenes", description = "Upload a scene: one JSON document or Mitsuba 3 XML scene, or a tar/zip bundle with scene.json (or scene.xml) and its assets. Validated; id = content hash. An XML scene is imported; `warnings` lists what the import approximated.", request_body(content = Vec<u8>, content_type = "application/octet-stream"), responses((status = 201, body = SceneInfo), (status = 400, body = ErrorBody), (status = 413, body = ErrorBody), (status = 422, body = ErrorBody)))]

@@ -7,8 +7,8 @@ use super::coordinator::{Arrival, NatsExecutor};
 use super::{carry_name, range_name, Done, Unit};
 use crate::film::ExactSums;
 use crate::integrator::RenderStats;
-use crate::job::context::Context;
-use crate::job::run::{batch_len, Runtime};
+use crate::job::runtime::{batch_len, Runtime};
+use crate::job::scenes::SceneStore;
 use crate::job::spec::{unix_now, JobStatus};
 use crate::job::store::Checkpoint;
 use crate::job::JobError;
@@ -61,18 +61,20 @@ impl Drop for RemoteJob {
 }
 
 /// One batch: top up the queue, take the answers that arrived, add what extends the
-/// prefix. Returns the iterations added and their counters.
+/// prefix. Returns the iterations added and their counters. `remote` is the job's
+/// remote side, kept with its runtime between batches (started here when None).
 pub fn remote_batch(
-    ctx: &Context,
+    scenes: &SceneStore,
     ex: &Arc<NatsExecutor>,
     status: &mut JobStatus,
     rt: &mut Runtime,
+    remote: &mut Option<RemoteJob>,
 ) -> Result<(u64, RenderStats), JobError> {
-    let mut r = match rt.remote.take() {
+    let mut r = match remote.take() {
         Some(r) => r,
         None => {
             // Units of an earlier run of this job (before a restart or a pause) go.
-            let bundle = ctx.scenes.bundle(&status.spec.scene)?;
+            let bundle = scenes.bundle(&status.spec.scene)?;
             let ready = ex
                 .withdraw(&status.id)
                 .and_then(|()| ex.publish_scene(&status.spec.scene, bundle));
@@ -125,7 +127,7 @@ pub fn remote_batch(
     }
     r.serving.retain(|_, at| at.elapsed() < SERVING);
     status.workers = Some(r.serving.len() as u32);
-    rt.remote = Some(r);
+    *remote = Some(r);
     Ok((n, stats))
 }
 

@@ -7,8 +7,8 @@ use super::{
     MAX_DELIVERIES, WORKERS, WORKERS_BUCKET,
 };
 use crate::film::{ExactSums, Film};
-use crate::integrator::drive::iterate_exact;
 use crate::integrator::RenderStats;
+use crate::job::runtime::render_iterations;
 use crate::job::scenes::SceneStore;
 use crate::job::store::Checkpoint;
 use crate::scene::{CompileBudget, Scene};
@@ -359,18 +359,15 @@ pub fn render_range(scene: &Scene, unit: &Unit, from: Option<Checkpoint>) -> Res
         scratch = c.film.clone();
     }
     let mut sums = ExactSums::new(w, h);
-    let mut stats = RenderStats::default();
     let start = Instant::now();
-    for i in unit.first..unit.end {
-        stats += iterate_exact(
-            scene,
-            integrator.as_ref(),
-            unit.seed,
-            i,
-            &mut scratch,
-            &mut sums,
-        );
-    }
+    let stats = render_iterations(
+        scene,
+        integrator.as_ref(),
+        unit.seed,
+        unit.first..unit.end,
+        &mut scratch,
+        &mut sums,
+    );
     let seconds = start.elapsed().as_secs_f64();
     let result = match from {
         None => sums.encode(),

@@ -5,6 +5,7 @@ mod metrics;
 mod outputs;
 mod recover;
 mod retry;
+mod sweeps;
 
 use super::context::{Context, Metrics};
 use super::disk::{self, Retention};
@@ -16,7 +17,7 @@ use super::scenes::{SceneInfo, SceneStore};
 use super::scheduler::{self, Control, Entry, Shared, Table};
 use super::spec::{unix_now, JobSpec, JobState, JobStatus, ReferenceSpec};
 use super::store::JobDir;
-use super::sweep::{Sweep, SweepSpec};
+use super::transition::{self, To};
 use super::JobError;
 use crate::integrator::Settings;
 use crate::job::remote::coordinator::NatsExecutor;
@@ -328,17 +329,11 @@ impl Service {
     fn enqueue(&self, jobs: Vec<(JobStatus, Settings)>) {
         let mut t = self.shared.table.lock().expect("job table");
         let tick = t.tick;
-        let ids: Vec<String> = jobs.iter().map(|(s, _)| s.id.clone()).collect();
+        // Said before the scheduler can start them, so `queued` comes before `running`.
         for (status, settings) in jobs {
+            transition::announce(&self.shared.ctx, &status);
             t.jobs
                 .insert(status.id.clone(), Entry::new(status, Ok(settings), tick));
-        }
-        // Said before the scheduler can start them, so `queued` comes before `running`.
-        for id in ids {
-            self.shared.ctx.emit(Event::State {
-                job: id,
-                state: JobState::Queued,
-            });
         }
         drop(t);
         self.shared.wake.notify_all();
@@ -449,16 +444,11 @@ impl Service {
                 self.set_aside(id)?;
                 continue;
             }
-            let mut status = e.status.clone();
-            status.workers = None;
-            status.eta_s = None;
-            status.state = if c == Control::Pause {
-                JobState::Paused
-            } else {
-                status.finished_at = Some(unix_now());
-                JobState::Cancelled
-            };
-            return self.commit(t, status);
+            let status = e.status.clone();
+            let to = c
+                .to()
+                .expect("pause or cancel (Control::None is never allowed)");
+            return self.commit(t, status, to);
         }
     }
 
@@ -516,23 +506,20 @@ impl Service {
         }
     }
 
-    /// Stores `status` for an idle job, then makes it the job's state: a transition
-    /// that cannot be stored is refused (the error says why) and changes nothing.
+    /// Moves an idle job, whose status is `status`, to `to` and stores that, then
+    /// makes it the job's: a transition that cannot be stored is refused (the error
+    /// says why) and changes nothing.
     fn commit(
         &self,
         mut t: std::sync::MutexGuard<'_, Table>,
-        status: JobStatus,
+        mut status: JobStatus,
+        to: To,
     ) -> Result<JobStatus, JobError> {
         let id = status.id.clone();
-        self.job_dir_of(&id).write_status(&status)?;
+        transition::make(&self.job_dir_of(&id), &mut status, to)?;
         let e = t.jobs.get_mut(&id).expect("job in table");
-        e.status = status.clone();
-        e.unsaved = false;
-        if !matches!(status.state, JobState::Queued | JobState::Running) {
-            e.runtime = None;
-        }
         // Under the lock: no other change of the job can be said before this one.
-        scheduler::announce(&self.shared.ctx, &status);
+        scheduler::settle(&self.shared.ctx, e, status.clone(), true);
         drop(t);
         if status.state == JobState::Queued {
             self.shared.wake.notify_all();
@@ -564,9 +551,8 @@ impl Service {
                 e.status.state.as_str()
             )));
         }
-        let mut status = e.status.clone();
-        status.state = JobState::Queued;
-        self.commit(t, status)
+        let status = e.status.clone();
+        self.commit(t, status, To::Queued)
     }
 
     /// Removes a job and its directory; a running job must be cancelled first.
@@ -585,63 +571,5 @@ impl Service {
         drop(t);
         let dir = self.job_dir_of(id);
         std::fs::remove_dir_all(&dir.root).map_err(|e| JobError::io(&dir.root, e))
-    }
-
-    // ---- sweeps -------------------------------------------------------------
-
-    /// Expands a sweep into jobs and queues them all, or none: every job is
-    /// validated and stored before any is queued.
-    pub fn create_sweep(&self, spec: SweepSpec) -> Result<Sweep, JobError> {
-        if spec.base.sweep.is_some() {
-            return Err(bad("base.sweep is set by the server"));
-        }
-        if let Some(n) = &spec.name {
-            limits::check_text("name", n, limits::MAX_NAME)?;
-        }
-        let id = format!("s{}", &uuid::Uuid::new_v4().simple().to_string()[..12]);
-        let mut prepared = Vec::new();
-        for (point, job) in spec.expand(&id)? {
-            prepared.push((point, self.prepare(job)?));
-        }
-        let sweep = Sweep {
-            id,
-            spec,
-            jobs: prepared
-                .iter()
-                .map(|(point, (status, _))| (point.clone(), status.id.clone()))
-                .collect(),
-        };
-        let path = self
-            .config
-            .data_dir
-            .join("sweeps")
-            .join(format!("{}.json", sweep.id));
-        crate::film::write_bytes_atomic(&path, &serde_json::to_vec_pretty(&sweep).expect("sweep"))?;
-        let mut stored: Vec<(JobStatus, Settings)> = Vec::with_capacity(prepared.len());
-        for (_, job) in prepared {
-            if let Err(e) = self.store_new(&job.0) {
-                for (s, _) in &stored {
-                    let _ = std::fs::remove_dir_all(self.job_dir_of(&s.id).root);
-                }
-                let _ = std::fs::remove_file(&path);
-                return Err(e);
-            }
-            stored.push(job);
-        }
-        self.enqueue(stored);
-        Ok(sweep)
-    }
-
-    pub fn get_sweep(&self, id: &str) -> Result<Sweep, JobError> {
-        if !id.starts_with('s') || !id[1..].bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(JobError::NotFound(format!("sweep {id}")));
-        }
-        let path = self
-            .config
-            .data_dir
-            .join("sweeps")
-            .join(format!("{id}.json"));
-        let bytes = std::fs::read(&path).map_err(|_| JobError::NotFound(format!("sweep {id}")))?;
-        serde_json::from_slice(&bytes).map_err(|e| JobError::Internal(e.to_string()))
     }
 }

@@ -4,8 +4,9 @@ use crate::integrator::Settings;
 use crate::job::context::JobSettings;
 use crate::job::disk;
 use crate::job::scheduler::{Entry, Table};
-use crate::job::spec::{unix_now, JobState, JobStatus};
+use crate::job::spec::{JobState, JobStatus};
 use crate::job::store::{Checkpoint, JobDir};
+use crate::job::transition::{self, To};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -33,7 +34,7 @@ pub(super) fn recover(data_dir: &Path) -> Table {
             }
         };
         if status.state == JobState::Running {
-            status.state = JobState::Queued;
+            transition::enter(&mut status, To::Queued);
         }
         // Nothing runs yet: an estimate comes with the next batch.
         status.eta_s = None;
@@ -79,46 +80,16 @@ fn fail_unreadable(dir: &JobDir, status: &mut JobStatus, why: &str) -> bool {
     if status.state.is_terminal() {
         return false;
     }
-    status.state = JobState::Failed;
-    status.error = Some(why.to_string());
-    status.finished_at = Some(unix_now());
-    status.eta_s = None;
-    let written = dir.write_status(status);
-    if let Err(e) = &written {
-        tracing::warn!(job = %status.id, error = %e, "job.json not written");
-    }
-    written.is_err()
+    transition::make(dir, status, To::Failed(why.to_string())).is_err()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::film::Film;
-    use crate::job::spec::JobSpec;
 
     fn status(id: &str, state: JobState, iteration: u64) -> JobStatus {
-        let spec: JobSpec = serde_json::from_value(serde_json::json!({
-            "scene": "cornell-box", "halt": {"spp": 100}
-        }))
-        .unwrap();
-        JobStatus {
-            id: id.into(),
-            spec,
-            settings: serde_json::json!({"algorithm": "pt"}),
-            state,
-            iteration,
-            elapsed_s: 9.0,
-            samples_per_s: 0.0,
-            last_rmse: None,
-            eta_s: None,
-            dropped: 0,
-            width: 2,
-            height: 2,
-            created_at: 0.0,
-            finished_at: None,
-            error: None,
-            workers: None,
-        }
+        JobStatus::for_tests(id, state, iteration)
     }
 
     /// job.json is written every batch, the checkpoint every snapshot: after a kill

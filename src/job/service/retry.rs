@@ -6,6 +6,7 @@ use crate::job::run;
 use crate::job::scheduler::Entry;
 use crate::job::spec::{JobState, ReferenceSpec};
 use crate::job::store::Checkpoint;
+use crate::job::transition::To;
 use crate::job::JobError;
 
 impl Service {
@@ -31,14 +32,9 @@ impl Service {
             )));
         }
         let mut status = e.status.clone();
-        status.state = JobState::Queued;
-        status.error = None;
-        status.finished_at = None;
-        status.eta_s = None;
         let dir = self.job_dir_of(id);
-        let at = Checkpoint::read_header(&dir).map_or(0, |h| h.iteration);
-        status.iteration = at;
-        self.commit(t, status)
+        status.iteration = Checkpoint::read_header(&dir).map_or(0, |h| h.iteration);
+        self.commit(t, status, To::Queued)
     }
 
     /// Why the job would fail again at once if it were queued, if it would. Checks

@@ -1,48 +1,37 @@
-//! Bearer-token auth as a tonic interceptor.
+//! Bearer-token auth as a tonic interceptor over the shared check (`server::auth`).
 
-use std::sync::Arc;
+use crate::server::auth::{Refused, Token};
 use tonic::service::Interceptor;
 use tonic::{Request, Status};
 
 /// Checks `authorization: Bearer <token>` metadata when a token is configured.
 #[derive(Clone)]
 pub struct BearerAuth {
-    token: Option<Arc<str>>,
+    token: Token,
 }
 
 impl BearerAuth {
     pub fn new(token: Option<String>) -> Self {
         BearerAuth {
-            token: token.filter(|t| !t.is_empty()).map(Arc::from),
+            token: Token::new(token),
         }
     }
 }
 
 impl Interceptor for BearerAuth {
     fn call(&mut self, req: Request<()>) -> Result<Request<()>, Status> {
-        let Some(expected) = &self.token else {
-            return Ok(req);
-        };
         let given = req
             .metadata()
             .get("authorization")
-            .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.split_once(' '))
-            .filter(|(scheme, _)| scheme.eq_ignore_ascii_case("bearer"))
-            .map(|(_, t)| t.trim());
-        match given {
-            Some(t) if same_secret(t.as_bytes(), expected.as_bytes()) => Ok(req),
-            Some(_) => Err(Status::unauthenticated("wrong bearer token")),
-            None => Err(Status::unauthenticated(
+            .and_then(|v| v.to_str().ok());
+        match self.token.check(given) {
+            Ok(()) => Ok(req),
+            Err(Refused::Wrong) => Err(Status::unauthenticated("wrong bearer token")),
+            Err(Refused::Missing) => Err(Status::unauthenticated(
                 "this server needs a token: send metadata \"authorization: Bearer <token>\"",
             )),
         }
     }
-}
-
-/// Compares without an early exit, so timing does not reveal a matching prefix.
-fn same_secret(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 #[cfg(test)]
