@@ -15,7 +15,7 @@ pub use distribution::{Distribution1D, Distribution2D};
 pub use emission::EmissionSample;
 pub use environment::{EnvMap, LatLong};
 pub use point::{DirectionalLight, PointLight};
-pub use selection::LightSampler;
+pub use selection::{LightSampler, LightSelection};
 pub use spot::SpotLight;
 
 use crate::math::{Rgb, Vec2, Vec3, Vec3A, PI};

@@ -3,6 +3,7 @@
 
 pub use super::param::{Param, Scalar, TextureDesc};
 pub use crate::film::Filter;
+pub use crate::light::LightSelection;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -34,15 +35,6 @@ pub struct SceneFile {
     /// Default integrator settings (`{"algorithm": "pt", ...}`); requests may override.
     #[serde(default)]
     pub integrator: Option<serde_json::Value>,
-}
-
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum LightSelection {
-    /// Proportional to each light's emitted power (luminance).
-    #[default]
-    Power,
-    Uniform,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]

@@ -2,11 +2,13 @@
 //! integrators render (BVH, materials, lights, camera).
 
 mod budget;
+mod cube;
 mod emitters;
 pub mod error;
 pub mod files;
 pub mod format;
 pub mod load;
+mod meshes;
 mod media;
 pub mod mitsuba;
 mod param;
@@ -14,16 +16,14 @@ mod shading;
 mod shapes;
 pub mod tangent;
 mod textures;
-mod uv;
 pub mod validate;
 
 pub use budget::CompileBudget;
 pub use error::SceneError;
 pub use format::SceneFile;
-pub use uv::TexCoords;
 
 use crate::camera::Camera;
-use crate::geometry::{Accel, Hit, Interaction, Ray};
+use crate::geometry::{Accel, Hit, Interaction, Ray, TexCoords};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::texture::Texture;

@@ -4,13 +4,16 @@
 use super::emitters;
 use super::error::{Result, SceneError};
 use super::format::*;
-use super::load::{load_obj, load_ply, resolve, transform_matrix, MeshData};
+use super::cube;
+use super::files::resolve;
+use super::load::transform_matrix;
+use super::meshes::{load_obj, load_ply, MeshData};
 use super::tangent::Tangents;
 use super::textures::Textures;
-use super::uv::{self, TexCoords};
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};
 use crate::camera::Camera;
-use crate::geometry::{Accel, Prim, PrimMeta};
+use crate::geometry::uv::corner_map;
+use crate::geometry::{Accel, Prim, PrimMeta, TexCoords};
 use crate::light::DirectionalLight;
 use crate::light::{EnvMap, Light, LightSampler, PointLight, SceneSphere, SpotLight};
 use crate::material::microfacet::{Distribution, Microfacet};
@@ -247,33 +250,6 @@ fn microfacet(
     Microfacet::new(kind, au, av)
 }
 
-const CUBE_POSITIONS: [[f32; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
-
-/// Counter-clockwise seen from outside.
-const CUBE_INDICES: [[u32; 3]; 12] = [
-    [0, 2, 1],
-    [0, 3, 2],
-    [4, 5, 6],
-    [4, 6, 7],
-    [0, 1, 5],
-    [0, 5, 4],
-    [3, 7, 6],
-    [3, 6, 2],
-    [0, 4, 7],
-    [0, 7, 3],
-    [1, 2, 6],
-    [1, 6, 5],
-];
-
 /// One shape's primitives with what hits on them need.
 struct BuiltShape {
     prims: Vec<Prim>,
@@ -311,13 +287,8 @@ impl Builder<'_> {
                     indices: vec![[0, 1, 2], [0, 2, 3]],
                 }
             }
-            GeometryDesc::Cube {} if uv => uv::cube_mesh(),
-            GeometryDesc::Cube {} => MeshData {
-                positions: v(&CUBE_POSITIONS),
-                normals: None,
-                uvs: None,
-                indices: CUBE_INDICES.to_vec(),
-            },
+            GeometryDesc::Cube {} if uv => cube::textured(),
+            GeometryDesc::Cube {} => cube::plain(),
             GeometryDesc::Mesh {
                 positions,
                 indices,
@@ -443,13 +414,13 @@ impl Builder<'_> {
             Some(t) => TexCoords::Mesh(
                 corners
                     .iter()
-                    .map(|c| uv::corner_map(c.map(|i| t[i as usize])))
+                    .map(|c| corner_map(c.map(|i| t[i as usize])))
                     .collect(),
             ),
             // Mitsuba's rule for a mesh without texture coordinates: each
             // triangle's barycentrics.
             None => TexCoords::Mesh(vec![
-                uv::corner_map([Vec2::ZERO, Vec2::X, Vec2::Y]);
+                corner_map([Vec2::ZERO, Vec2::X, Vec2::Y]);
                 corners.len()
             ]),
         };
@@ -914,15 +885,15 @@ mod tests {
         let pos = [skew.as_slice(), &[Vec3::new(3.0, 3.0, 0.0)]].concat();
         assert_eq!(quads(&[[0, 1, 2], [2, 4, 3]], &pos), 0);
         // A cube merges into six faces.
-        let cube: Vec<Vec3> = CUBE_POSITIONS.iter().map(|p| Vec3::from(*p)).collect();
-        assert_eq!(merge_parallelograms(&CUBE_INDICES, &cube, None).0.len(), 6);
+        let cube = cube::plain();
+        assert_eq!(merge_parallelograms(&cube.indices, &cube.positions, None).0.len(), 6);
         // Mitsuba's cube with its (u, v) merges too, each face's map a unit square.
-        let m = uv::cube_mesh();
+        let m = cube::textured();
         let (prims, corners) = merge_parallelograms(&m.indices, &m.positions, m.uvs.as_deref());
         assert_eq!(prims.len(), 6);
         let t = m.uvs.unwrap();
         for c in corners {
-            let [o, a, b] = uv::corner_map(c.map(|i| t[i as usize]));
+            let [o, a, b] = corner_map(c.map(|i| t[i as usize]));
             let far = o + a + b;
             assert!(
                 a.abs().max_element() == 1.0 && b.abs().max_element() == 1.0,

@@ -64,7 +64,7 @@ fn validate_texture(path: &str, t: &TextureDesc) -> Result<()> {
         TextureDesc::Bitmap {
             filename, to_uv: r, ..
         } => {
-            super::load::check_relative(&format!("{path}.filename"), filename)?;
+            super::files::check_relative(&format!("{path}.filename"), filename)?;
             to_uv(r)
         }
         TextureDesc::Checkerboard {
@@ -617,9 +617,9 @@ fn validate_medium(path: &str, m: &MediumDesc) -> Result<()> {
             phase,
             ..
         } => {
-            super::load::check_relative(&format!("{path}.file"), file)?;
+            super::files::check_relative(&format!("{path}.file"), file)?;
             if let Some(f) = albedo_file {
-                super::load::check_relative(&format!("{path}.albedo_file"), f)?;
+                super::files::check_relative(&format!("{path}.albedo_file"), f)?;
             }
             non_negative3(&format!("{path}.sigma_t"), *sigma_t)?;
             unit3(&format!("{path}.albedo"), *albedo)?;
@@ -859,7 +859,7 @@ fn validate_geometry(path: &str, g: &GeometryDesc) -> Result<()> {
             Ok(())
         }
         GeometryDesc::Obj { filename } | GeometryDesc::Ply { filename } => {
-            super::load::check_relative(&format!("{path}.filename"), filename).map(|_| ())
+            super::files::check_relative(&format!("{path}.filename"), filename).map(|_| ())
         }
     }
 }
@@ -920,7 +920,7 @@ fn validate_light(path: &str, l: &LightDesc) -> Result<()> {
             scale,
             transform,
         } => {
-            super::load::check_relative(&format!("{path}.filename"), filename)?;
+            super::files::check_relative(&format!("{path}.filename"), filename)?;
             in_range(
                 &format!("{path}.scale"),
                 *scale,

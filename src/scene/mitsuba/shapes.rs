@@ -98,8 +98,8 @@ fn mesh_normals(n: &Node, p: &Params, ctx: &mut Ctx, filename: &str) -> Result<(
         None => {
             let path = ctx.path_of(filename);
             let mesh = match n.kind() {
-                "obj" => crate::scene::load::load_obj(&path, "filename", filename),
-                _ => crate::scene::load::load_ply(&path, "filename", filename),
+                "obj" => crate::scene::meshes::load_obj(&path, "filename", filename),
+                _ => crate::scene::meshes::load_ply(&path, "filename", filename),
             }
             .map_err(|e| n.err(e.message))?;
             let known = mesh.normals.is_some();
