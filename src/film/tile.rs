@@ -2,7 +2,7 @@
 
 use glam::{Vec2, Vec3 as Rgb};
 
-use super::accum::{accumulate, add3, is_valid_sample};
+use super::sample::{accumulate, add3, is_valid_sample};
 use super::filter::{PixelFilter, Taps};
 use super::image::pixel_count;
 
