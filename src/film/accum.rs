@@ -5,7 +5,7 @@ use glam::{Vec2, Vec3 as Rgb};
 
 use super::filter::{PixelFilter, Taps};
 use super::image::{pixel_count, Image};
-use super::sample::{add3, is_valid_sample};
+use super::sample::{accumulate, add3, is_valid_sample};
 use super::tile::{Tile, TileBuffer};
 
 /// Per-pixel sums of radiance samples, in f64 so that thousands of iterations can

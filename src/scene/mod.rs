@@ -11,7 +11,6 @@ pub mod load;
 mod meshes;
 mod media;
 pub mod mitsuba;
-mod param;
 mod shading;
 mod shapes;
 pub mod tangent;
