@@ -6,7 +6,7 @@
 //! counts per technique, pass sizes, seeds) are dropped without a word.
 
 use super::params::Params;
-use super::xml::Node;
+use super::node::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 

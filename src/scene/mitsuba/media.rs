@@ -2,7 +2,7 @@
 //! their `<phase>` functions.
 
 use super::params::{Params, Xf};
-use super::xml::Node;
+use super::node::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::{MediumDesc, PhaseDesc, TransformDesc, V3};

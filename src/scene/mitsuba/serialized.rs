@@ -4,7 +4,7 @@
 
 use super::budget::{Budget, Work};
 use super::params::Params;
-use super::xml::Node;
+use super::node::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::GeometryDesc;

@@ -5,7 +5,7 @@
 //! it leaves out, instead of the whole scene being refused.
 
 use super::params::Params;
-use super::xml::Node;
+use super::node::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::{DistributionDesc, MaterialDesc, Param, Scalar};

@@ -6,7 +6,7 @@
 //! or noise (`sampling_weight`, `cache`, `method`, ...), which are dropped.
 
 use super::super::params::xyz;
-use super::super::xml::Node;
+use super::super::node::Node;
 use super::forms::{colour_value, join};
 use super::{child, element, rename_child, take, take_float};
 use crate::scene::error::Result;
