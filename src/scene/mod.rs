@@ -2,6 +2,7 @@
 //! integrators render (BVH, materials, lights, camera).
 
 mod budget;
+mod compile;
 mod cube;
 mod emitters;
 pub mod error;
@@ -9,6 +10,8 @@ pub mod files;
 pub mod format;
 pub mod load;
 mod meshes;
+mod lights;
+mod materials;
 mod media;
 pub mod mitsuba;
 mod shading;
@@ -212,7 +215,7 @@ impl Scene {
         budget: &CompileBudget,
     ) -> Result<Scene> {
         validate::validate(file)?;
-        shapes::compile(file, base, budget)
+        compile::compile(file, base, budget)
     }
 
     /// Closest surface along the ray, with normals on the shape's front side.
