@@ -30,7 +30,7 @@ pub use filter::{Filter, PixelFilter, Taps, MAX_RADIUS};
 pub use hdr_io::{decode_hdr, read_hdr, read_image};
 pub use image::Image;
 pub use metrics::{compare, false_colour_diff, rel_mse, rmse, ErrorMetrics};
-pub use sample::is_valid_sample;
 pub use png_io::{encode_png, srgb_eotf, srgb_oetf, to_srgb8, write_png};
+pub use sample::is_valid_sample;
 pub use sniff::{is_exr, not_exr, other_image_format};
 pub use tile::{tiles, Tile, TileBuffer};

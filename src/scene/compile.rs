@@ -7,7 +7,7 @@ use super::error::Result;
 use super::format::*;
 use super::lights::{light, light_medium};
 use super::materials::material;
-use super::shapes::{BuiltShape, Builder};
+use super::shapes::{Builder, BuiltShape};
 use super::tangent::Tangents;
 use super::textures::Textures;
 use super::{CompileBudget, Scene, SceneStats, ShapeInfo};

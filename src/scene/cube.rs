@@ -100,7 +100,6 @@ pub fn textured() -> MeshData {
 mod tests {
     use super::*;
 
-
     #[test]
     fn cube_faces_wind_outwards_and_cover_the_unit_square() {
         for face in FACES {

@@ -76,4 +76,3 @@ pub fn transform_matrix(t: Option<&TransformDesc>) -> Mat4 {
     }
     m
 }
-

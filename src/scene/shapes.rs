@@ -111,7 +111,13 @@ impl Builder<'_> {
 
     /// Adds one shape's primitives; returns them (for an area light) with its
     /// normals and, when `uv` asks for them, its texture coordinates.
-    pub(super) fn shape(&mut self, index: u32, path: &str, s: &ShapeDesc, uv: bool) -> Result<BuiltShape> {
+    pub(super) fn shape(
+        &mut self,
+        index: u32,
+        path: &str,
+        s: &ShapeDesc,
+        uv: bool,
+    ) -> Result<BuiltShape> {
         let m = transform_matrix(s.common.transform.as_ref());
         let mirrored = m.determinant() < 0.0;
         let lin = Mat3::from_mat4(m);
@@ -391,7 +397,12 @@ mod tests {
         assert_eq!(quads(&[[0, 1, 2], [2, 4, 3]], &pos), 0);
         // A cube merges into six faces.
         let cube = cube::plain();
-        assert_eq!(merge_parallelograms(&cube.indices, &cube.positions, None).0.len(), 6);
+        assert_eq!(
+            merge_parallelograms(&cube.indices, &cube.positions, None)
+                .0
+                .len(),
+            6
+        );
         // Mitsuba's cube with its (u, v) merges too, each face's map a unit square.
         let m = cube::textured();
         let (prims, corners) = merge_parallelograms(&m.indices, &m.positions, m.uvs.as_deref());

@@ -125,8 +125,8 @@ fn sphere_tangents(to_object: Mat3, radius: f32, world_dir: Vec3) -> (Vec3, Vec3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{Vec2, Vec3A};
     use crate::geometry::uv::tests::at;
+    use crate::math::{Vec2, Vec3A};
 
     fn close(a: Vec3, b: Vec3) -> bool {
         (a - b).abs().max_element() < 1e-5

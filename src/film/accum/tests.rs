@@ -122,8 +122,7 @@ fn a_step_is_the_filters_convolution() {
         let h = (b - a) / n as f64;
         (0..n).map(|i| f(a + (i as f64 + 0.5) * h) * h).sum::<f64>()
     };
-    let gauss =
-        |a: f64, b: f64| fine(&|x| ((-2.0 * x * x).exp() - (-8.0f64).exp()).max(0.0), a, b);
+    let gauss = |a: f64, b: f64| fine(&|x| ((-2.0 * x * x).exp() - (-8.0f64).exp()).max(0.0), a, b);
     // Mitchell with B = C = 1/3, [MN88] eq. 8 written out again.
     let mitchell = |a: f64, b: f64| {
         let k = |x: f64| {

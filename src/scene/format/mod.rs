@@ -7,16 +7,16 @@ mod medium;
 mod param;
 mod shape;
 
+pub use crate::film::Filter;
+pub use crate::light::LightSelection;
 pub use light::LightDesc;
 pub use material::{alphas, DistributionDesc, MaterialDesc, DEFAULT_ALPHA};
 pub use medium::{BoundsDesc, MediumDesc, PhaseDesc};
 pub use param::{Param, Scalar, TextureDesc};
+use serde::{Deserialize, Serialize};
 pub use shape::{
     EmissionDesc, GeometryDesc, Rotation, Scale, ShapeCommon, ShapeDesc, TransformDesc,
 };
-pub use crate::film::Filter;
-pub use crate::light::LightSelection;
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 pub type V3 = [f32; 3];

@@ -23,9 +23,9 @@ mod xml;
 use super::error::Result;
 use super::format::{MaterialDesc, MediumDesc, SceneFile};
 use budget::{Budget, Work};
+use node::Node;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Component, Path, PathBuf};
-use node::Node;
 
 /// An imported scene, what the import changed, and Mitsuba's sample count.
 #[derive(Clone, Debug)]

@@ -143,8 +143,8 @@ impl<'a> Params<'a> {
     /// The texture in slot `name` (nested, or a reference), marked read: what
     /// [`param`](Self::param) and [`scalar`](Self::scalar) (module `texture`) convert.
     pub fn texture_node(&self, name: &str) -> Option<&'a Node> {
-        let (_, n, used) = (self.objects.iter())
-            .find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture")?;
+        let (_, n, used) =
+            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture")?;
         used.set(true);
         Some(*n)
     }

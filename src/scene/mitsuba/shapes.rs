@@ -1,7 +1,7 @@
 //! `<shape>` plugins, with their BSDF, area emitter and media.
 
-use super::params::{f3, Params, Xf};
 use super::node::Node;
+use super::params::{f3, Params, Xf};
 use super::{bsdf, media, serialized, Ctx};
 use crate::scene::error::Result;
 use crate::scene::format::{EmissionDesc, GeometryDesc, ShapeCommon, ShapeDesc};

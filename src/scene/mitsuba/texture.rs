@@ -3,8 +3,8 @@
 //! [`Params::scalar`], which live here so that `params` need not know textures.
 //! Imports `params` and `node`.
 
-use super::params::{Params, Xf};
 use super::node::Node;
+use super::params::{Params, Xf};
 use super::Ctx;
 use crate::material::texture::{Filter, Wrap};
 use crate::scene::error::Result;

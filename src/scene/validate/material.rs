@@ -211,7 +211,12 @@ pub(super) fn validate_material(path: &str, m: &MaterialDesc) -> Result<()> {
 
 /// A normal or bump map: its texture, a finite scale, and a nested material that
 /// scatters (masks go outside normal maps, not inside).
-pub(super) fn perturbed(path: &str, m: &MaterialDesc, map: &Param, material: &MaterialDesc) -> Result<()> {
+pub(super) fn perturbed(
+    path: &str,
+    m: &MaterialDesc,
+    map: &Param,
+    material: &MaterialDesc,
+) -> Result<()> {
     match m {
         MaterialDesc::NormalMap { .. } => {
             let p = format!("{path}.normalmap");
@@ -275,7 +280,12 @@ pub(super) fn components(path: &str, materials: &[MaterialDesc]) -> Result<()> {
 }
 
 /// A dielectric interface's IORs and the colours of its two lobes.
-pub(super) fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: &Param, t: &Param) -> Result<()> {
+pub(super) fn interface(
+    path: &str,
+    [int_ior, ext_ior]: [f32; 2],
+    r: &Param,
+    t: &Param,
+) -> Result<()> {
     positive(&format!("{path}.int_ior"), int_ior)?;
     positive(&format!("{path}.ext_ior"), ext_ior)?;
     unit_param(&format!("{path}.specular_reflectance"), r)?;
@@ -283,7 +293,12 @@ pub(super) fn interface(path: &str, [int_ior, ext_ior]: [f32; 2], r: &Param, t: 
 }
 
 /// A plastic's coating (IORs that differ, as Mitsuba requires) and base.
-pub(super) fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: &Param, specular: V3) -> Result<()> {
+pub(super) fn coating(
+    path: &str,
+    [int_ior, ext_ior]: [f32; 2],
+    diffuse: &Param,
+    specular: V3,
+) -> Result<()> {
     positive(&format!("{path}.int_ior"), int_ior)?;
     positive(&format!("{path}.ext_ior"), ext_ior)?;
     if int_ior == ext_ior {
@@ -298,7 +313,12 @@ pub(super) fn coating(path: &str, [int_ior, ext_ior]: [f32; 2], diffuse: &Param,
 
 /// A rough material's `alpha`, or `alpha_u` with `alpha_v`, each in [0, 10] (or a
 /// texture).
-pub(super) fn roughness(path: &str, a: &Option<Scalar>, u: &Option<Scalar>, v: &Option<Scalar>) -> Result<()> {
+pub(super) fn roughness(
+    path: &str,
+    a: &Option<Scalar>,
+    u: &Option<Scalar>,
+    v: &Option<Scalar>,
+) -> Result<()> {
     let given = [("alpha", a), ("alpha_u", u), ("alpha_v", v)];
     for (key, x) in given {
         let path = format!("{path}.{key}");

@@ -14,8 +14,8 @@ use checks::{finite3, in_range, medium_ref, nonzero3, positive};
 use light::validate_light;
 use material::validate_material;
 use medium::validate_medium;
-pub use shape::validate_transform;
 use shape::validate_shape;
+pub use shape::validate_transform;
 
 pub fn validate(scene: &SceneFile) -> Result<()> {
     if scene.format != 1 {
