@@ -1,5 +1,8 @@
 //! Lights as one closed enum, plus light selection. Area lights are emitting shapes;
 //! the rest are points, spots, directional and environment lights.
+//!
+//! Below `scene`, which compiles lights: imports `math`, `geometry` (primitives, hits,
+//! texture coordinates) and `material` (textures), never `scene`.
 
 mod area;
 pub mod distribution;

@@ -1,5 +1,12 @@
 //! Scenes: the file format, loading and validation, and the compiled [`Scene`] that
 //! integrators render (BVH, materials, lights, camera).
+//!
+//! Layers, bottom up (each imports only those before it): `error`, `budget`,
+//! `format`; `files` (references and path checks), `meshes` (OBJ/PLY), `cube`;
+//! `validate`; `mitsuba` (the XML importer); `load` (scene files: JSON or XML);
+//! `materials`, `textures`, `media`, `shapes`, `tangent`, `shading`, `emitters`,
+//! `lights`; `compile`. Below the scene
+//! sit `geometry`, `material`, `light` and `medium`, which never import it.
 
 mod budget;
 mod compile;
