@@ -5,8 +5,8 @@
 //! `format`; `files` (references and path checks), `meshes` (OBJ/PLY), `cube`;
 //! `validate`; `mitsuba` (the XML importer); `load` (scene files: JSON or XML);
 //! `materials`, `textures`, `media`, `shapes`, `tangent`, `shading`, `emitters`,
-//! `lights`; `compile`. Below the scene
-//! sit `geometry`, `material`, `light` and `medium`, which never import it.
+//! `lights`; `compile`. Below the scene sit `geometry`, `material`, `light` and
+//! `medium`, which never import it.
 
 mod budget;
 mod compile;
