@@ -2,9 +2,9 @@
 
 use glam::{Vec2, Vec3 as Rgb};
 
-use super::accum::{accumulate, add3, is_valid_sample};
 use super::filter::{PixelFilter, Taps};
 use super::image::pixel_count;
+use super::sample::{accumulate, add3, is_valid_sample};
 
 /// A rectangle of pixels, `x0..x1` by `y0..y1` (ends exclusive).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

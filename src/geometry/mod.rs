@@ -1,15 +1,18 @@
 //! Geometry: primitives (triangles, analytic spheres and disks), the BVH over all of
-//! them, ray offsets, and the surface interaction a hit resolves to.
+//! them, ray offsets, the surface interaction a hit resolves to, and texture
+//! coordinates.
 
 pub mod bvh;
 mod bvh4;
 mod lanes;
 pub mod offset;
 pub mod primitive;
+pub mod uv;
 
 pub use bvh::Accel;
 pub use offset::{offset_ray_origin, spawn_ray, spawn_ray_to};
 pub use primitive::{Prim, PrimMeta};
+pub use uv::TexCoords;
 
 use crate::math::{Vec2, Vec3};
 

@@ -1,10 +1,9 @@
 use super::emitting::{grid, Emitting};
 use super::{Distribution1D, LightSample};
-use crate::geometry::{Interaction, Prim};
+use crate::geometry::{Interaction, Prim, TexCoords};
 use crate::material::texture::Texture;
 use crate::math::warp::{sin_cos_2pi, square_to_disk, square_to_triangle};
 use crate::math::{safe_sqrt, Frame, Rgb, Vec2, Vec3, PI};
-use crate::scene::TexCoords;
 
 /// Lambertian emission from a shape, on the side its (possibly flipped) normal points
 /// to, or both sides when `two_sided`.

@@ -3,11 +3,10 @@
 //! Sampling stays uniform by area (the texture weights the samples), so every
 //! estimator that was unbiased for constant radiance stays so.
 
-use crate::geometry::{Interaction, Prim};
+use crate::geometry::{Interaction, Prim, TexCoords};
 use crate::material::texture::Texture;
 use crate::math::warp::{square_to_disk, square_to_triangle};
 use crate::math::{Rgb, Vec2, Vec3};
-use crate::scene::TexCoords;
 
 #[derive(Clone, Debug)]
 pub(super) struct Emitting {

@@ -1,5 +1,8 @@
 //! Lights as one closed enum, plus light selection. Area lights are emitting shapes;
 //! the rest are points, spots, directional and environment lights.
+//!
+//! Below `scene`, which compiles lights: imports `math`, `geometry` (primitives, hits,
+//! texture coordinates) and `material` (textures), never `scene`.
 
 mod area;
 pub mod distribution;
@@ -15,7 +18,7 @@ pub use distribution::{Distribution1D, Distribution2D};
 pub use emission::EmissionSample;
 pub use environment::{EnvMap, LatLong};
 pub use point::{DirectionalLight, PointLight};
-pub use selection::LightSampler;
+pub use selection::{LightSampler, LightSelection};
 pub use spot::SpotLight;
 
 use crate::math::{Rgb, Vec2, Vec3, Vec3A, PI};

@@ -1,6 +1,16 @@
 use super::{Distribution1D, Light, SceneSphere};
 use crate::math::luminance;
-use crate::scene::format::LightSelection;
+use serde::{Deserialize, Serialize};
+
+/// How a light is picked (the scene file's `light_selection`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum LightSelection {
+    /// Proportional to each light's emitted power (luminance).
+    #[default]
+    Power,
+    Uniform,
+}
 
 /// Picks one light per sample, proportionally to power (default) or uniformly.
 #[derive(Clone, Debug)]

@@ -4,8 +4,7 @@
 use super::error::{Result, SceneError};
 use super::format::{EmissionDesc, Param};
 use super::textures::Textures;
-use super::uv::TexCoords;
-use crate::geometry::Prim;
+use crate::geometry::{Prim, TexCoords};
 use crate::light::{AreaLight, Light};
 use crate::math::Rgb;
 

@@ -1,9 +1,12 @@
 //! The files a scene names: texture images, mesh files, environment maps, media grids, and the data
 //! file a raw grid's header names in turn. One list for whatever needs it: what an
-//! upload keeps, what `caustic import` rewrites or copies.
+//! upload keeps, what `caustic import` rewrites or copies. And the checks every
+//! reference passes: relative, inside the scene's folder (servers accept uploaded
+//! bundles). Imports only `format` and `error`.
 
+use super::error::{Result, SceneError};
 use super::format::{GeometryDesc, LightDesc, MediumDesc, SceneFile};
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 /// Every file reference of a scene, with the field that holds it
 /// (`shapes[2].filename`), in the scene's order.
@@ -62,4 +65,50 @@ pub fn slashed(path: &Path) -> String {
         .map(|c| c.as_os_str().to_string_lossy())
         .collect::<Vec<_>>()
         .join("/")
+}
+
+/// Refuses absolute paths and any `..`: a reference must stay inside the bundle.
+pub fn check_relative(field: &str, name: &str) -> Result<PathBuf> {
+    let p = Path::new(name);
+    if name.is_empty() {
+        return Err(SceneError::new(field, "empty file name"));
+    }
+    for c in p.components() {
+        match c {
+            Component::Normal(_) | Component::CurDir => {}
+            _ => {
+                return Err(SceneError::new(
+                    field,
+                    format!("\"{name}\" must be a relative path inside the scene's folder"),
+                ))
+            }
+        }
+    }
+    Ok(p.to_path_buf())
+}
+
+/// Resolves a reference against the scene folder, also refusing symlinks that lead
+/// outside it.
+pub fn resolve(base: &Path, field: &str, name: &str) -> Result<PathBuf> {
+    let rel = check_relative(field, name)?;
+    // `Path::new("scene.json").parent()` is `""`: the scene sits in the current folder.
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    let full = base.join(rel);
+    let canon_base = base
+        .canonicalize()
+        .map_err(|e| SceneError::new(field, format!("scene folder: {e}")))?;
+    let canon = full
+        .canonicalize()
+        .map_err(|e| SceneError::new(field, format!("\"{name}\": {e}")))?;
+    if !canon.starts_with(&canon_base) {
+        return Err(SceneError::new(
+            field,
+            format!("\"{name}\" leads outside the scene's folder"),
+        ));
+    }
+    Ok(canon)
 }

@@ -2,8 +2,9 @@
 //! grid files and their placement, procedural noise.
 
 use super::error::{Result, SceneError};
+use super::files::resolve;
 use super::format::{BoundsDesc, MediumDesc, PhaseDesc, TransformDesc, V3};
-use super::load::{resolve, transform_matrix};
+use super::load::transform_matrix;
 use crate::math::{Rgb, Vec3};
 use crate::medium::grid_io::{load_grid_named, DenseGrid};
 use crate::medium::noise::{Fbm, FbmParams};

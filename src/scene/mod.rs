@@ -1,29 +1,38 @@
 //! Scenes: the file format, loading and validation, and the compiled [`Scene`] that
 //! integrators render (BVH, materials, lights, camera).
+//!
+//! Layers, bottom up (each imports only those before it): `error`, `budget`,
+//! `format`; `files` (references and path checks), `meshes` (OBJ/PLY), `cube`;
+//! `validate`; `mitsuba` (the XML importer); `load` (scene files: JSON or XML);
+//! `materials`, `textures`, `media`, `shapes`, `tangent`, `shading`, `emitters`,
+//! `lights`; `compile`. Below the scene sit `geometry`, `material`, `light` and
+//! `medium`, which never import it.
 
 mod budget;
+mod compile;
+mod cube;
 mod emitters;
 pub mod error;
 pub mod files;
 pub mod format;
+mod lights;
 pub mod load;
+mod materials;
 mod media;
+mod meshes;
 pub mod mitsuba;
-mod param;
 mod shading;
 mod shapes;
 pub mod tangent;
 mod textures;
-mod uv;
 pub mod validate;
 
 pub use budget::CompileBudget;
 pub use error::SceneError;
 pub use format::SceneFile;
-pub use uv::TexCoords;
 
 use crate::camera::Camera;
-use crate::geometry::{Accel, Hit, Interaction, Ray};
+use crate::geometry::{Accel, Hit, Interaction, Ray, TexCoords};
 use crate::light::{AreaLight, Light, LightSampler, SceneSphere};
 use crate::material::normal_map::{Perturb, Shadowed, SurfaceFrame};
 use crate::material::texture::Texture;
@@ -213,7 +222,7 @@ impl Scene {
         budget: &CompileBudget,
     ) -> Result<Scene> {
         validate::validate(file)?;
-        shapes::compile(file, base, budget)
+        compile::compile(file, base, budget)
     }
 
     /// Closest surface along the ray, with normals on the shape's front side.

@@ -11,8 +11,7 @@
 //! Only shapes whose material needs them carry tangents, so other scenes compile to
 //! what they did before and their hits pay one branch.
 
-use super::uv::TexCoords;
-use crate::geometry::{Interaction, Prim};
+use crate::geometry::{Interaction, Prim, TexCoords};
 use crate::math::{Frame, Mat3, Vec3, PI};
 
 #[derive(Clone, Debug)]
@@ -126,8 +125,8 @@ fn sphere_tangents(to_object: Mat3, radius: f32, world_dir: Vec3) -> (Vec3, Vec3
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::uv::tests::at;
     use crate::math::{Vec2, Vec3A};
-    use crate::scene::uv::tests::at;
 
     fn close(a: Vec3, b: Vec3) -> bool {
         (a - b).abs().max_element() < 1e-5
@@ -147,7 +146,7 @@ mod tests {
             Vec2::new(0.5, 0.3),
             Vec2::new(0.2, 0.9),
         ];
-        let map = crate::scene::uv::corner_map(corners);
+        let map = crate::geometry::uv::corner_map(corners);
         let t = Tangents::new(&[prim], &TexCoords::Mesh(vec![map]));
         let (du, dv) = t.at(&at(Vec3::ZERO, Vec2::ZERO));
         // p1 - p0 = du (u1 - u0) + dv (v1 - v0), and likewise for p2.
@@ -159,7 +158,7 @@ mod tests {
         let flat = [corners[0]; 3];
         let t = Tangents::new(
             &[prim],
-            &TexCoords::Mesh(vec![crate::scene::uv::corner_map(flat)]),
+            &TexCoords::Mesh(vec![crate::geometry::uv::corner_map(flat)]),
         );
         let (du, dv) = t.at(&at(Vec3::ZERO, Vec2::ZERO));
         let n = Vec3::new(0.0, -1.0, 3.0).normalize();

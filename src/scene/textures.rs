@@ -4,8 +4,8 @@
 
 use super::budget::CompileBudget;
 use super::error::{Result, SceneError};
+use super::files::resolve;
 use super::format::{MaterialDesc, Param, TextureDesc};
-use super::load::resolve;
 use crate::material::normal_map::{NormalSource, Perturb};
 use crate::material::texture::{decode_within, Bitmap, Texels, Texture, UvTransform};
 use crate::material::textured::{Slot, Textured};

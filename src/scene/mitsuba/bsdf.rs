@@ -1,7 +1,7 @@
 //! `<bsdf>` plugins as caustic materials.
 
+use super::node::Node;
 use super::params::Params;
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::{DistributionDesc, MaterialDesc, Param, Scalar, V3};

@@ -1,7 +1,7 @@
 //! Top-level `<emitter>` plugins as caustic lights.
 
+use super::node::Node;
 use super::params::{f3, rotation, Params, Part, Xf};
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::LightDesc;

@@ -5,8 +5,8 @@
 //! warning that names it. Options that change only the noise or the speed (sample
 //! counts per technique, pass sizes, seeds) are dropped without a word.
 
+use super::node::Node;
 use super::params::Params;
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 

@@ -1,8 +1,8 @@
 //! `<medium>` plugins (homogeneous, heterogeneous with grid and constant volumes) and
 //! their `<phase>` functions.
 
+use super::node::Node;
 use super::params::{Params, Xf};
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::{MediumDesc, PhaseDesc, TransformDesc, V3};

@@ -10,6 +10,7 @@ mod budget;
 mod emitters;
 mod integrator;
 mod media;
+mod node;
 mod params;
 mod sensor;
 mod serialized;
@@ -22,9 +23,9 @@ mod xml;
 use super::error::Result;
 use super::format::{MaterialDesc, MediumDesc, SceneFile};
 use budget::{Budget, Work};
+use node::Node;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Component, Path, PathBuf};
-use xml::Node;
 
 /// An imported scene, what the import changed, and Mitsuba's sample count.
 #[derive(Clone, Debug)]

@@ -1,10 +1,10 @@
 //! A plugin element's parameters (`<float name=..>`, `<rgb>`, `<transform>`, ...) and
 //! nested objects, each taken at most once; what no converter took is an error.
 
-use super::xml::Node;
+use super::node::Node;
 use super::Ctx;
 use crate::scene::error::Result;
-use crate::scene::format::{Param, Rotation, Scalar, Scale, TransformDesc, V3};
+use crate::scene::format::{Rotation, Scale, TransformDesc, V3};
 use glam::{DMat4, DVec3, DVec4};
 use std::cell::Cell;
 
@@ -140,29 +140,13 @@ impl<'a> Params<'a> {
         }
     }
 
-    /// A colour: `<rgb>`, a `<spectrum>` with one value, or a `<float>` (grey).
-    /// A colour or a texture (nested, or a reference in slot `name`).
-    pub fn param(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Param>> {
-        let texture =
-            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture");
-        if let Some((_, n, used)) = texture {
-            used.set(true);
-            return super::texture::texture(n, ctx).map(Some);
-        }
-        Ok(self.color(name)?.map(Param::Value))
-    }
-
-    /// A scalar: a `<float>` or a texture (nested, or a reference in slot `name`).
-    pub fn scalar(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Scalar>> {
-        let texture =
-            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture");
-        if let Some((_, n, used)) = texture {
-            used.set(true);
-            // Mitsuba reads one number through `eval_1` (see `texture::scalar`).
-            return super::texture::texture(n, ctx)
-                .map(|t| Some(Scalar(super::texture::scalar(t))));
-        }
-        Ok(self.float(name)?.map(|v| Scalar::value(v as f32)))
+    /// The texture in slot `name` (nested, or a reference), marked read: what
+    /// [`param`](Self::param) and [`scalar`](Self::scalar) (module `texture`) convert.
+    pub fn texture_node(&self, name: &str) -> Option<&'a Node> {
+        let (_, n, used) =
+            (self.objects.iter()).find(|(slot, n, _)| *slot == Some(name) && n.tag == "texture")?;
+        used.set(true);
+        Some(*n)
     }
 
     /// Every nested object of `tag`, in document order.

@@ -1,7 +1,7 @@
 //! `<sensor>`, with its `<film>` and `<rfilter>` (its `<sampler>`: module `integrator`).
 
+use super::node::Node;
 use super::params::{f3, Params, Part};
-use super::xml::Node;
 use super::{integrator, media, Ctx};
 use crate::scene::error::Result;
 use crate::scene::format::{CameraDesc, FilmDesc, Filter, FilterDesc, FovAxis, LookAt};

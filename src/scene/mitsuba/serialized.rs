@@ -3,8 +3,8 @@
 //! table of offsets at the end of the file. Imported as an inline mesh.
 
 use super::budget::{Budget, Work};
+use super::node::Node;
 use super::params::Params;
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::GeometryDesc;

@@ -1,7 +1,7 @@
 //! `<shape>` plugins, with their BSDF, area emitter and media.
 
+use super::node::Node;
 use super::params::{f3, Params, Xf};
-use super::xml::Node;
 use super::{bsdf, media, serialized, Ctx};
 use crate::scene::error::Result;
 use crate::scene::format::{EmissionDesc, GeometryDesc, ShapeCommon, ShapeDesc};
@@ -98,8 +98,8 @@ fn mesh_normals(n: &Node, p: &Params, ctx: &mut Ctx, filename: &str) -> Result<(
         None => {
             let path = ctx.path_of(filename);
             let mesh = match n.kind() {
-                "obj" => crate::scene::load::load_obj(&path, "filename", filename),
-                _ => crate::scene::load::load_ply(&path, "filename", filename),
+                "obj" => crate::scene::meshes::load_obj(&path, "filename", filename),
+                _ => crate::scene::meshes::load_ply(&path, "filename", filename),
             }
             .map_err(|e| n.err(e.message))?;
             let known = mesh.normals.is_some();

@@ -4,8 +4,8 @@
 //! becomes the nearest material caustic has, with a warning that says which and what
 //! it leaves out, instead of the whole scene being refused.
 
+use super::node::Node;
 use super::params::Params;
-use super::xml::Node;
 use super::Ctx;
 use crate::scene::error::Result;
 use crate::scene::format::{DistributionDesc, MaterialDesc, Param, Scalar};

@@ -1,12 +1,14 @@
 //! `<texture>` plugins (`bitmap`, `checkerboard`, and 0.x's `scale`) as scene-format
-//! textures, for any parameter a converter reads with [`Params::param`].
+//! textures, for any parameter a converter reads with [`Params::param`] or
+//! [`Params::scalar`], which live here so that `params` need not know textures.
+//! Imports `params` and `node`.
 
+use super::node::Node;
 use super::params::{Params, Xf};
-use super::xml::Node;
 use super::Ctx;
 use crate::material::texture::{Filter, Wrap};
 use crate::scene::error::Result;
-use crate::scene::format::{Param, TextureDesc};
+use crate::scene::format::{Param, Scalar, TextureDesc};
 
 /// `p` as Mitsuba 3 reads it where one number is wanted (an opacity, a weight, a
 /// roughness): through the textures' `eval_1`, which for `checkerboard` picks
@@ -31,6 +33,26 @@ pub fn scalar(p: Param) -> Param {
         },
         bitmap @ TextureDesc::Bitmap { .. } => bitmap,
     }))
+}
+
+impl<'a> Params<'a> {
+    /// A colour: `<rgb>`, a `<spectrum>` with one value, or a `<float>` (grey).
+    /// A colour or a texture (nested, or a reference in slot `name`).
+    pub fn param(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Param>> {
+        if let Some(n) = self.texture_node(name) {
+            return texture(n, ctx).map(Some);
+        }
+        Ok(self.color(name)?.map(Param::Value))
+    }
+
+    /// A scalar: a `<float>` or a texture (nested, or a reference in slot `name`).
+    pub fn scalar(&self, name: &str, ctx: &mut Ctx<'a>) -> Result<Option<Scalar>> {
+        if let Some(n) = self.texture_node(name) {
+            // Mitsuba reads one number through `eval_1` (see `scalar`).
+            return texture(n, ctx).map(|t| Some(Scalar(scalar(t))));
+        }
+        Ok(self.float(name)?.map(|v| Scalar::value(v as f32)))
+    }
 }
 
 /// The texture of element `n`.

@@ -4,7 +4,7 @@
 //! names). What has no Mitsuba 3 form (`<blackbody>`, `<animation>`, `<subsurface>`,
 //! `<alias>`) is an error.
 
-use super::super::xml::Node;
+use super::super::node::Node;
 use crate::scene::error::Result;
 
 /// Element `n` in its Mitsuba 3 form, or the error that it has none.

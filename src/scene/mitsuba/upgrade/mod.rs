@@ -18,7 +18,7 @@
 mod forms;
 mod plugins;
 
-use super::xml::{Loc, Node};
+use super::node::{Loc, Node};
 use crate::scene::error::Result;
 
 /// Whether a scene file of `version` (`0.6.0`, or `0.6`) predates Mitsuba 2, whose

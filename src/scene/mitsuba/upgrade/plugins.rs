@@ -5,8 +5,8 @@
 //! `density`, a grid's placement, and options of 0.x plugins that only changed speed
 //! or noise (`sampling_weight`, `cache`, `method`, ...), which are dropped.
 
+use super::super::node::Node;
 use super::super::params::xyz;
-use super::super::xml::Node;
 use super::forms::{colour_value, join};
 use super::{child, element, rename_child, take, take_float};
 use crate::scene::error::Result;

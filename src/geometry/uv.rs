@@ -3,10 +3,10 @@
 //! with Mitsuba's own), and the analytic parametrisations of spheres and disks.
 //!
 //! Only shapes whose material reads a texture carry them, so a scene without textures
-//! compiles to exactly the primitives it did before.
+//! compiles to exactly the primitives it did before. Here, below `light` and `scene`,
+//! because textured area lights read them too; imports only `math` and the hit record.
 
-use super::load::MeshData;
-use crate::geometry::Interaction;
+use super::Interaction;
 use crate::math::{Mat3, Vec2, Vec3, INV_2PI, INV_PI};
 
 /// How a shape's hits map to (u, v).
@@ -78,66 +78,12 @@ pub fn corner_map([o, a, b]: [Vec2; 3]) -> [Vec2; 3] {
     [o, a - o, b - o]
 }
 
-/// Mitsuba's cube: each face's four corners (object space) with their (u, v).
-pub const CUBE_FACES: [[([f32; 3], [f32; 2]); 4]; 6] = [
-    [
-        ([1., -1., -1.], [0., 1.]),
-        ([1., -1., 1.], [1., 1.]),
-        ([-1., -1., 1.], [1., 0.]),
-        ([-1., -1., -1.], [0., 0.]),
-    ],
-    [
-        ([1., 1., -1.], [0., 1.]),
-        ([-1., 1., -1.], [1., 1.]),
-        ([-1., 1., 1.], [1., 0.]),
-        ([1., 1., 1.], [0., 0.]),
-    ],
-    [
-        ([1., -1., -1.], [0., 1.]),
-        ([1., 1., -1.], [1., 1.]),
-        ([1., 1., 1.], [1., 0.]),
-        ([1., -1., 1.], [0., 0.]),
-    ],
-    [
-        ([1., -1., 1.], [0., 1.]),
-        ([1., 1., 1.], [1., 1.]),
-        ([-1., 1., 1.], [1., 0.]),
-        ([-1., -1., 1.], [0., 0.]),
-    ],
-    [
-        ([-1., -1., 1.], [0., 1.]),
-        ([-1., 1., 1.], [1., 1.]),
-        ([-1., 1., -1.], [1., 0.]),
-        ([-1., -1., -1.], [0., 0.]),
-    ],
-    [
-        ([1., 1., -1.], [0., 1.]),
-        ([1., -1., -1.], [1., 1.]),
-        ([-1., -1., -1.], [1., 0.]),
-        ([-1., 1., -1.], [0., 0.]),
-    ],
-];
-
-/// Mitsuba's cube as a mesh: 24 vertices, each face its own four with their (u, v),
-/// split as Mitsuba splits them.
-pub fn cube_mesh() -> MeshData {
-    let corners = CUBE_FACES.iter().flatten();
-    MeshData {
-        positions: corners.clone().map(|(p, _)| Vec3::from(*p)).collect(),
-        normals: None,
-        uvs: Some(corners.map(|(_, uv)| Vec2::from(*uv)).collect()),
-        indices: (0..6u32)
-            .flat_map(|f| [[0, 1, 2], [3, 0, 2]].map(|t| t.map(|k| 4 * f + k)))
-            .collect(),
-    }
-}
-
 #[cfg(test)]
-pub(super) mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A hit at `p` with primitive coordinates `uv` on a +z-facing surface.
-    pub(in crate::scene) fn at(p: Vec3, uv: Vec2) -> Interaction {
+    pub(crate) fn at(p: Vec3, uv: Vec2) -> Interaction {
         Interaction {
             p,
             p_err: Vec3::ZERO,
@@ -207,19 +153,6 @@ pub(super) mod tests {
             (Vec2::new(0.25, 0.25), Vec2::new(0.5, 0.675)),
         ] {
             assert!(close(m.uv(&at(Vec3::ZERO, bary)), uv), "{bary}");
-        }
-    }
-
-    #[test]
-    fn cube_faces_wind_outwards_and_cover_the_unit_square() {
-        for face in CUBE_FACES {
-            let p = face.map(|(p, _)| Vec3::from(p));
-            let n = (p[1] - p[0]).cross(p[2] - p[0]);
-            let centre = (p[0] + p[2]) * 0.5;
-            assert!(n.dot(centre) > 0.0, "{face:?}");
-            let mut uvs: Vec<[f32; 2]> = face.iter().map(|(_, uv)| *uv).collect();
-            uvs.sort_by(|a, b| a.partial_cmp(b).unwrap());
-            assert_eq!(uvs, [[0., 0.], [0., 1.], [1., 0.], [1., 1.]]);
         }
     }
 }

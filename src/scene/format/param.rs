@@ -2,7 +2,7 @@
 //! (grey), an `[r, g, b]` triple, or a texture object (`{"type": "bitmap", ...}`), as
 //! Mitsuba lets any reflectance be a texture.
 
-use super::format::V3;
+use super::V3;
 use crate::material::texture::{Filter, Wrap};
 use serde::de::{self, MapAccess, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
