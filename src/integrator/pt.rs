@@ -4,6 +4,7 @@
 
 use super::common::camera::sample_bsdf;
 use super::common::nee::{sample_light, Origin};
+use super::common::params::{check_max_depth, ParamError};
 use super::common::{emitted, escaped, Heuristic};
 use super::memory::{Estimate, Facts};
 use super::pixels::{render_paths, tile_memory, PathKernel};
@@ -67,11 +68,8 @@ impl PtSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        Ok(())
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_max_depth(self.max_depth)
     }
 }
 

@@ -17,6 +17,7 @@ use super::common::medium_walk::{
     seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
 };
 use super::common::nee::{sample_light, Origin};
+use super::common::params::{check_max_depth, ParamError};
 use super::common::{emitted, escaped, Heuristic};
 use super::memory::{Estimate, Facts};
 use super::pixels::{render_pixels, tile_memory};
@@ -66,11 +67,8 @@ impl VolpathSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        Ok(())
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_max_depth(self.max_depth)
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::lights::{Kinds, Lights};
 use crate::integrator::bidir::{store_memory, BidirSettings, StorePlan, Technique};
-use crate::integrator::common::params::{check_alpha, check_radius};
+use crate::integrator::common::params::{check_alpha, check_max_depth, check_radius, ParamError};
 use crate::integrator::memory::{paths_driver, Estimate, Facts};
 use crate::integrator::pixels::tile_memory;
 use crate::integrator::vrl::Sampler;
@@ -28,14 +28,18 @@ impl LightPaths {
         }
     }
 
-    fn check(self) -> Result<(), String> {
+    fn check(self) -> Result<(), ParamError> {
         match self {
-            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(format!(
-                "light_paths as a multiple of the pixel count must be in (0, 64], got {m}"
+            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(ParamError::new(
+                "light_paths",
+                format!("light_paths as a multiple of the pixel count must be in (0, 64], got {m}"),
             )),
-            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => Err(format!(
-                "light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"
-            )),
+            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => {
+                Err(ParamError::new(
+                    "light_paths.count",
+                    format!("light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"),
+                ))
+            }
             _ => Ok(()),
         }
     }
@@ -253,26 +257,26 @@ pub(crate) fn check_common(
     light_paths: LightPaths,
     vl_samples: u32,
     max_vertex_mib: f32,
-) -> Result<(), String> {
-    if max_depth == 0 {
-        return Err("max_depth must be at least 1".into());
-    }
+) -> Result<(), ParamError> {
+    check_max_depth(max_depth)?;
     light_paths.check()?;
     if vl_samples > MAX_VL_SAMPLES {
-        return Err(format!(
-            "vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"
+        return Err(ParamError::new(
+            "vl_samples",
+            format!("vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"),
         ));
     }
     if !(max_vertex_mib.is_finite() && max_vertex_mib > 0.0) {
-        return Err(format!(
-            "max_vertex_mib must be positive, got {max_vertex_mib}"
+        return Err(ParamError::new(
+            "max_vertex_mib",
+            format!("max_vertex_mib must be positive, got {max_vertex_mib}"),
         ));
     }
     Ok(())
 }
 
 impl VplSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,
@@ -281,10 +285,16 @@ impl VplSettings {
         )?;
         if let Some(b) = self.clamp_limit {
             if !(b.is_finite() && b > 0.0) {
-                return Err(format!("clamp_limit must be positive and finite, got {b}"));
+                return Err(ParamError::new(
+                    "clamp_limit",
+                    format!("clamp_limit must be positive and finite, got {b}"),
+                ));
             }
             if self.clamp == Clamp::None {
-                return Err("clamp_limit needs clamp: clamp or compensate".into());
+                return Err(ParamError::new(
+                    "clamp_limit",
+                    "clamp_limit needs clamp: clamp or compensate",
+                ));
             }
         }
         Ok(())
@@ -292,7 +302,7 @@ impl VplSettings {
 }
 
 impl VrlSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,
@@ -303,7 +313,7 @@ impl VrlSettings {
 }
 
 impl VblSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,

@@ -56,7 +56,7 @@ pub use beams::BeamForm;
 use super::accel::Lbvh;
 use super::bidir::{store_memory, Bidir, BidirSettings, StorePlan, Technique};
 use super::common::density_camera::{self, Depths};
-use super::common::params::{check_alpha, check_radius};
+use super::common::params::{check_alpha, check_radius, ParamError};
 use super::many::LightPaths;
 use super::memory::{array, paths_driver, refilled, Estimate, Facts};
 use super::pixels::{render_pixels, tile_memory};
@@ -145,9 +145,9 @@ impl PpbSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         super::many::check_common(self.max_depth, self.light_paths, 0, self.max_beam_mib)
-            .map_err(|e| e.replace("max_vertex_mib", "max_beam_mib"))?;
+            .map_err(|e| e.renamed("max_vertex_mib", "max_beam_mib"))?;
         check_radius(self.radius, self.radius_factor)?;
         check_alpha(self.alpha)
     }

@@ -53,7 +53,7 @@ use crate::integrator::common::emit::sample_emission;
 use crate::integrator::common::medium_walk::{MediumWalk, Step};
 use crate::integrator::common::nee::{direct_unweighted, Origin};
 use crate::integrator::common::params::check_radius;
-use crate::integrator::common::params::{check_alpha, check_photon_params};
+use crate::integrator::common::params::{check_alpha, check_photon_params, ParamError};
 use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::integrator::memory::{
     array, capped, paths_driver, pushed, refilled, Estimate as Memory, Facts,
@@ -118,7 +118,7 @@ impl Default for SppmSettings {
 }
 
 impl SppmSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_photon_params(
             self.max_depth,
             self.light_paths,
@@ -127,12 +127,15 @@ impl SppmSettings {
         )?;
         check_alpha(self.alpha)?;
         check_radius(self.medium_radius, self.medium_radius_factor)
-            .map_err(|e| format!("medium_{e}"))?;
-        check_alpha(self.medium_alpha).map_err(|e| format!("medium_{e}"))?;
+            .map_err(|e| e.prefixed("medium_"))?;
+        check_alpha(self.medium_alpha).map_err(|e| e.prefixed("medium_"))?;
         if !(self.max_photon_mib.is_finite() && self.max_photon_mib > 0.0) {
-            return Err(format!(
-                "max_photon_mib must be positive, got {}",
-                self.max_photon_mib
+            return Err(ParamError::new(
+                "max_photon_mib",
+                format!(
+                    "max_photon_mib must be positive, got {}",
+                    self.max_photon_mib
+                ),
             ));
         }
         Ok(())

@@ -85,7 +85,7 @@ mod photons;
 use super::accel::{HashGrid, PointBvh};
 use super::common::density_camera::{self, Depths, MediumGather};
 use super::common::medium_walk::Segment;
-use super::common::params::{check_alpha, check_photon_params};
+use super::common::params::{check_alpha, check_photon_params, ParamError};
 use super::common::PATHS_PER_TASK;
 use super::memory::{array, budgeted, capped, paths_driver, refilled, Estimate as Memory, Facts};
 use super::pixels::{render_pixels, tile_memory};
@@ -170,7 +170,7 @@ impl Default for VpmSettings {
 }
 
 impl VpmSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_photon_params(
             self.max_depth,
             self.light_paths,
@@ -181,7 +181,10 @@ impl VpmSettings {
             check_alpha(a)?;
         }
         if self.max_photon_mib == 0 {
-            return Err("max_photon_mib must be at least 1".into());
+            return Err(ParamError::new(
+                "max_photon_mib",
+                "max_photon_mib must be at least 1",
+            ));
         }
         Ok(())
     }

@@ -1,0 +1,370 @@
+//! The one table of algorithms. A row names an algorithm, says in a line what it
+//! computes, points to its parameter table and reads its parameters; [`Params`] is what
+//! the registry asks of a settings type (check, build, size), and [`Settings::parts`]
+//! the one match from a [`Settings`] variant to its row and parameters. `ALGORITHMS`,
+//! `Settings::name`, `validate`, `build` and the memory estimate derive from these.
+//!
+//! Adding an algorithm: its settings type (with `Params`), a variant of `Settings`
+//! (the wire format), a row of [`TABLE`] and an arm of `parts`.
+//!
+//! May import every algorithm module (it is the registry); none of them imports it.
+
+use super::common::params::ParamError;
+use super::memory::{Estimate, Facts};
+use super::{bidir, debug, many, ppb, pt, sppm, volpath, vpm, Integrator, Settings};
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+/// A parameter that does not parse, with its path under the parameters (`radius`,
+/// `light_paths.count`).
+pub(crate) type ParseError = serde_path_to_error::Error<serde_json::Error>;
+
+/// One algorithm: a row of [`TABLE`].
+pub struct Algorithm {
+    /// The name a job gives as `algorithm` (the serde tag of its [`Settings`] variant).
+    pub name: &'static str,
+    /// What it computes, in one line (the README's Algorithms section says more).
+    pub about: &'static str,
+    /// The settings type whose doc comment is the parameter table.
+    pub params: &'static str,
+    /// Its settings from a JSON object of its parameters (no `algorithm` tag).
+    parse: fn(Value) -> Result<Settings, ParseError>,
+}
+
+/// Every algorithm, in the order that `ALGORITHMS` and `GET /v1/algorithms` list them.
+pub const TABLE: &[Algorithm] = &[
+    Algorithm {
+        name: "pt",
+        about: "Unidirectional path tracing with next-event estimation and MIS.",
+        params: "pt::PtSettings",
+        parse: |p| read(p).map(Settings::Pt),
+    },
+    Algorithm {
+        name: "volpath",
+        about: "Volumetric path tracing (what `pt` runs on scenes with media).",
+        params: "volpath::VolpathSettings",
+        parse: |p| read(p).map(Settings::Volpath),
+    },
+    Algorithm {
+        name: "lt",
+        about: "Light tracing: light paths splatted to the camera.",
+        params: "bidir::BidirSettings",
+        parse: |p| read(p).map(Settings::Lt),
+    },
+    Algorithm {
+        name: "bpt",
+        about: "Bidirectional path tracing with all (s, t) connections.",
+        params: "bidir::BidirSettings",
+        parse: |p| read(p).map(Settings::Bpt),
+    },
+    Algorithm {
+        name: "ppm",
+        about: "Progressive photon mapping (visible points fixed per pixel).",
+        params: "sppm::SppmSettings",
+        parse: |p| read(p).map(Settings::Ppm),
+    },
+    Algorithm {
+        name: "sppm",
+        about: "Stochastic progressive photon mapping (new visible points every pass).",
+        params: "sppm::SppmSettings",
+        parse: |p| read(p).map(Settings::Sppm),
+    },
+    Algorithm {
+        name: "bpm",
+        about: "Bidirectional photon mapping: merging at every non-specular camera vertex.",
+        params: "bidir::BidirSettings",
+        parse: |p| read(p).map(Settings::Bpm),
+    },
+    Algorithm {
+        name: "vcm",
+        about: "Vertex connection and merging.",
+        params: "bidir::BidirSettings",
+        parse: |p| read(p).map(Settings::Vcm),
+    },
+    Algorithm {
+        name: "upbp",
+        about: "Unifying points, beams and paths: connections, surface photons and the \
+                three volume estimators (any subset) under one MIS.",
+        params: "bidir::BidirSettings",
+        parse: |p| read(p).map(Settings::Upbp),
+    },
+    Algorithm {
+        name: "vpm",
+        about: "Volumetric photon mapping, progressive (point query or beam radiance estimate).",
+        params: "vpm::VpmSettings",
+        parse: |p| read(p).map(Settings::Vpm),
+    },
+    Algorithm {
+        name: "ppb",
+        about: "Progressive photon beams in media; surfaces path traced.",
+        params: "ppb::PpbSettings",
+        parse: |p| read(p).map(Settings::Ppb),
+    },
+    Algorithm {
+        name: "vpl",
+        about: "Virtual point lights, with optional clamping and bias compensation.",
+        params: "many::VplSettings",
+        parse: |p| read(p).map(Settings::Vpl),
+    },
+    Algorithm {
+        name: "vrl",
+        about: "Virtual ray lights in media, virtual point lights on surfaces.",
+        params: "many::VrlSettings",
+        parse: |p| read(p).map(Settings::Vrl),
+    },
+    Algorithm {
+        name: "vbl",
+        about: "Progressive virtual beam lights: ray lights blurred over a shrinking disk.",
+        params: "many::VblSettings",
+        parse: |p| read(p).map(Settings::Vbl),
+    },
+    Algorithm {
+        name: "normals",
+        about: "Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.",
+        params: "none",
+        parse: |p| read(p).map(|NoParams {}| Settings::Normals {}),
+    },
+    Algorithm {
+        name: "albedo",
+        about: "Debug: the material's reflectance at the first hit.",
+        params: "none",
+        parse: |p| read(p).map(|NoParams {}| Settings::Albedo {}),
+    },
+];
+
+/// The names of [`TABLE`]'s rows, in its order (for the `ALGORITHMS` constant).
+pub(super) const fn names<const N: usize>() -> [&'static str; N] {
+    let mut out = [""; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = TABLE[i].name;
+        i += 1;
+    }
+    out
+}
+
+/// The row of algorithm `name`.
+pub fn find(name: &str) -> Option<&'static Algorithm> {
+    TABLE.iter().find(|a| a.name == name)
+}
+
+impl Algorithm {
+    /// Its settings from a JSON object of its parameters; an error names the parameter
+    /// that does not parse by its path.
+    pub(crate) fn parse(&self, params: Map<String, Value>) -> Result<Settings, ParseError> {
+        (self.parse)(Value::Object(params))
+    }
+
+    /// Every parameter it takes, at its default value.
+    pub(crate) fn defaults(&self) -> serde_json::Result<Map<String, Value>> {
+        let settings = self.parse(Map::new()).expect("defaults parse");
+        let mut params = match crate::json_numbers::to_value(&settings)? {
+            Value::Object(m) => m,
+            _ => Map::new(),
+        };
+        params.remove("algorithm");
+        Ok(params)
+    }
+}
+
+/// A settings type read from JSON in one pass, with the path of what does not parse.
+fn read<T: DeserializeOwned>(params: Value) -> Result<T, ParseError> {
+    serde_path_to_error::deserialize(params)
+}
+
+/// The debug views' parameters: none (so that serde refuses any).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoParams {}
+
+/// How a job keeps its film, for its memory estimate.
+pub(crate) enum FilmUse {
+    /// Iterations add samples into it (and splats, for the algorithms that connect
+    /// light paths to the camera), with `layers` extra images.
+    Adds { splats: bool, layers: usize },
+    /// Iterations rewrite it from per-pixel statistics (the photon mappers): the exact
+    /// sums are rebuilt each iteration, and they take the pixel box whatever the
+    /// scene's filter.
+    Chained,
+}
+
+/// What the registry asks of an algorithm's settings type. `name` is the algorithm's,
+/// for the types that several share (`bidir`'s five, `ppm` and `sppm`).
+pub(crate) trait Params {
+    fn validate(&self, name: &str) -> Result<(), ParamError>;
+    fn build(&self, name: &str) -> Box<dyn Integrator>;
+    /// The algorithm's own memory (module `memory`); the film comes on top.
+    fn memory(&self, name: &str, facts: &Facts) -> Estimate;
+    fn film(&self, _name: &str) -> FilmUse {
+        FilmUse::Adds {
+            splats: false,
+            layers: 0,
+        }
+    }
+}
+
+impl Settings {
+    /// The one match over the variants: each one's row name in [`TABLE`] and its
+    /// parameters.
+    pub(crate) fn parts(&self) -> (&'static str, &dyn Params) {
+        match self {
+            Settings::Pt(s) => ("pt", s),
+            Settings::Volpath(s) => ("volpath", s),
+            Settings::Lt(s) => ("lt", s),
+            Settings::Bpt(s) => ("bpt", s),
+            Settings::Bpm(s) => ("bpm", s),
+            Settings::Vcm(s) => ("vcm", s),
+            Settings::Upbp(s) => ("upbp", s),
+            Settings::Ppm(s) => ("ppm", s),
+            Settings::Sppm(s) => ("sppm", s),
+            Settings::Vpm(s) => ("vpm", s),
+            Settings::Vpl(s) => ("vpl", s),
+            Settings::Vrl(s) => ("vrl", s),
+            Settings::Vbl(s) => ("vbl", s),
+            Settings::Ppb(s) => ("ppb", s),
+            Settings::Normals {} => ("normals", &debug::DebugIntegrator::Normals),
+            Settings::Albedo {} => ("albedo", &debug::DebugIntegrator::Albedo),
+        }
+    }
+}
+
+impl Params for pt::PtSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(pt::PathTracer::new(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+impl Params for volpath::VolpathSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(volpath::VolPath::new(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+/// `lt`, `bpt`, `bpm`, `vcm` and `upbp`: one core, run as the technique of the name.
+impl Params for bidir::BidirSettings {
+    fn validate(&self, name: &str) -> Result<(), ParamError> {
+        self.validate(self.technique_of(name))
+    }
+    fn build(&self, name: &str) -> Box<dyn Integrator> {
+        Box::new(bidir::Bidir::new(self.technique_of(name), self.clone()))
+    }
+    fn memory(&self, name: &str, facts: &Facts) -> Estimate {
+        self.memory(self.technique_of(name), facts)
+    }
+    fn film(&self, name: &str) -> FilmUse {
+        let technique = self.technique_of(name);
+        FilmUse::Adds {
+            splats: technique.splats(),
+            layers: self.layer_count(technique),
+        }
+    }
+}
+
+/// `ppm` and `sppm`: one photon mapper, with visible points fixed or drawn anew.
+impl Params for sppm::SppmSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, name: &str) -> Box<dyn Integrator> {
+        let variant = match name {
+            "ppm" => sppm::Variant::Ppm,
+            _ => sppm::Variant::Sppm,
+        };
+        Box::new(sppm::PhotonMapper::new(self.clone(), variant))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+    fn film(&self, _: &str) -> FilmUse {
+        FilmUse::Chained
+    }
+}
+
+impl Params for vpm::VpmSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(vpm::Vpm::new(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+impl Params for ppb::PpbSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(ppb::Ppb::new(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+impl Params for many::VplSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(many::ManyLights::vpl(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+impl Params for many::VrlSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(many::ManyLights::vrl(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+impl Params for many::VblSettings {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        self.validate()
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(many::ManyLights::vbl(self.clone()))
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        self.memory(facts)
+    }
+}
+
+/// The debug views take no parameters.
+impl Params for debug::DebugIntegrator {
+    fn validate(&self, _: &str) -> Result<(), ParamError> {
+        Ok(())
+    }
+    fn build(&self, _: &str) -> Box<dyn Integrator> {
+        Box::new(match self {
+            debug::DebugIntegrator::Normals => debug::DebugIntegrator::Normals,
+            debug::DebugIntegrator::Albedo => debug::DebugIntegrator::Albedo,
+        })
+    }
+    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+        debug::DebugIntegrator::memory(facts)
+    }
+}
