@@ -307,7 +307,8 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     b.screenshot("list");
 
-    // A bad parameter: the server's message appears next to its field.
+    // A bad parameter: the server's message appears next to the field its error names
+    // (the body's `field`), whose input is marked invalid.
     b.click("nav a[data-route=submit]");
     b.wait_for(
         "the submit form",
@@ -329,17 +330,29 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
         WAIT,
     );
     assert!(msg.as_str().unwrap().contains("max_depth"), "{msg}");
-    assert_eq!(
-        b.js(
-            "return document.getElementById('form-error').textContent",
-            json!([])
-        ),
-        ""
-    );
+    let form_error = "return document.getElementById('form-error').textContent";
+    assert_eq!(b.js(form_error, json!([])), "");
+    let invalid = "return document.querySelector(arguments[0]).getAttribute('aria-invalid')";
+    assert_eq!(b.js(invalid, json!(["#param-max_depth"])), "true");
     b.screenshot("submit-error");
 
-    // Fixed, the job is created and its page opens; the preview changes live.
+    // A message that does not spell its field's path ("halt: spp / iterations ...")
+    // lands by the `field` too; the earlier mark is cleared.
     b.type_into("#param-max_depth", "8");
+    b.type_into("#halt-spp", "0");
+    b.click("#submit");
+    let msg = b.wait_for(
+        "the halt message",
+        "return document.querySelector('[data-error-for=\"halt.spp\"]').textContent",
+        WAIT,
+    );
+    assert!(msg.as_str().unwrap().contains("at least 1"), "{msg}");
+    assert_eq!(b.js(form_error, json!([])), "");
+    assert_eq!(b.js(invalid, json!(["#halt-spp"])), "true");
+    assert_eq!(b.js(invalid, json!(["#param-max_depth"])), Value::Null);
+
+    // Fixed, the job is created and its page opens; the preview changes live.
+    b.type_into("#halt-spp", "1000000");
     b.click("#submit");
     let hash = b.wait_for(
         "the job page",

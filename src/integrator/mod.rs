@@ -502,6 +502,9 @@ mod tests {
         let albedo = Settings::resolve(Some("pt"), None, &params("albedo")).unwrap();
         let err = albedo.check_scene(&scene).unwrap_err().to_string();
         assert!(err.contains("roulette") && err.contains("media"), "{err}");
+        let err = Settings::for_scene(Some("pt"), &scene, &params("albedo")).unwrap_err();
+        assert_eq!(err.field(), Some("params.roulette"), "{err}");
+        assert!(err.to_string().contains("roulette = albedo applies"), "{err}");
         let throughput = Settings::resolve(Some("pt"), None, &params("throughput")).unwrap();
         throughput.check_scene(&scene).unwrap();
     }

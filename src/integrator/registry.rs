@@ -368,3 +368,194 @@ impl Params for debug::DebugIntegrator {
         debug::DebugIntegrator::memory(facts)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::{SettingsError, ALGORITHMS};
+    use serde_json::json;
+
+    fn map(v: Value) -> Map<String, Value> {
+        v.as_object().expect("an object").clone()
+    }
+
+    /// Each row reads its own variant: its defaults parse to settings of its name,
+    /// which serialise with that tag and validate.
+    #[test]
+    fn every_row_reads_its_own_variant() {
+        assert_eq!(ALGORITHMS.len(), TABLE.len());
+        for (row, name) in TABLE.iter().zip(ALGORITHMS) {
+            assert_eq!(row.name, *name);
+            let s = row.parse(Map::new()).unwrap();
+            assert_eq!(s.name(), row.name);
+            assert_eq!(serde_json::to_value(&s).unwrap()["algorithm"], row.name);
+            s.validate().unwrap();
+            assert!(find(row.name).is_some_and(|r| std::ptr::eq(r, row)));
+        }
+    }
+
+    /// One bad parameter of every algorithm: the error names it as the job wrote it
+    /// (`field`), with the message it had when it was only text.
+    #[test]
+    fn a_bad_parameter_of_every_algorithm_is_named() {
+        let cases = [
+            (
+                "pt",
+                json!({"max_depth": 0}),
+                "params.max_depth",
+                "integrator settings: max_depth must be at least 1",
+            ),
+            (
+                "volpath",
+                json!({"max_depth": "deep"}),
+                "params.max_depth",
+                "params.max_depth: invalid type: string \"deep\"",
+            ),
+            (
+                "lt",
+                json!({"light_paths": 100}),
+                "params.light_paths",
+                "light_paths must be in (0, 64], got 100",
+            ),
+            (
+                "bpt",
+                json!({"radius": -1}),
+                "params.radius",
+                "radius must be positive and finite, got -1",
+            ),
+            (
+                "ppm",
+                json!({"alpha": 2}),
+                "params.alpha",
+                "alpha must be in (0, 1]",
+            ),
+            (
+                "sppm",
+                json!({"medium_radius_factor": 0}),
+                "params.medium_radius_factor",
+                "medium_radius_factor must be positive",
+            ),
+            (
+                "bpm",
+                json!({"merge_first": false}),
+                "params.merge_first",
+                "merge_first: false leaves bpm",
+            ),
+            (
+                "vcm",
+                json!({"pb2d_alpha": 0}),
+                "params.pb2d_alpha",
+                "pb2d_alpha must be in (0, 1], got 0",
+            ),
+            (
+                "upbp",
+                json!({"techniques": ["surf", "surf"]}),
+                "params.techniques",
+                "techniques names surf twice",
+            ),
+            (
+                "vpm",
+                json!({"max_photon_mib": 0}),
+                "params.max_photon_mib",
+                "max_photon_mib must be at least 1",
+            ),
+            (
+                "ppb",
+                json!({"max_beam_mib": 0}),
+                "params.max_beam_mib",
+                "max_beam_mib must be positive, got 0",
+            ),
+            (
+                "vpl",
+                json!({"clamp_limit": 2}),
+                "params.clamp_limit",
+                "clamp_limit needs clamp",
+            ),
+            (
+                "vrl",
+                json!({"light_paths": {"count": 0}}),
+                "params.light_paths.count",
+                "light_paths.count must be in 1..=",
+            ),
+            (
+                "vbl",
+                json!({"vl_samples": 5000}),
+                "params.vl_samples",
+                "vl_samples must be at most 4096",
+            ),
+            (
+                "normals",
+                json!({"max_depth": 3}),
+                "params.max_depth",
+                "params.max_depth: unknown field `max_depth`",
+            ),
+            (
+                "albedo",
+                json!({"exposure": 1}),
+                "params.exposure",
+                "params.exposure: unknown field `exposure`",
+            ),
+        ];
+        let covered: Vec<_> = cases.iter().map(|c| c.0).collect();
+        assert_eq!(covered, ALGORITHMS.iter().copied().collect::<Vec<_>>());
+        for (alg, params, field, words) in cases {
+            let e = Settings::resolve(Some(alg), None, &map(params)).unwrap_err();
+            assert_eq!(e.field(), Some(field), "{alg}: {e}");
+            assert!(e.to_string().contains(words), "{alg}: {e}");
+        }
+    }
+
+    /// A bad parameter that a scene's defaults gave is named where the scene says it
+    /// (`integrator.<name>`); a job's own, as the job wrote it.
+    #[test]
+    fn a_scene_default_is_named_in_the_scene() {
+        let none = Map::new();
+        let scene = json!({"algorithm": "vcm", "radius": -1.0});
+        let e = Settings::resolve(None, Some(&scene), &none).unwrap_err();
+        assert_eq!(e.field(), Some("integrator.radius"), "{e}");
+        let fixed = map(json!({"radius": 0.5}));
+        Settings::resolve(None, Some(&scene), &fixed).unwrap();
+        let worse = map(json!({"radius": -2.0}));
+        let e = Settings::resolve(None, Some(&scene), &worse).unwrap_err();
+        assert_eq!(e.field(), Some("params.radius"), "{e}");
+
+        let scene = json!({"algorithm": "vcm", "radius": "big"});
+        let e = Settings::resolve(None, Some(&scene), &none).unwrap_err();
+        assert_eq!(e.field(), Some("integrator.radius"), "{e}");
+        assert!(
+            e.to_string().contains("integrator.radius: invalid type"),
+            "{e}"
+        );
+
+        let section = json!({"algorithm": "vpl", "clamp_limit": 1.0});
+        let e = Settings::scene_defaults(Some(&section)).unwrap_err();
+        assert_eq!(e.field(), Some("integrator.clamp_limit"), "{e}");
+        let section = json!({"algorithm": "vpl", "light_paths": {"count": "many"}});
+        let e = Settings::scene_defaults(Some(&section)).unwrap_err();
+        assert_eq!(e.field(), Some("integrator.light_paths"), "{e}");
+        assert!(e.to_string().contains("integrator.light_paths: "), "{e}");
+
+        let e = Settings::resolve(Some("pt"), None, &map(json!({"algorithm": "vcm"})));
+        assert_eq!(e.unwrap_err().field(), Some("params.algorithm"));
+        let e = Settings::resolve(Some("pt2"), None, &none).unwrap_err();
+        assert!(matches!(e, SettingsError::UnknownAlgorithm(_)) && e.field().is_none());
+    }
+
+    /// A scene default's `max_depth` carries over to every algorithm that takes one,
+    /// and to no other.
+    #[test]
+    fn a_shared_default_reaches_the_algorithms_that_take_it() {
+        let scene = json!({"algorithm": "pt", "max_depth": 7, "roulette": "albedo"});
+        let none = Map::new();
+        for alg in ALGORITHMS {
+            let s = Settings::resolve(Some(alg), Some(&scene), &none)
+                .unwrap_or_else(|e| panic!("{alg}: {e}"));
+            let depth = crate::json_numbers::to_value(&s).unwrap()["max_depth"].clone();
+            let want = match *alg {
+                "normals" | "albedo" => Value::Null,
+                _ => json!(7),
+            };
+            assert_eq!(depth, want, "{alg}");
+        }
+    }
+}
