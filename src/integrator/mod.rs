@@ -504,7 +504,10 @@ mod tests {
         assert!(err.contains("roulette") && err.contains("media"), "{err}");
         let err = Settings::for_scene(Some("pt"), &scene, &params("albedo")).unwrap_err();
         assert_eq!(err.field(), Some("params.roulette"), "{err}");
-        assert!(err.to_string().contains("roulette = albedo applies"), "{err}");
+        assert!(
+            err.to_string().contains("roulette = albedo applies"),
+            "{err}"
+        );
         let throughput = Settings::resolve(Some("pt"), None, &params("throughput")).unwrap();
         throughput.check_scene(&scene).unwrap();
     }
