@@ -497,7 +497,7 @@ mod tests {
             ),
         ];
         let covered: Vec<_> = cases.iter().map(|c| c.0).collect();
-        assert_eq!(covered, ALGORITHMS.iter().copied().collect::<Vec<_>>());
+        assert_eq!(covered, ALGORITHMS.to_vec());
         for (alg, params, field, words) in cases {
             let e = Settings::resolve(Some(alg), None, &map(params)).unwrap_err();
             assert_eq!(e.field(), Some(field), "{alg}: {e}");
