@@ -324,11 +324,12 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     b.type_into("#tags", "browser, test");
     b.select("#reference-job", &earlier);
     b.click("#submit");
-    let msg = b.wait_for(
-        "the validation message",
-        "return document.querySelector('[data-error-for=\"params.max_depth\"]').textContent",
-        WAIT,
-    );
+    let message_at = |path: &str| {
+        let script =
+            format!("return document.querySelector('[data-error-for=\"{path}\"]').textContent");
+        b.wait_for(&format!("the message at {path}"), &script, WAIT)
+    };
+    let msg = message_at("params.max_depth");
     assert!(msg.as_str().unwrap().contains("max_depth"), "{msg}");
     let form_error = "return document.getElementById('form-error').textContent";
     assert_eq!(b.js(form_error, json!([])), "");
@@ -341,11 +342,7 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     b.type_into("#param-max_depth", "8");
     b.type_into("#halt-spp", "0");
     b.click("#submit");
-    let msg = b.wait_for(
-        "the halt message",
-        "return document.querySelector('[data-error-for=\"halt.spp\"]').textContent",
-        WAIT,
-    );
+    let msg = message_at("halt.spp");
     assert!(msg.as_str().unwrap().contains("at least 1"), "{msg}");
     assert_eq!(b.js(form_error, json!([])), "");
     assert_eq!(b.js(invalid, json!(["#halt-spp"])), "true");

@@ -1,5 +1,7 @@
 //! Light-transport algorithms. Each is one module with its settings (serde, tagged by
-//! `algorithm`) and its kernel; this file is the registry and the progressive driver.
+//! `algorithm`) and its kernel. This file is the facade: the `Integrator` trait, the
+//! `Settings` of every algorithm with how a job's are resolved and checked, and their
+//! errors, which name the parameter at fault; `registry` is the table of algorithms.
 //!
 //! An iteration is the unit of work (one camera sample per pixel, or one light pass);
 //! iteration i depends only on (scene, settings, seed, i), so iterations can run
@@ -194,16 +196,14 @@ struct Sources<'a> {
 impl Sources<'_> {
     /// `path` (`radius`, `light_paths.count`) as the request wrote it.
     fn name(&self, path: &str) -> String {
-        let top = path.split(['.', '[']).next().unwrap_or(path);
+        let top = top_name(path);
         let from_scene = !self.overrides.contains_key(top) && self.scene.contains_key(top);
-        format!(
-            "{}.{path}",
-            if from_scene {
-                "integrator"
-            } else {
-                self.prefix
-            }
-        )
+        let prefix = if from_scene {
+            "integrator"
+        } else {
+            self.prefix
+        };
+        format!("{prefix}.{path}")
     }
 
     fn refuse(&self, e: ParamError) -> SettingsError {
@@ -219,7 +219,7 @@ impl Sources<'_> {
         let path = e.path().to_string();
         let e = e.into_inner();
         // serde_path_to_error writes an empty path as ".".
-        let top = (path != ".").then(|| path.split(['.', '[']).next().unwrap_or(&path));
+        let top = (path != ".").then(|| top_name(&path));
         SettingsError::Invalid {
             message: match top {
                 Some(top) => format!("{}: {e}", self.name(top)),
@@ -230,13 +230,16 @@ impl Sources<'_> {
     }
 }
 
+/// The parameter a path is in (`light_paths` of `light_paths.count`).
+fn top_name(path: &str) -> &str {
+    path.split(['.', '[']).next().unwrap_or(path)
+}
+
 impl Settings {
     pub fn name(&self) -> &'static str {
         self.parts().0
     }
 
-    /// Settings for `algorithm`: the scene's defaults when they name the same
-    /// algorithm, then `overrides` (a JSON object of parameters) on top.
     /// The settings a job on `scene` runs with: [`Settings::resolve`] with the scene's
     /// defaults, then [`Settings::check_scene`].
     pub fn for_scene(
@@ -290,6 +293,9 @@ impl Settings {
         Ok(s)
     }
 
+    /// Settings for `algorithm`: the scene's defaults when they name the same
+    /// algorithm (and the shared ones when they do not), then `overrides` (a JSON
+    /// object of parameters) on top.
     pub fn resolve(
         algorithm: Option<&str>,
         scene_default: Option<&serde_json::Value>,

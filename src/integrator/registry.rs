@@ -229,29 +229,31 @@ impl Settings {
     }
 }
 
-impl Params for pt::PtSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(pt::PathTracer::new(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
+/// A settings type of one algorithm: its own `validate` and `memory`, and the
+/// integrator's constructor.
+macro_rules! one_algorithm {
+    ($settings:ty, $new:path) => {
+        impl Params for $settings {
+            fn validate(&self, _: &str) -> Result<(), ParamError> {
+                self.validate()
+            }
+            fn build(&self, _: &str) -> Box<dyn Integrator> {
+                Box::new($new(self.clone()))
+            }
+            fn memory(&self, _: &str, facts: &Facts) -> Estimate {
+                self.memory(facts)
+            }
+        }
+    };
 }
 
-impl Params for volpath::VolpathSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(volpath::VolPath::new(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
-}
+one_algorithm!(pt::PtSettings, pt::PathTracer::new);
+one_algorithm!(volpath::VolpathSettings, volpath::VolPath::new);
+one_algorithm!(vpm::VpmSettings, vpm::Vpm::new);
+one_algorithm!(ppb::PpbSettings, ppb::Ppb::new);
+one_algorithm!(many::VplSettings, many::ManyLights::vpl);
+one_algorithm!(many::VrlSettings, many::ManyLights::vrl);
+one_algorithm!(many::VblSettings, many::ManyLights::vbl);
 
 /// `lt`, `bpt`, `bpm`, `vcm` and `upbp`: one core, run as the technique of the name.
 impl Params for bidir::BidirSettings {
@@ -290,66 +292,6 @@ impl Params for sppm::SppmSettings {
     }
     fn film(&self, _: &str) -> FilmUse {
         FilmUse::Chained
-    }
-}
-
-impl Params for vpm::VpmSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(vpm::Vpm::new(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
-}
-
-impl Params for ppb::PpbSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(ppb::Ppb::new(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
-}
-
-impl Params for many::VplSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(many::ManyLights::vpl(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
-}
-
-impl Params for many::VrlSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(many::ManyLights::vrl(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
-    }
-}
-
-impl Params for many::VblSettings {
-    fn validate(&self, _: &str) -> Result<(), ParamError> {
-        self.validate()
-    }
-    fn build(&self, _: &str) -> Box<dyn Integrator> {
-        Box::new(many::ManyLights::vbl(self.clone()))
-    }
-    fn memory(&self, _: &str, facts: &Facts) -> Estimate {
-        self.memory(facts)
     }
 }
 
@@ -398,103 +340,24 @@ mod tests {
     /// (`field`), with the message it had when it was only text.
     #[test]
     fn a_bad_parameter_of_every_algorithm_is_named() {
+        #[rustfmt::skip]
         let cases = [
-            (
-                "pt",
-                json!({"max_depth": 0}),
-                "params.max_depth",
-                "integrator settings: max_depth must be at least 1",
-            ),
-            (
-                "volpath",
-                json!({"max_depth": "deep"}),
-                "params.max_depth",
-                "params.max_depth: invalid type: string \"deep\"",
-            ),
-            (
-                "lt",
-                json!({"light_paths": 100}),
-                "params.light_paths",
-                "light_paths must be in (0, 64], got 100",
-            ),
-            (
-                "bpt",
-                json!({"radius": -1}),
-                "params.radius",
-                "radius must be positive and finite, got -1",
-            ),
-            (
-                "ppm",
-                json!({"alpha": 2}),
-                "params.alpha",
-                "alpha must be in (0, 1]",
-            ),
-            (
-                "sppm",
-                json!({"medium_radius_factor": 0}),
-                "params.medium_radius_factor",
-                "medium_radius_factor must be positive",
-            ),
-            (
-                "bpm",
-                json!({"merge_first": false}),
-                "params.merge_first",
-                "merge_first: false leaves bpm",
-            ),
-            (
-                "vcm",
-                json!({"pb2d_alpha": 0}),
-                "params.pb2d_alpha",
-                "pb2d_alpha must be in (0, 1], got 0",
-            ),
-            (
-                "upbp",
-                json!({"techniques": ["surf", "surf"]}),
-                "params.techniques",
-                "techniques names surf twice",
-            ),
-            (
-                "vpm",
-                json!({"max_photon_mib": 0}),
-                "params.max_photon_mib",
-                "max_photon_mib must be at least 1",
-            ),
-            (
-                "ppb",
-                json!({"max_beam_mib": 0}),
-                "params.max_beam_mib",
-                "max_beam_mib must be positive, got 0",
-            ),
-            (
-                "vpl",
-                json!({"clamp_limit": 2}),
-                "params.clamp_limit",
-                "clamp_limit needs clamp",
-            ),
-            (
-                "vrl",
-                json!({"light_paths": {"count": 0}}),
-                "params.light_paths.count",
-                "light_paths.count must be in 1..=",
-            ),
-            (
-                "vbl",
-                json!({"vl_samples": 5000}),
-                "params.vl_samples",
-                "vl_samples must be at most 4096",
-            ),
-            (
-                "normals",
-                json!({"max_depth": 3}),
-                "params.max_depth",
-                "params.max_depth: unknown field `max_depth`",
-            ),
-            (
-                "albedo",
-                json!({"exposure": 1}),
-                "params.exposure",
-                "params.exposure: unknown field `exposure`",
-            ),
+            ("pt", json!({"max_depth": 0}), "params.max_depth", "integrator settings: max_depth must be at least 1"),
+            ("volpath", json!({"max_depth": "deep"}), "params.max_depth", "params.max_depth: invalid type: string \"deep\""),
+            ("lt", json!({"light_paths": 100}), "params.light_paths", "light_paths must be in (0, 64], got 100"),
+            ("bpt", json!({"radius": -1}), "params.radius", "radius must be positive and finite, got -1"),
+            ("ppm", json!({"alpha": 2}), "params.alpha", "alpha must be in (0, 1]"),
+            ("sppm", json!({"medium_radius_factor": 0}), "params.medium_radius_factor", "medium_radius_factor must be positive"),
+            ("bpm", json!({"merge_first": false}), "params.merge_first", "merge_first: false leaves bpm"),
+            ("vcm", json!({"pb2d_alpha": 0}), "params.pb2d_alpha", "pb2d_alpha must be in (0, 1], got 0"),
+            ("upbp", json!({"techniques": ["surf", "surf"]}), "params.techniques", "techniques names surf twice"),
+            ("vpm", json!({"max_photon_mib": 0}), "params.max_photon_mib", "max_photon_mib must be at least 1"),
+            ("ppb", json!({"max_beam_mib": 0}), "params.max_beam_mib", "max_beam_mib must be positive, got 0"),
+            ("vpl", json!({"clamp_limit": 2}), "params.clamp_limit", "clamp_limit needs clamp"),
+            ("vrl", json!({"light_paths": {"count": 0}}), "params.light_paths.count", "light_paths.count must be in 1..="),
+            ("vbl", json!({"vl_samples": 5000}), "params.vl_samples", "vl_samples must be at most 4096"),
+            ("normals", json!({"max_depth": 3}), "params.max_depth", "params.max_depth: unknown field `max_depth`"),
+            ("albedo", json!({"exposure": 1}), "params.exposure", "params.exposure: unknown field `exposure`"),
         ];
         let covered: Vec<_> = cases.iter().map(|c| c.0).collect();
         assert_eq!(covered, ALGORITHMS.to_vec());
