@@ -58,6 +58,12 @@ pub struct ErrorDetail {
     /// storage_full (507)
     pub code: String,
     pub message: String,
+    /// The parameter at fault, when the error is about one, as the request wrote it:
+    /// `params.radius` for a job's parameter (`params.light_paths.count` inside one),
+    /// `integrator.radius` for a scene's default (in an uploaded scene, or the default a
+    /// job inherits from its scene). Absent otherwise; the message names it too.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
 }
 
 /// An algorithm a job may name, with its parameters and their defaults

@@ -307,7 +307,8 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     b.screenshot("list");
 
-    // A bad parameter: the server's message appears next to its field.
+    // A bad parameter: the server's message appears next to the field its error names
+    // (the body's `field`), whose input is marked invalid.
     b.click("nav a[data-route=submit]");
     b.wait_for(
         "the submit form",
@@ -323,23 +324,32 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     b.type_into("#tags", "browser, test");
     b.select("#reference-job", &earlier);
     b.click("#submit");
-    let msg = b.wait_for(
-        "the validation message",
-        "return document.querySelector('[data-error-for=\"params.max_depth\"]').textContent",
-        WAIT,
-    );
+    let message_at = |path: &str| {
+        let script =
+            format!("return document.querySelector('[data-error-for=\"{path}\"]').textContent");
+        b.wait_for(&format!("the message at {path}"), &script, WAIT)
+    };
+    let msg = message_at("params.max_depth");
     assert!(msg.as_str().unwrap().contains("max_depth"), "{msg}");
-    assert_eq!(
-        b.js(
-            "return document.getElementById('form-error').textContent",
-            json!([])
-        ),
-        ""
-    );
+    let form_error = "return document.getElementById('form-error').textContent";
+    assert_eq!(b.js(form_error, json!([])), "");
+    let invalid = "return document.querySelector(arguments[0]).getAttribute('aria-invalid')";
+    assert_eq!(b.js(invalid, json!(["#param-max_depth"])), "true");
     b.screenshot("submit-error");
 
-    // Fixed, the job is created and its page opens; the preview changes live.
+    // A message that does not spell its field's path ("halt: spp / iterations ...")
+    // lands by the `field` too; the earlier mark is cleared.
     b.type_into("#param-max_depth", "8");
+    b.type_into("#halt-spp", "0");
+    b.click("#submit");
+    let msg = message_at("halt.spp");
+    assert!(msg.as_str().unwrap().contains("at least 1"), "{msg}");
+    assert_eq!(b.js(form_error, json!([])), "");
+    assert_eq!(b.js(invalid, json!(["#halt-spp"])), "true");
+    assert_eq!(b.js(invalid, json!(["#param-max_depth"])), Value::Null);
+
+    // Fixed, the job is created and its page opens; the preview changes live.
+    b.type_into("#halt-spp", "1000000");
     b.click("#submit");
     let hash = b.wait_for(
         "the job page",

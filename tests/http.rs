@@ -82,6 +82,63 @@ fn upload_checks_the_scene_integrator_as_a_jobs_settings() {
     submit(&s, json!({"scene": info["id"], "halt": {"spp": 1}}));
 }
 
+/// A refused parameter comes back as the error body's `field`, as the request wrote
+/// it: a job's parameter of each algorithm family (`params.*`), a scene's default
+/// (`integrator.*`); errors about no one parameter have none. The OpenAPI document
+/// describes it.
+#[test]
+fn refused_parameters_are_named_in_the_error_field() {
+    let s = TestServer::start(None);
+    let cases = [
+        ("pt", json!({"max_depth": 0}), "params.max_depth"),
+        ("volpath", json!({"max_depth": "deep"}), "params.max_depth"),
+        ("vcm", json!({"pb2d_alpha": 0}), "params.pb2d_alpha"),
+        ("upbp", json!({"techniques": []}), "params.techniques"),
+        (
+            "sppm",
+            json!({"medium_radius_factor": 0}),
+            "params.medium_radius_factor",
+        ),
+        ("vpm", json!({"max_photon_mib": 0}), "params.max_photon_mib"),
+        ("ppb", json!({"max_beam_mib": 0}), "params.max_beam_mib"),
+        (
+            "vrl",
+            json!({"light_paths": {"count": 0}}),
+            "params.light_paths.count",
+        ),
+        ("normals", json!({"max_depth": 3}), "params.max_depth"),
+    ];
+    for (alg, params, field) in cases {
+        let (code, body) = s.post_json(
+            "/v1/jobs",
+            &json!({"scene": "cornell-box", "algorithm": alg, "params": params,
+                    "halt": {"spp": 1}}),
+        );
+        assert_eq!(code, 400, "{alg}: {body}");
+        assert_eq!(body["error"]["code"], "bad_request", "{body}");
+        assert_eq!(body["error"]["field"], field, "{alg}: {body}");
+    }
+    let mut scene = tiny_scene(8);
+    scene["integrator"] = json!({"algorithm": "vpl", "clamp_limit": 1.0});
+    let (code, body) = s.post_bytes("/v1/scenes", scene.to_string().as_bytes());
+    assert_eq!(code, 422, "{body}");
+    assert_eq!(body["error"]["code"], "invalid_scene", "{body}");
+    assert_eq!(body["error"]["field"], "integrator.clamp_limit", "{body}");
+    let (code, body) = s.post_json(
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "algorithm": "vcmm", "halt": {"spp": 1}}),
+    );
+    assert_eq!(code, 400, "{body}");
+    assert!(body["error"].get("field").is_none(), "{body}");
+    let (_, doc) = s.get_json("/v1/openapi.json");
+    let detail = &doc["components"]["schemas"]["ErrorDetail"];
+    let about = detail["properties"]["field"]["description"].as_str();
+    assert!(
+        about.is_some_and(|d| d.contains("params.radius")),
+        "{detail}"
+    );
+}
+
 /// A bundle keeps `scene.json` and the files it names: a megabyte of padding was
 /// stored, counted in the scene's size and sent to every worker; now it is dropped
 /// with a warning, and what a worker fetches by id still renders.

@@ -1,5 +1,7 @@
 //! Light-transport algorithms. Each is one module with its settings (serde, tagged by
-//! `algorithm`) and its kernel; this file is the registry and the progressive driver.
+//! `algorithm`) and its kernel. This file is the facade: the `Integrator` trait, the
+//! `Settings` of every algorithm with how a job's are resolved and checked, and their
+//! errors, which name the parameter at fault; `registry` is the table of algorithms.
 //!
 //! An iteration is the unit of work (one camera sample per pixel, or one light pass);
 //! iteration i depends only on (scene, settings, seed, i), so iterations can run
@@ -15,15 +17,18 @@ pub(crate) mod paths;
 pub mod photon;
 pub(crate) mod pilot;
 pub mod pt;
+pub mod registry;
 pub mod transport;
 pub mod volpath;
 
 use crate::film::Film;
 use crate::scene::Scene;
-use bidir::Technique;
 use photon::{ppb, sppm, vpm};
+use registry::FilmUse;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+pub use transport::params::ParamError;
 
 /// Work counters of one or more iterations.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -118,97 +123,141 @@ pub trait Integrator: Send + Sync {
     }
 }
 
-/// Every algorithm's settings, tagged by `algorithm`. Unknown fields are errors.
+/// Every algorithm's settings, tagged by `algorithm`: the wire format of a job's
+/// settings. Unknown fields are errors. Each variant is a row of [`registry::TABLE`],
+/// which says what the algorithm computes; [`Settings::parts`] maps one to the other.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(tag = "algorithm", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Settings {
-    /// Unidirectional path tracing with next-event estimation and MIS.
     Pt(pt::PtSettings),
-    /// Volumetric path tracing (what `pt` runs on scenes with media).
     Volpath(volpath::VolpathSettings),
-    /// Light tracing: light paths splatted to the camera.
     Lt(bidir::BidirSettings),
-    /// Bidirectional path tracing with all (s, t) connections.
     Bpt(bidir::BidirSettings),
-    /// Bidirectional photon mapping: merging at every non-specular camera vertex.
     Bpm(bidir::BidirSettings),
-    /// Vertex connection and merging.
     Vcm(bidir::BidirSettings),
-    /// Unifying points, beams and paths: connections, surface photons and the three
-    /// volume estimators (any subset) under one MIS.
     Upbp(bidir::BidirSettings),
-    /// Progressive photon mapping (visible points fixed per pixel).
     Ppm(sppm::SppmSettings),
-    /// Stochastic progressive photon mapping (new visible points every pass).
     Sppm(sppm::SppmSettings),
-    /// Volumetric photon mapping, progressive (point query or beam radiance estimate).
     Vpm(vpm::VpmSettings),
-    /// Virtual point lights, with optional clamping and bias compensation.
     Vpl(many::VplSettings),
-    /// Virtual ray lights in media, virtual point lights on surfaces.
     Vrl(many::VrlSettings),
-    /// Progressive virtual beam lights: ray lights blurred over a shrinking disk.
     Vbl(many::VblSettings),
-    /// Progressive photon beams in media; surfaces path traced.
     Ppb(ppb::PpbSettings),
-    /// Debug: shading normal at the first hit, mapped to [0, 1] as (n + 1) / 2.
     /// (Empty struct variants, so that serde refuses parameters they do not take.)
     Normals {},
-    /// Debug: the material's reflectance at the first hit.
     Albedo {},
 }
 
-/// Names accepted for `algorithm`.
-pub const ALGORITHMS: &[&str] = &[
-    "pt", "volpath", "lt", "bpt", "ppm", "sppm", "bpm", "vcm", "upbp", "vpm", "ppb", "vpl", "vrl",
-    "vbl", "normals", "albedo",
-];
+/// Names accepted for `algorithm`, in the order of [`registry::TABLE`].
+pub const ALGORITHMS: &[&str] = &registry::names::<{ registry::TABLE.len() }>();
 
 /// Scene-default parameters that carry over to another algorithm that takes them
 /// (a scene written for `pt` with max_depth 10 means the same paths for `vcm`).
 const SHARED_PARAMS: &[&str] = &["max_depth"];
 
+/// A JSON object of parameters.
+type ParamMap = serde_json::Map<String, serde_json::Value>;
+
 #[derive(Debug, thiserror::Error)]
 pub enum SettingsError {
     #[error("unknown algorithm \"{0}\" (known: {list})", list = ALGORITHMS.join(", "))]
     UnknownAlgorithm(String),
-    #[error("integrator settings: {0}")]
-    Invalid(String),
+    /// Settings that do not parse or validate. `field` names the parameter at fault as
+    /// the request wrote it (`params.radius`, or `integrator.radius` for a scene's own
+    /// default), when one is.
+    #[error("integrator settings: {message}")]
+    Invalid {
+        field: Option<String>,
+        message: String,
+    },
+}
+
+impl SettingsError {
+    /// The parameter at fault, as the request wrote it (`params.radius`).
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            SettingsError::Invalid { field, .. } => field.as_deref(),
+            SettingsError::UnknownAlgorithm(_) => None,
+        }
+    }
+}
+
+/// Where a job's parameters came from, to name a bad one as the request wrote it:
+/// `{prefix}.<name>` (`params`, a job's own), unless only the scene's `integrator`
+/// section gave it (`integrator.<name>`).
+struct Sources<'a> {
+    prefix: &'a str,
+    overrides: &'a ParamMap,
+    /// What the scene's defaults gave.
+    scene: &'a ParamMap,
+}
+
+impl Sources<'_> {
+    /// `path` (`radius`, `light_paths.count`) as the request wrote it.
+    fn name(&self, path: &str) -> String {
+        let top = top_name(path);
+        let from_scene = !self.overrides.contains_key(top) && self.scene.contains_key(top);
+        let prefix = if from_scene {
+            "integrator"
+        } else {
+            self.prefix
+        };
+        format!("{prefix}.{path}")
+    }
+
+    fn refuse(&self, e: ParamError) -> SettingsError {
+        SettingsError::Invalid {
+            field: Some(self.name(&e.field)),
+            message: e.message,
+        }
+    }
+
+    /// A parameter that does not parse, named by its path: the message names the
+    /// parameter (`params.light_paths: ...`), the field its full path.
+    fn unparsed(&self, e: registry::ParseError) -> SettingsError {
+        let path = e.path().to_string();
+        let e = e.into_inner();
+        // serde_path_to_error writes an empty path as ".".
+        let top = (path != ".").then(|| top_name(&path));
+        SettingsError::Invalid {
+            message: match top {
+                Some(top) => format!("{}: {e}", self.name(top)),
+                None => e.to_string(),
+            },
+            field: top.map(|_| self.name(&path)),
+        }
+    }
+}
+
+/// The parameter a path is in (`light_paths` of `light_paths.count`).
+fn top_name(path: &str) -> &str {
+    path.split(['.', '[']).next().unwrap_or(path)
 }
 
 impl Settings {
     pub fn name(&self) -> &'static str {
-        match self {
-            Settings::Pt(_) => "pt",
-            Settings::Volpath(_) => "volpath",
-            Settings::Lt(_) => "lt",
-            Settings::Bpt(_) => "bpt",
-            Settings::Bpm(_) => "bpm",
-            Settings::Vcm(_) => "vcm",
-            Settings::Upbp(_) => "upbp",
-            Settings::Ppm(_) => "ppm",
-            Settings::Sppm(_) => "sppm",
-            Settings::Vpm(_) => "vpm",
-            Settings::Vpl(_) => "vpl",
-            Settings::Vrl(_) => "vrl",
-            Settings::Vbl(_) => "vbl",
-            Settings::Ppb(_) => "ppb",
-            Settings::Normals {} => "normals",
-            Settings::Albedo {} => "albedo",
-        }
+        self.parts().0
     }
 
-    /// Settings for `algorithm`: the scene's defaults when they name the same
-    /// algorithm, then `overrides` (a JSON object of parameters) on top.
     /// The settings a job on `scene` runs with: [`Settings::resolve`] with the scene's
     /// defaults, then [`Settings::check_scene`].
     pub fn for_scene(
         algorithm: Option<&str>,
         scene: &Scene,
-        overrides: &serde_json::Map<String, serde_json::Value>,
+        overrides: &ParamMap,
     ) -> Result<Settings, SettingsError> {
         let s = Settings::resolve(algorithm, scene.integrator.as_ref(), overrides)?;
-        s.check_scene(scene)?;
+        let none = ParamMap::new();
+        let sources = Sources {
+            prefix: "params",
+            overrides,
+            scene: scene
+                .integrator
+                .as_ref()
+                .and_then(serde_json::Value::as_object)
+                .unwrap_or(&none),
+        };
+        s.check_scene(scene).map_err(|e| sources.refuse(e))?;
         Ok(s)
     }
 
@@ -233,139 +282,98 @@ impl Settings {
     /// [`Settings::scene_defaults`] of a compiled scene, with [`Settings::check_scene`].
     pub fn for_scene_defaults(scene: &Scene) -> Result<Settings, SettingsError> {
         let s = Settings::scene_defaults(scene.integrator.as_ref())?;
-        s.check_scene(scene)?;
+        let none = ParamMap::new();
+        let sources = Sources {
+            prefix: "integrator",
+            overrides: &none,
+            scene: &none,
+        };
+        s.check_scene(scene).map_err(|e| sources.refuse(e))?;
         Ok(s)
     }
 
+    /// Settings for `algorithm`: the scene's defaults when they name the same
+    /// algorithm (and the shared ones when they do not), then `overrides` (a JSON
+    /// object of parameters) on top.
     pub fn resolve(
         algorithm: Option<&str>,
         scene_default: Option<&serde_json::Value>,
-        overrides: &serde_json::Map<String, serde_json::Value>,
+        overrides: &ParamMap,
     ) -> Result<Settings, SettingsError> {
         Settings::resolve_named(algorithm, scene_default, overrides, "params")
     }
 
-    /// [`Settings::resolve`], naming an override that does not parse `{prefix}.{name}`.
+    /// [`Settings::resolve`], naming a parameter of `overrides` that is refused
+    /// `{prefix}.{name}`, and one of the scene's defaults `integrator.{name}`.
     fn resolve_named(
         algorithm: Option<&str>,
         scene_default: Option<&serde_json::Value>,
-        overrides: &serde_json::Map<String, serde_json::Value>,
+        overrides: &ParamMap,
         prefix: &str,
     ) -> Result<Settings, SettingsError> {
         let scene_alg = scene_default
             .and_then(|v| v.get("algorithm"))
             .and_then(|a| a.as_str());
-        let alg = algorithm.or(scene_alg).unwrap_or("pt");
+        let name = algorithm.or(scene_alg).unwrap_or("pt");
         if overrides.contains_key("algorithm") {
-            return Err(SettingsError::Invalid(
-                "`algorithm` is chosen by name, not as a parameter".into(),
-            ));
+            return Err(SettingsError::Invalid {
+                field: Some(format!("{prefix}.algorithm")),
+                message: "`algorithm` is chosen by name, not as a parameter".into(),
+            });
         }
-        if !ALGORITHMS.contains(&alg) {
-            return Err(SettingsError::UnknownAlgorithm(alg.to_string()));
-        }
+        let alg = registry::find(name)
+            .ok_or_else(|| SettingsError::UnknownAlgorithm(name.to_string()))?;
         // Every parameter is an f32 or an integer: one beyond f32 would be infinity.
         if let Some((path, n)) = crate::json_numbers::value_beyond_f32(overrides) {
-            return Err(SettingsError::Invalid(format!(
-                "params.{path}: number {n} is out of range (at most {})",
-                crate::json_numbers::f32_limit()
-            )));
+            return Err(SettingsError::Invalid {
+                field: Some(format!("{prefix}.{path}")),
+                message: format!(
+                    "{prefix}.{path}: number {n} is out of range (at most {})",
+                    crate::json_numbers::f32_limit()
+                ),
+            });
         }
-        let mut obj = serde_json::Map::new();
-        let mut shared = serde_json::Map::new();
-        if let Some(serde_json::Value::Object(m)) = scene_default {
-            if scene_alg == Some(alg) {
-                obj.extend(m.clone());
-            } else {
-                shared.extend(
-                    m.iter()
-                        .filter(|(k, _)| SHARED_PARAMS.contains(&k.as_str()))
-                        .map(|(k, v)| (k.clone(), v.clone())),
-                );
-            }
-        }
-        obj.extend(overrides.clone());
-        obj.insert("algorithm".into(), alg.into());
-        let parse = |o: serde_json::Map<String, serde_json::Value>| {
-            serde_json::from_value::<Settings>(serde_json::Value::Object(o))
+        let scene = scene_params(alg, scene_alg, scene_default);
+        let mut params = scene.clone();
+        params.extend(overrides.clone());
+        let sources = Sources {
+            prefix,
+            overrides,
+            scene: &scene,
         };
-        let mut with_shared = shared;
-        with_shared.extend(obj.clone());
-        // Shared defaults apply only where the algorithm has such a parameter.
-        let settings = parse(with_shared)
-            .or_else(|_| parse(obj.clone()))
-            .map_err(|e| {
-                // serde cannot tell where inside a tagged enum it failed: find the
-                // parameter without which the settings parse, and name it.
-                let culprit = overrides.keys().find(|k| {
-                    let mut without = obj.clone();
-                    without.remove(*k);
-                    parse(without).is_ok()
-                });
-                SettingsError::Invalid(match culprit {
-                    Some(k) => format!("{prefix}.{k}: {e}"),
-                    None => e.to_string(),
-                })
-            })?;
-        settings.validate()?;
+        let settings = alg.parse(params).map_err(|e| sources.unparsed(e))?;
+        settings.validate().map_err(|e| sources.refuse(e))?;
         Ok(settings)
     }
 
     /// An algorithm's parameters with their default values (the settings a job gets
     /// when it sets none), without the `algorithm` tag.
-    pub fn defaults(
-        algorithm: &str,
-    ) -> Result<serde_json::Map<String, serde_json::Value>, SettingsError> {
-        let s = Settings::resolve(Some(algorithm), None, &serde_json::Map::new())?;
-        let mut v = match crate::json_numbers::to_value(&s) {
-            Ok(serde_json::Value::Object(m)) => m,
-            Ok(_) => serde_json::Map::new(),
-            Err(e) => return Err(SettingsError::Invalid(e.to_string())),
-        };
-        v.remove("algorithm");
-        Ok(v)
+    pub fn defaults(algorithm: &str) -> Result<ParamMap, SettingsError> {
+        let alg = registry::find(algorithm)
+            .ok_or_else(|| SettingsError::UnknownAlgorithm(algorithm.to_string()))?;
+        alg.defaults().map_err(|e| SettingsError::Invalid {
+            field: None,
+            message: e.to_string(),
+        })
     }
 
     /// Refuses settings that contradict what the scene holds. Every algorithm renders
     /// media; only `pt`'s albedo roulette assumes there are none.
-    pub fn check_scene(&self, scene: &Scene) -> Result<(), SettingsError> {
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), ParamError> {
         if let (Settings::Pt(s), true) = (self, scene.has_media) {
             if s.roulette == pt::Roulette::Albedo {
-                return Err(SettingsError::Invalid(
-                    "roulette = albedo applies to scenes without media; this scene has media, where pt renders as volpath with throughput roulette (leave roulette out, or set it to throughput)".into(),
+                return Err(ParamError::new(
+                    "roulette",
+                    "roulette = albedo applies to scenes without media; this scene has media, where pt renders as volpath with throughput roulette (leave roulette out, or set it to throughput)",
                 ));
             }
         }
         Ok(())
     }
 
-    fn validate(&self) -> Result<(), SettingsError> {
-        match self {
-            Settings::Pt(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Volpath(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Lt(s) => s
-                .validate(bidir::Technique::Lt)
-                .map_err(SettingsError::Invalid),
-            Settings::Bpt(s) => s
-                .validate(bidir::Technique::Bpt)
-                .map_err(SettingsError::Invalid),
-            Settings::Bpm(s) => s
-                .validate(bidir::Technique::Bpm)
-                .map_err(SettingsError::Invalid),
-            Settings::Upbp(s) => s
-                .validate(s.technique_of("upbp"))
-                .map_err(SettingsError::Invalid),
-            Settings::Vcm(s) => s
-                .validate(bidir::Technique::Vcm)
-                .map_err(SettingsError::Invalid),
-            Settings::Ppm(s) | Settings::Sppm(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Vpm(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Vpl(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Vrl(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Vbl(s) => s.validate().map_err(SettingsError::Invalid),
-            Settings::Ppb(s) => s.validate().map_err(SettingsError::Invalid),
-            _ => Ok(()),
-        }
+    fn validate(&self) -> Result<(), ParamError> {
+        let (name, params) = self.parts();
+        params.validate(name)
     }
 
     /// The peak memory of a job with these settings on `scene`, by part (module
@@ -374,25 +382,11 @@ impl Settings {
     /// each iteration).
     pub fn memory(&self, scene: &Scene) -> memory::Estimate {
         let f = memory::Facts::new(scene);
-        let mut e = match self {
-            Settings::Pt(s) => s.memory(&f),
-            Settings::Volpath(s) => s.memory(&f),
-            Settings::Lt(s) => s.memory(bidir::Technique::Lt, &f),
-            Settings::Bpt(s) => s.memory(bidir::Technique::Bpt, &f),
-            Settings::Bpm(s) => s.memory(bidir::Technique::Bpm, &f),
-            Settings::Vcm(s) => s.memory(bidir::Technique::Vcm, &f),
-            Settings::Upbp(s) => s.memory(s.technique_of("upbp"), &f),
-            Settings::Ppm(s) | Settings::Sppm(s) => s.memory(&f),
-            Settings::Vpm(s) => s.memory(&f),
-            Settings::Vpl(s) => s.memory(&f),
-            Settings::Vrl(s) => s.memory(&f),
-            Settings::Vbl(s) => s.memory(&f),
-            Settings::Ppb(s) => s.memory(&f),
-            Settings::Normals {} | Settings::Albedo {} => debug::DebugIntegrator::memory(&f),
-        };
+        let (name, params) = self.parts();
+        let mut e = params.memory(name, &f);
         let (w, h) = (scene.width(), scene.height());
         let layers = self.layers();
-        let chained = matches!(self, Settings::Ppm(_) | Settings::Sppm(_));
+        let chained = matches!(params.film(name), FilmUse::Chained);
         let sums = crate::film::ExactSums::bytes_for(w, h, layers) * (1 + chained as u64);
         let film = crate::film::Film::bytes_for(w, h, layers) + sums + self.filter_bytes(scene);
         let what = match layers {
@@ -408,14 +402,10 @@ impl Settings {
     /// photon mappers, whose per-pixel statistics take the pixel box whatever the
     /// scene's filter.
     pub fn filter_bytes(&self, scene: &Scene) -> u64 {
-        let splats = match self {
-            Settings::Lt(_) => Technique::Lt.splats(),
-            Settings::Bpt(_) => Technique::Bpt.splats(),
-            Settings::Bpm(_) => Technique::Bpm.splats(),
-            Settings::Vcm(_) => Technique::Vcm.splats(),
-            Settings::Upbp(s) => s.technique_of("upbp").splats(),
-            Settings::Ppm(_) | Settings::Sppm(_) => return 0,
-            _ => false,
+        let (name, params) = self.parts();
+        let splats = match params.film(name) {
+            FilmUse::Chained => return 0,
+            FilmUse::Adds { splats, .. } => splats,
         };
         let (w, h, layers) = (scene.width(), scene.height(), self.layers());
         if scene.filter.is_pixel_box() {
@@ -427,36 +417,39 @@ impl Settings {
 
     /// The extra images (layers) a job with these settings writes.
     pub fn layers(&self) -> usize {
-        match self {
-            Settings::Lt(s) => s.layer_count(bidir::Technique::Lt),
-            Settings::Bpt(s) => s.layer_count(bidir::Technique::Bpt),
-            Settings::Bpm(s) => s.layer_count(bidir::Technique::Bpm),
-            Settings::Vcm(s) => s.layer_count(bidir::Technique::Vcm),
-            Settings::Upbp(s) => s.layer_count(s.technique_of("upbp")),
-            _ => 0,
+        let (name, params) = self.parts();
+        match params.film(name) {
+            FilmUse::Adds { layers, .. } => layers,
+            FilmUse::Chained => 0,
         }
     }
 
     pub fn build(&self) -> Box<dyn Integrator> {
-        match self {
-            Settings::Pt(s) => Box::new(pt::PathTracer::new(s.clone())),
-            Settings::Volpath(s) => Box::new(volpath::VolPath::new(s.clone())),
-            Settings::Lt(s) => Box::new(bidir::Bidir::new(bidir::Technique::Lt, s.clone())),
-            Settings::Bpt(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpt, s.clone())),
-            Settings::Bpm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Bpm, s.clone())),
-            Settings::Vcm(s) => Box::new(bidir::Bidir::new(bidir::Technique::Vcm, s.clone())),
-            Settings::Upbp(s) => Box::new(bidir::Bidir::new(s.technique_of("upbp"), s.clone())),
-            Settings::Ppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Ppm)),
-            Settings::Sppm(s) => Box::new(sppm::PhotonMapper::new(s.clone(), sppm::Variant::Sppm)),
-            Settings::Vpm(s) => Box::new(vpm::Vpm::new(s.clone())),
-            Settings::Vpl(s) => Box::new(many::ManyLights::vpl(s.clone())),
-            Settings::Vrl(s) => Box::new(many::ManyLights::vrl(s.clone())),
-            Settings::Vbl(s) => Box::new(many::ManyLights::vbl(s.clone())),
-            Settings::Ppb(s) => Box::new(ppb::Ppb::new(s.clone())),
-            Settings::Normals {} => Box::new(debug::DebugIntegrator::Normals),
-            Settings::Albedo {} => Box::new(debug::DebugIntegrator::Albedo),
-        }
+        let (name, params) = self.parts();
+        params.build(name)
     }
+}
+
+/// What the scene's defaults give algorithm `alg`: all of them when they name it, else
+/// the shared ones that it takes.
+fn scene_params(
+    alg: &registry::Algorithm,
+    scene_alg: Option<&str>,
+    scene_default: Option<&serde_json::Value>,
+) -> ParamMap {
+    let Some(serde_json::Value::Object(m)) = scene_default else {
+        return ParamMap::new();
+    };
+    if scene_alg == Some(alg.name) {
+        let mut own = m.clone();
+        own.remove("algorithm");
+        return own;
+    }
+    let takes = alg.defaults().unwrap_or_default();
+    m.iter()
+        .filter(|(k, _)| SHARED_PARAMS.contains(&k.as_str()) && takes.contains_key(*k))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect()
 }
 
 #[cfg(test)]
@@ -514,6 +507,12 @@ mod tests {
         let albedo = Settings::resolve(Some("pt"), None, &params("albedo")).unwrap();
         let err = albedo.check_scene(&scene).unwrap_err().to_string();
         assert!(err.contains("roulette") && err.contains("media"), "{err}");
+        let err = Settings::for_scene(Some("pt"), &scene, &params("albedo")).unwrap_err();
+        assert_eq!(err.field(), Some("params.roulette"), "{err}");
+        assert!(
+            err.to_string().contains("roulette = albedo applies"),
+            "{err}"
+        );
         let throughput = Settings::resolve(Some("pt"), None, &params("throughput")).unwrap();
         throughput.check_scene(&scene).unwrap();
     }

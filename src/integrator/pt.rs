@@ -2,6 +2,7 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
+use crate::integrator::transport::params::{check_max_depth, ParamError};
 use super::memory::{Estimate, Facts};
 use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
@@ -67,11 +68,8 @@ impl PtSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        Ok(())
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_max_depth(self.max_depth)
     }
 }
 

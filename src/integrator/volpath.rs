@@ -11,6 +11,7 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
+use crate::integrator::transport::params::{check_max_depth, ParamError};
 use super::memory::{Estimate, Facts};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -66,11 +67,8 @@ impl VolpathSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
-        Ok(())
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check_max_depth(self.max_depth)
     }
 }
 

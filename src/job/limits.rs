@@ -88,16 +88,22 @@ fn check_halt(spec: &JobSpec) -> Result<(), JobError> {
         ));
     }
     if h.max_iterations() == Some(0) {
-        return Err(bad("halt: spp / iterations must be at least 1"));
+        let field = if h.spp.is_some() {
+            "halt.spp"
+        } else {
+            "halt.iterations"
+        };
+        return Err(bad("halt: spp / iterations must be at least 1").at_field(Some(field)));
     }
     if h.time_s.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
-        return Err(bad("halt.time_s must be a positive number"));
+        return Err(bad("halt.time_s must be a positive number").at_field(Some("halt.time_s")));
     }
     if h.target_rmse.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
-        return Err(bad("halt.target_rmse must be a positive number"));
+        let field = Some("halt.target_rmse");
+        return Err(bad("halt.target_rmse must be a positive number").at_field(field));
     }
     if h.target_rmse.is_some() && spec.reference.is_none() {
-        return Err(bad("halt.target_rmse needs a reference"));
+        return Err(bad("halt.target_rmse needs a reference").at_field(Some("halt.target_rmse")));
     }
     Ok(())
 }

@@ -63,6 +63,11 @@ pub enum JobError {
     /// A bug or an unexpected state; the message is only logged.
     #[error("{0}")]
     Internal(String),
+    /// `error`, about one parameter: `field` names it as the request wrote it
+    /// (`params.radius`; `integrator.radius` in an uploaded scene), for clients that
+    /// point at it (the REST error body's `field`).
+    #[error("{error}")]
+    AtField { field: String, error: Box<JobError> },
 }
 
 impl JobError {
@@ -87,12 +92,35 @@ impl JobError {
             } => "storage_full",
             JobError::Storage { .. } => "storage",
             JobError::Internal(_) => "internal",
+            JobError::AtField { error, .. } => error.code(),
         }
     }
 
     /// True for errors that are the server's fault, not the request's.
     pub fn is_server_error(&self) -> bool {
-        matches!(self, JobError::Storage { .. } | JobError::Internal(_))
+        match self {
+            JobError::AtField { error, .. } => error.is_server_error(),
+            e => matches!(e, JobError::Storage { .. } | JobError::Internal(_)),
+        }
+    }
+
+    /// `self`, about the parameter `field` when there is one.
+    pub fn at_field(self, field: Option<&str>) -> JobError {
+        match field {
+            Some(field) => JobError::AtField {
+                field: field.to_string(),
+                error: Box::new(self),
+            },
+            None => self,
+        }
+    }
+
+    /// The parameter the error is about, as the request wrote it.
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            JobError::AtField { field, .. } => Some(field),
+            _ => None,
+        }
     }
 
     /// What the client is told: the message itself for request errors; for server
@@ -127,6 +155,6 @@ impl From<crate::film::FilmError> for JobError {
 
 impl From<crate::integrator::SettingsError> for JobError {
     fn from(e: crate::integrator::SettingsError) -> Self {
-        JobError::BadRequest(e.to_string())
+        JobError::BadRequest(e.to_string()).at_field(e.field())
     }
 }

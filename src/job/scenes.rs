@@ -251,7 +251,7 @@ impl SceneStore {
             // The scene's integrator section is every job's default: checked as a
             // job's settings are, or each job on the scene would fail.
             Settings::for_scene_defaults(&scene)
-                .map_err(|e| JobError::InvalidScene(e.to_string()))?;
+                .map_err(|e| JobError::InvalidScene(e.to_string()).at_field(e.field()))?;
         }
         warnings.extend(keep_only_needed(tmp, &sources)?);
         if !warnings.is_empty() {

@@ -1,6 +1,8 @@
 //! The one mapping from domain errors to HTTP responses: a status code and a JSON body
-//! `{"error": {"code": "...", "message": "..."}}` that tells the client what to fix.
+//! `{"error": {"code": "...", "message": "...", "field": "..."}}` that tells the client
+//! what to fix (`field`, when one parameter is at fault, names it: `params.radius`).
 
+use crate::api::{ErrorBody, ErrorDetail};
 use crate::job::JobError;
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
@@ -11,6 +13,8 @@ pub struct ApiError {
     pub status: StatusCode,
     pub code: &'static str,
     pub message: String,
+    /// The parameter at fault, as the request wrote it.
+    pub field: Option<String>,
 }
 
 impl ApiError {
@@ -19,6 +23,7 @@ impl ApiError {
             status,
             code,
             message: message.into(),
+            field: None,
         }
     }
 
@@ -49,30 +54,43 @@ impl ApiError {
 /// `invalid_scene`.
 pub const INVALID_BODY: &str = "invalid_body";
 
+fn status_of(e: &JobError) -> StatusCode {
+    match e {
+        JobError::BadRequest(_) => StatusCode::BAD_REQUEST,
+        JobError::InvalidScene(_) => StatusCode::UNPROCESSABLE_ENTITY,
+        JobError::NotFound(_) => StatusCode::NOT_FOUND,
+        JobError::Conflict(_) => StatusCode::CONFLICT,
+        JobError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+        JobError::Storage {
+            kind: std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded,
+            ..
+        } => StatusCode::INSUFFICIENT_STORAGE,
+        JobError::Storage { .. } | JobError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        JobError::AtField { error, .. } => status_of(error),
+    }
+}
+
 impl From<JobError> for ApiError {
     fn from(e: JobError) -> Self {
-        let status = match &e {
-            JobError::BadRequest(_) => StatusCode::BAD_REQUEST,
-            JobError::InvalidScene(_) => StatusCode::UNPROCESSABLE_ENTITY,
-            JobError::NotFound(_) => StatusCode::NOT_FOUND,
-            JobError::Conflict(_) => StatusCode::CONFLICT,
-            JobError::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
-            JobError::Storage {
-                kind: std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded,
-                ..
-            } => StatusCode::INSUFFICIENT_STORAGE,
-            JobError::Storage { .. } | JobError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
-        };
         if e.is_server_error() {
             tracing::error!(error = %e, "request failed on the server's side");
         }
-        ApiError::new(status, e.code(), e.client_message())
+        ApiError {
+            field: e.field().map(str::to_string),
+            ..ApiError::new(status_of(&e), e.code(), e.client_message())
+        }
     }
 }
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
-        let body = serde_json::json!({"error": {"code": self.code, "message": self.message}});
+        let body = ErrorBody {
+            error: ErrorDetail {
+                code: self.code.to_string(),
+                message: self.message,
+                field: self.field,
+            },
+        };
         (self.status, Json(body)).into_response()
     }
 }

@@ -548,7 +548,7 @@ async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
 #[openapi(
     info(
         title = "caustic",
-        description = "Progressive physically based rendering server. Every error is JSON, `{\"error\": {\"code\", \"message\"}}`, and names no server path. Any path answers a method it does not take with 405 (JSON, with an `Allow` header); unknown paths are 404."
+        description = "Progressive physically based rendering server. Every error is JSON, `{\"error\": {\"code\", \"message\", \"field\"}}`, and names no server path; `field`, present when one parameter is at fault, names it as the request wrote it (`params.radius`, or `integrator.radius` for a scene's default), so that a client can point at it. Any path answers a method it does not take with 405 (JSON, with an `Allow` header); unknown paths are 404."
     ),
     modifiers(&CommonAnswers),
     paths(

@@ -5,13 +5,13 @@ use super::beams::BeamStore;
 use super::merge::MergeSet;
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::estimators::beams::BeamForm;
+use crate::integrator::transport::params::{check_max_depth, check_radius, ParamError};
+use crate::integrator::transport::Heuristic;
 use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::partial::Merge;
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
-use crate::integrator::transport::params::check_radius;
-use crate::integrator::transport::Heuristic;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicU32;
 
@@ -251,11 +251,14 @@ fn de_techniques<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<UpbpTechn
 }
 
 /// A radius reduction exponent in (0, 1], named.
-fn check_alpha(name: &str, alpha: f32) -> Result<(), String> {
+fn check_alpha(name: &str, alpha: f32) -> Result<(), ParamError> {
     if alpha > 0.0 && alpha <= 1.0 {
         Ok(())
     } else {
-        Err(format!("{name} must be in (0, 1], got {alpha}"))
+        Err(ParamError::new(
+            name,
+            format!("{name} must be in (0, 1], got {alpha}"),
+        ))
     }
 }
 
@@ -271,14 +274,12 @@ impl BidirSettings {
         }
     }
 
-    pub fn validate(&self, technique: Technique) -> Result<(), String> {
-        if self.max_depth == 0 {
-            return Err("max_depth must be at least 1".into());
-        }
+    pub fn validate(&self, technique: Technique) -> Result<(), ParamError> {
+        check_max_depth(self.max_depth)?;
         if !(self.light_paths.is_finite() && self.light_paths > 0.0 && self.light_paths <= 64.0) {
-            return Err(format!(
-                "light_paths must be in (0, 64], got {}",
-                self.light_paths
+            return Err(ParamError::new(
+                "light_paths",
+                format!("light_paths must be in (0, 64], got {}", self.light_paths),
             ));
         }
         check_radius(self.radius, self.radius_factor)?;
@@ -303,59 +304,74 @@ impl BidirSettings {
                 self.bb1d_alpha,
             ),
         ] {
-            check_radius(r, f).map_err(|e| format!("{name}_{e}"))?;
+            check_radius(r, f).map_err(|e| e.prefixed(&format!("{name}_")))?;
             check_alpha(&format!("{name}_alpha"), a)?;
         }
         if !(self.beam_paths > 0.0 && self.beam_paths <= 1.0) {
-            return Err(format!(
-                "beam_paths must be in (0, 1], got {}",
-                self.beam_paths
+            return Err(ParamError::new(
+                "beam_paths",
+                format!("beam_paths must be in (0, 1], got {}", self.beam_paths),
             ));
         }
         if !(self.max_vertex_mib.is_finite() && self.max_vertex_mib > 0.0) {
-            return Err(format!(
-                "max_vertex_mib must be positive, got {}",
-                self.max_vertex_mib
+            return Err(ParamError::new(
+                "max_vertex_mib",
+                format!(
+                    "max_vertex_mib must be positive, got {}",
+                    self.max_vertex_mib
+                ),
             ));
         }
         if self.strategy_images > MAX_STRATEGY_LENGTH {
-            return Err(format!(
-                "strategy_images covers path lengths up to {MAX_STRATEGY_LENGTH}, got {}",
-                self.strategy_images
+            return Err(ParamError::new(
+                "strategy_images",
+                format!(
+                    "strategy_images covers path lengths up to {MAX_STRATEGY_LENGTH}, got {}",
+                    self.strategy_images
+                ),
             ));
         }
         let upbp = matches!(technique, Technique::Upbp(_));
         if self.technique_layers && !(upbp || technique == Technique::Vcm) {
-            return Err("technique_layers (one layer per technique) needs vcm or upbp".into());
+            return Err(ParamError::new(
+                "technique_layers",
+                "technique_layers (one layer per technique) needs vcm or upbp",
+            ));
         }
         if !self.merge_first && technique == Technique::Bpm {
-            return Err(
-                "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm"
-                    .into(),
-            );
+            return Err(ParamError::new(
+                "merge_first",
+                "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm",
+            ));
         }
         if upbp {
             self.check_techniques()?;
         } else if self.techniques != UpbpTechnique::ALL {
-            return Err("techniques chooses upbp's techniques; use upbp".into());
+            return Err(ParamError::new(
+                "techniques",
+                "techniques chooses upbp's techniques; use upbp",
+            ));
         }
         Ok(())
     }
 
-    fn check_techniques(&self) -> Result<(), String> {
+    fn check_techniques(&self) -> Result<(), ParamError> {
+        let refuse = |message: String| Err(ParamError::new("techniques", message));
         if self.techniques.is_empty() {
-            return Err("techniques must name at least one of bpt, surf, pp3d, pb2d, bb1d".into());
+            return refuse(
+                "techniques must name at least one of bpt, surf, pp3d, pb2d, bb1d".into(),
+            );
         }
         for (i, t) in self.techniques.iter().enumerate() {
             if self.techniques[..i].contains(t) {
-                return Err(format!("techniques names {} twice", t.name()));
+                return refuse(format!("techniques names {} twice", t.name()));
             }
         }
         if !self.merge_first && !self.techniques.contains(&UpbpTechnique::Bpt) {
-            return Err(
-                "merge_first: false without bpt leaves no technique for light seen after one bounce"
-                    .into(),
-            );
+            return Err(ParamError::new(
+                "merge_first",
+                "merge_first: false without bpt leaves no technique for light seen after one bounce",
+            ));
         }
         Ok(())
     }

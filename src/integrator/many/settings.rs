@@ -4,6 +4,7 @@
 use super::lights::{Kinds, Lights};
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::many::vrl::Sampler;
+use crate::integrator::transport::params::ParamError;
 use crate::integrator::memory::{paths_driver, Estimate, Facts};
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
@@ -223,18 +224,19 @@ pub(crate) fn check_common(
     light_paths: LightPaths,
     vl_samples: u32,
     max_vertex_mib: f32,
-) -> Result<(), String> {
+) -> Result<(), ParamError> {
     check_light_pass(max_depth, light_paths, max_vertex_mib)?;
     if vl_samples > MAX_VL_SAMPLES {
-        return Err(format!(
-            "vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"
+        return Err(ParamError::new(
+            "vl_samples",
+            format!("vl_samples must be at most {MAX_VL_SAMPLES} (0 gathers every virtual light), got {vl_samples}"),
         ));
     }
     Ok(())
 }
 
 impl VplSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,
@@ -243,10 +245,16 @@ impl VplSettings {
         )?;
         if let Some(b) = self.clamp_limit {
             if !(b.is_finite() && b > 0.0) {
-                return Err(format!("clamp_limit must be positive and finite, got {b}"));
+                return Err(ParamError::new(
+                    "clamp_limit",
+                    format!("clamp_limit must be positive and finite, got {b}"),
+                ));
             }
             if self.clamp == Clamp::None {
-                return Err("clamp_limit needs clamp: clamp or compensate".into());
+                return Err(ParamError::new(
+                    "clamp_limit",
+                    "clamp_limit needs clamp: clamp or compensate",
+                ));
             }
         }
         Ok(())
@@ -254,7 +262,7 @@ impl VplSettings {
 }
 
 impl VrlSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,
@@ -265,7 +273,7 @@ impl VrlSettings {
 }
 
 impl VblSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_common(
             self.max_depth,
             self.light_paths,

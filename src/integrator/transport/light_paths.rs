@@ -2,6 +2,7 @@
 //! light pass takes (`max_depth`, `light_paths`, a memory budget), so that each
 //! algorithm refuses a bad value with the same words.
 
+use super::params::{check_max_depth, ParamError};
 use serde::{Deserialize, Serialize};
 
 /// Light subpaths per iteration: a multiple of the pixel count (a number, as for every
@@ -23,14 +24,18 @@ impl LightPaths {
         }
     }
 
-    pub(crate) fn check(self) -> Result<(), String> {
+    pub(crate) fn check(self) -> Result<(), ParamError> {
         match self {
-            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(format!(
-                "light_paths as a multiple of the pixel count must be in (0, 64], got {m}"
+            LightPaths::Multiple(m) if !(m > 0.0 && m <= 64.0) => Err(ParamError::new(
+                "light_paths",
+                format!("light_paths as a multiple of the pixel count must be in (0, 64], got {m}"),
             )),
-            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => Err(format!(
-                "light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"
-            )),
+            LightPaths::Count { count } if !(1..=MAX_PATH_COUNT).contains(&count) => {
+                Err(ParamError::new(
+                    "light_paths.count",
+                    format!("light_paths.count must be in 1..={MAX_PATH_COUNT}, got {count}"),
+                ))
+            }
             _ => Ok(()),
         }
     }
@@ -49,14 +54,13 @@ pub(crate) fn check_light_pass(
     max_depth: u32,
     light_paths: LightPaths,
     max_vertex_mib: f32,
-) -> Result<(), String> {
-    if max_depth == 0 {
-        return Err("max_depth must be at least 1".into());
-    }
+) -> Result<(), ParamError> {
+    check_max_depth(max_depth)?;
     light_paths.check()?;
     if !(max_vertex_mib.is_finite() && max_vertex_mib > 0.0) {
-        return Err(format!(
-            "max_vertex_mib must be positive, got {max_vertex_mib}"
+        return Err(ParamError::new(
+            "max_vertex_mib",
+            format!("max_vertex_mib must be positive, got {max_vertex_mib}"),
         ));
     }
     Ok(())

@@ -1,14 +1,17 @@
 // The REST client of the dashboard: every call goes through `api`, which adds the
 // bearer token (kept in sessionStorage, asked for when the server answers 401) and
-// turns the server's JSON errors, {"error": {"code", "message"}}, into ApiError.
+// turns the server's JSON errors, {"error": {"code", "message", "field"}}, into ApiError.
 
 const TOKEN_KEY = "caustic-token";
 
 export class ApiError extends Error {
-  constructor(status, code, message) {
+  /// `field`: the parameter at fault as the request wrote it (`params.radius`), when
+  /// the server names one.
+  constructor(status, code, message, field) {
     super(message);
     this.status = status;
     this.code = code;
+    this.field = field;
   }
   toString() {
     return `${this.status} ${this.code}: ${this.message}`;
@@ -35,11 +38,13 @@ export function headers(extra = {}) {
 async function errorOf(resp) {
   let code = "error";
   let message = resp.statusText || "request failed";
+  let field;
   try {
     const body = await resp.json();
     if (body && body.error) {
       code = body.error.code || code;
       message = body.error.message || message;
+      field = body.error.field;
     }
   } catch (_) {
     // Not JSON: keep the status line.
@@ -47,7 +52,7 @@ async function errorOf(resp) {
   if (resp.status === 401) {
     window.dispatchEvent(new CustomEvent("caustic-unauthorized", { detail: message }));
   }
-  return new ApiError(resp.status, code, message);
+  return new ApiError(resp.status, code, message, field);
 }
 
 /// A raw response for `path` (throws ApiError on 4xx/5xx and on network failures).

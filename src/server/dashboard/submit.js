@@ -1,7 +1,8 @@
 // The submit form: scene (GET /v1/scenes), algorithm and its parameters
 // (GET /v1/algorithms, defaults as placeholders), halt conditions, reference, and the
 // rest of a job. Values are sent as typed (JSON where they parse as JSON) and the
-// server validates them: its message is shown next to the field it names.
+// server validates them: its message is shown next to the input of the field its error
+// names (the error body's `field`), and that input is marked invalid.
 
 import { api, request } from "./api.js";
 import { el, errorBox } from "./util.js";
@@ -30,16 +31,15 @@ const tidy = (v) => (typeof v === "number" ? Number(v.toPrecision(7)) : v);
 
 const text = (attrs = {}) => el("input", { type: "text", autocomplete: "off", ...attrs });
 
-/// The form field a server message is about: the longest path it names, or a field
-/// whose parent and leaf it names ("halt: spp / iterations must be ...").
-export function fieldFor(message, paths) {
-  const m = message.toLowerCase();
-  const named = paths.filter((p) => m.includes(p.toLowerCase())).sort((a, b) => b.length - a.length);
-  if (named.length) return named[0];
-  return paths.find((p) => {
-    const parts = p.split(".");
-    return parts.length > 1 && m.startsWith(parts[0]) && new RegExp(`\\b${parts[parts.length - 1]}\\b`).test(m);
-  });
+/// The form path of the error's `field`: the field itself, or the nearest enclosing
+/// path that the form has (`params.light_paths.count` -> `params.light_paths`).
+export function pathFor(field, paths) {
+  const parts = field.split(/[.[]/);
+  for (let n = parts.length; n > 0; n--) {
+    const p = parts.slice(0, n).join(".");
+    if (paths.includes(p)) return p;
+  }
+  return undefined;
 }
 
 export function submitPage(view, route, signal) {
@@ -120,15 +120,21 @@ export function submitPage(view, route, signal) {
 
   const showError = (e) => {
     const paths = [...form.querySelectorAll("[data-error-for]")].map((s) => s.dataset.errorFor);
-    const p = fieldFor(e.message, paths);
+    const p = e.field && pathFor(e.field, paths);
     const spot = p && form.querySelector(`[data-error-for="${CSS.escape(p)}"]`);
-    if (spot) spot.textContent = e.message;
-    else formError.textContent = String(e);
+    if (!spot) {
+      formError.textContent = String(e);
+      return;
+    }
+    spot.textContent = e.message;
+    const input = form.querySelector(`[data-path="${CSS.escape(p)}"]`);
+    if (input) input.setAttribute("aria-invalid", "true");
   };
 
   form.addEventListener("submit", async (ev) => {
     ev.preventDefault();
     for (const s of form.querySelectorAll(".field-error")) s.textContent = "";
+    for (const i of form.querySelectorAll("[aria-invalid]")) i.removeAttribute("aria-invalid");
     formError.textContent = "";
     submit.disabled = true;
     try {

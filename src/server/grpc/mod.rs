@@ -54,6 +54,8 @@ fn to_status(e: JobError) -> Status {
         } => Status::resource_exhausted(message),
         JobError::Storage { .. } => Status::unavailable(message),
         JobError::Internal(_) => Status::internal(message),
+        // The message names the parameter already.
+        JobError::AtField { error, .. } => to_status(*error),
     }
 }
 

@@ -48,6 +48,7 @@
 
 pub use crate::integrator::estimators::beams::BeamForm;
 
+use crate::integrator::transport::params::ParamError;
 use crate::film::Film;
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::integrator::estimators::beam_estimate::Gather;
@@ -143,9 +144,9 @@ impl PpbSettings {
         e
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_light_pass(self.max_depth, self.light_paths, self.max_beam_mib)
-            .map_err(|e| e.replace("max_vertex_mib", "max_beam_mib"))?;
+            .map_err(|e| e.renamed("max_vertex_mib", "max_beam_mib"))?;
         check_radius(self.radius, self.radius_factor)?;
         check_alpha(self.alpha)
     }

@@ -58,7 +58,7 @@ use crate::integrator::transport::emit::sample_emission;
 use crate::integrator::transport::medium_walk::{MediumWalk, Step};
 use crate::integrator::transport::nee::{direct_unweighted, Origin};
 use crate::integrator::transport::params::check_radius;
-use crate::integrator::transport::params::{check_alpha, check_photon_params};
+use crate::integrator::transport::params::{check_alpha, check_photon_params, ParamError};
 use crate::integrator::transport::radius::radius_schedule;
 use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::{Integrator, RenderStats};
@@ -119,7 +119,7 @@ impl Default for SppmSettings {
 }
 
 impl SppmSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_photon_params(
             self.max_depth,
             self.light_paths,
@@ -128,12 +128,15 @@ impl SppmSettings {
         )?;
         check_alpha(self.alpha)?;
         check_radius(self.medium_radius, self.medium_radius_factor)
-            .map_err(|e| format!("medium_{e}"))?;
-        check_alpha(self.medium_alpha).map_err(|e| format!("medium_{e}"))?;
+            .map_err(|e| e.prefixed("medium_"))?;
+        check_alpha(self.medium_alpha).map_err(|e| e.prefixed("medium_"))?;
         if !(self.max_photon_mib.is_finite() && self.max_photon_mib > 0.0) {
-            return Err(format!(
-                "max_photon_mib must be positive, got {}",
-                self.max_photon_mib
+            return Err(ParamError::new(
+                "max_photon_mib",
+                format!(
+                    "max_photon_mib must be positive, got {}",
+                    self.max_photon_mib
+                ),
             ));
         }
         Ok(())

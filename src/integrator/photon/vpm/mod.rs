@@ -82,6 +82,7 @@
 
 mod photons;
 
+use crate::integrator::transport::params::ParamError;
 use crate::film::Film;
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::integrator::estimators::{HashGrid, PointBvh};
@@ -173,7 +174,7 @@ impl Default for VpmSettings {
 }
 
 impl VpmSettings {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_photon_params(
             self.max_depth,
             self.light_paths,
@@ -184,7 +185,10 @@ impl VpmSettings {
             check_alpha(a)?;
         }
         if self.max_photon_mib == 0 {
-            return Err("max_photon_mib must be at least 1".into());
+            return Err(ParamError::new(
+                "max_photon_mib",
+                "max_photon_mib must be at least 1",
+            ));
         }
         Ok(())
     }
