@@ -2,7 +2,7 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
-use super::media::{next_event, next_event_with, shadow, Event};
+use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::mis::{Merge, Partial, Site};
 use super::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use super::vertex::{mis_sigma, Media, MediumPoint, NoMedia, Scatterer, Vertex, WithMedia};
@@ -15,6 +15,7 @@ use crate::integrator::common::{Stream, PATHS_PER_TASK};
 use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimate};
 use crate::integrator::RenderStats;
 use crate::light::Light;
+use crate::material::textured::MaterialRef;
 use crate::material::Mode;
 use crate::math::{gamma, Frame, Rgb, Rng, Vec2, Vec3};
 use rayon::prelude::*;
@@ -92,12 +93,17 @@ impl LightVertex {
         }
     }
 
-    /// What scatters at the vertex, for connections (only surfaces without media).
+    /// What scatters at the vertex, for connections (only surfaces without media); a
+    /// textured surface's material is kept in `owner`.
     #[inline(always)]
-    pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
+    pub fn scatterer<'a, 's: 'a, M: Media>(
+        &self,
+        pass: &Pass<'s>,
+        owner: &'a mut Owner<'s>,
+    ) -> Scatterer<'a, M> {
         if M::ON && self.material == MEDIUM_VERTEX {
             let medium = &pass.scene.media[self.medium as usize];
-            let m = MediumPoint {
+            let m: MediumPoint<'a> = MediumPoint {
                 phase: medium.phase(),
                 wo: self.wo,
                 sigma: mis_sigma(pass, self.medium),
@@ -107,14 +113,30 @@ impl LightVertex {
                 return Scatterer::Medium(m);
             }
         }
+        let m = match pass.scene.plain_material(self.material) {
+            Some(m) => m,
+            None => owner.keep(self.material_on(pass.scene)),
+        };
         let frame = Frame::twisted(self.ns, self.twist);
         Scatterer::Surface(Surface {
-            m: (pass.scene).material_on(self.material, self.uv, self.ng, &frame),
+            m,
             frame,
             ng: self.ng,
             wo: frame.to_local(self.wo),
             cont: self.cont,
         })
+    }
+}
+
+impl LightVertex {
+    /// The material of a textured or shadowed surface vertex. Out of line, its frame
+    /// rebuilt here: handing the caller's frame to `Scene::material_on` kept it (and
+    /// the connection's scatterer) in memory on every connection.
+    #[cold]
+    #[inline(never)]
+    fn material_on<'a>(&self, scene: &'a crate::scene::Scene) -> MaterialRef<'a> {
+        let frame = Frame::twisted(self.ns, self.twist);
+        scene.material_on(self.material, self.uv, self.ng, &frame)
     }
 }
 
@@ -547,6 +569,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     let mut lens: Option<LensShadow> = None;
     loop {
         chunk.stats.rays += 1;
+        let mut owner = Owner::default();
         let (event, tr) = if M::ON {
             let Chunk {
                 segments,
@@ -570,12 +593,12 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
                 },
             };
             let keep = pass.keep_segments.then_some(&mut sink);
-            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep)
+            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep, &mut owner)
         } else {
             // Read in place, then cleared: `take` copied the whole lens connection.
             let shadow = lens.as_ref().map(|l| &l.ray);
             let rays = &mut chunk.stats.rays;
-            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays);
+            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays, &mut owner);
             if let Some(l) = lens.as_ref().filter(|_| visible) {
                 push_splat(chunk, l.raster, l.value, l.layer);
             }
