@@ -33,8 +33,9 @@ impl TexCoords {
     /// The (u, v) of point `p` on primitive `local` of the shape, at primitive
     /// coordinates `st` (a hit's `Interaction::uv`: barycentrics, edge or disk
     /// coordinates; unused on spheres): for points that are not hits, such as the
-    /// points light sampling picks on an emitter.
-    #[inline]
+    /// points light sampling picks on an emitter. Inlined: called, it took `p` by
+    /// reference, which pointed into the caller's hit and kept that in memory.
+    #[inline(always)]
     pub fn uv_on(&self, local: u32, st: Vec2, p: Vec3) -> Vec2 {
         match self {
             TexCoords::Mesh(maps) => {

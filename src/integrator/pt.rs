@@ -2,7 +2,6 @@
 //! importance sampling (Veach 1997, ch. 9), Russian roulette, and Mitsuba's `max_depth`:
 //! an emitter reached after k scattering events counts when k <= max_depth - 1.
 
-use crate::integrator::transport::params::{check_max_depth, ParamError};
 use super::memory::{Estimate, Facts};
 use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
@@ -11,6 +10,7 @@ use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::drive::pixels::{render_paths, tile_memory, PathKernel};
 use crate::integrator::transport::camera::sample_bsdf;
 use crate::integrator::transport::nee::{sample_light, Origin};
+use crate::integrator::transport::params::{check_max_depth, ParamError};
 use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::material::Material;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};

@@ -9,9 +9,9 @@
 //!
 //! May import every algorithm module (it is the registry); none of them imports it.
 
-use super::transport::params::ParamError;
 use super::memory::{Estimate, Facts};
 use super::photon::{ppb, sppm, vpm};
+use super::transport::params::ParamError;
 use super::{bidir, debug, many, pt, volpath, Integrator, Settings};
 use serde::de::DeserializeOwned;
 use serde::Deserialize;

@@ -11,7 +11,6 @@
 //! combined by MIS with the distance-sampled scattering point that connects to the
 //! same light. `pt` runs this integrator when the scene has media.
 
-use crate::integrator::transport::params::{check_max_depth, ParamError};
 use super::memory::{Estimate, Facts};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -24,6 +23,7 @@ use crate::integrator::transport::medium_walk::{
     seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
 };
 use crate::integrator::transport::nee::{sample_light, Origin};
+use crate::integrator::transport::params::{check_max_depth, ParamError};
 use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::light::Light;
 use crate::math::{Rgb, Rng, Vec3};

@@ -128,7 +128,7 @@ impl AreaLight {
 
     /// The analytic sphere to sample by solid angle, when the light is one and `p` is
     /// outside it.
-    #[inline]
+    #[inline(always)]
     fn visible_sphere(&self, p: Vec3) -> Option<(Vec3, f32)> {
         match self.prims.as_slice() {
             [Prim::Sphere { c, r }] if (p - Vec3::from(*c)).length_squared() > r * r * 1.0001 => {
@@ -274,8 +274,9 @@ impl AreaLight {
         ))
     }
 
-    /// Solid-angle density of reaching `pl` (front normal `n`) from `p`.
-    #[inline]
+    /// Solid-angle density of reaching `pl` (front normal `n`) from `p` (inlined, as
+    /// `Light::pdf_li`).
+    #[inline(always)]
     pub fn pdf_li(&self, p: Vec3, pl: Vec3, n: Vec3) -> f32 {
         if let Some((c, r)) = self.visible_sphere(p) {
             let sin2_max = r * r / (c - p).length_squared();

@@ -126,7 +126,9 @@ impl Light {
 
     /// Solid-angle density with which `sample_li` from `p` picks direction `wi` that
     /// reaches the light at `p_light` with normal `n_light` (unused for infinite lights).
-    #[inline]
+    /// Always inlined: called, it took its points by reference, and `bpt`'s light pass
+    /// kept the vertex it was asked about in memory.
+    #[inline(always)]
     pub fn pdf_li(&self, p: Vec3, wi: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
         match self {
             Light::Area(l) => l.pdf_li(p, p_light, n_light),

@@ -95,7 +95,9 @@ impl Perturb {
 
 /// The shading frame of normal `ns` on a surface with tangent `dpdu`: x along dp/du
 /// made orthogonal to the normal (Mitsuba's `initialize_sh_frame`), an arbitrary
-/// basis where dp/du is degenerate.
+/// basis where dp/du is degenerate. Inlined: a frame returned from a call goes
+/// through the caller's memory.
+#[inline(always)]
 pub fn tangent_frame(ns: Vec3, dpdu: Vec3) -> Frame {
     let t = (dpdu - ns * ns.dot(dpdu)).normalize_or_zero();
     if t == Vec3::ZERO || !t.is_finite() {

@@ -24,6 +24,9 @@ impl Frame {
 
     /// The angle about `n` from `from_normal(n)`'s x axis to this frame's: a frame
     /// stored as its normal and this number comes back with [`Frame::twisted`].
+    /// Inlined: a call would take the frame's address, and the light pass's vertex
+    /// holding it went to memory for that call on its cold branch.
+    #[inline(always)]
     pub fn twist(&self) -> f32 {
         let base = Frame::from_normal(self.n);
         self.s.dot(base.t).atan2(self.s.dot(base.s))
@@ -40,8 +43,10 @@ impl Frame {
         }
     }
 
-    #[cold]
-    #[inline(never)]
+    /// Inlined, though rarely taken: called, it took the frame by reference and
+    /// returned one through memory, which kept the caller's frame there on every call
+    /// of `twisted` (the light vertex of every `bpt` connection).
+    #[inline(always)]
     fn turned(self, angle: f32) -> Self {
         let (sin, cos) = angle.sin_cos();
         let s = self.s * cos + self.t * sin;

@@ -535,10 +535,12 @@ impl Scene {
     /// texture).
     #[inline(always)]
     pub fn uv(&self, it: &Interaction) -> Vec2 {
-        self.shapes[it.shape as usize]
-            .uvs
-            .as_ref()
-            .map_or(Vec2::ZERO, |t| t.uv(it))
+        // A match, not `Option::map_or`: that call was left out of line in the light
+        // pass, and its closure's reference kept the hit (and its vertex) in memory.
+        match &self.shapes[it.shape as usize].uvs {
+            None => Vec2::ZERO,
+            Some(t) => t.uv(it),
+        }
     }
 
     /// Whether `ray` goes on through the surface it hit at `it`: an index-matched
@@ -615,6 +617,23 @@ impl Scene {
         MaterialRef::owned(Material::Shadowed(Box::new(Shadowed::new(
             nested, ng, frame,
         ))))
+    }
+
+    /// Material `index` itself, when it reads no texture and no normal or bump map
+    /// wraps it in a shadowing term: then [`material_on`](Self::material_on) is this
+    /// material at every point, and a stored vertex needs neither its (u, v) nor its
+    /// frame to find it.
+    #[inline(always)]
+    pub fn plain_material(&self, index: u32) -> Option<&Material> {
+        let i = index as usize;
+        let shadowed = matches!(&self.perturb[i], Some(p) if p.use_shadowing_function);
+        // Not `bool::then`: a closure left out of line takes the kernels' values to
+        // memory (see `uv`).
+        if self.textured[i].is_none() && !shadowed {
+            Some(&self.materials[i])
+        } else {
+            None
+        }
     }
 
     /// Material `index` at texture coordinates `uv` (for stored vertices).

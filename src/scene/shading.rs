@@ -15,7 +15,7 @@ use super::format::MaterialDesc;
 use super::Scene;
 use crate::geometry::Interaction;
 use crate::material::normal_map::tangent_frame;
-use crate::math::Frame;
+use crate::math::{Frame, Vec3};
 
 /// Whether a material's roughness differs along the two tangents, so that its frame
 /// must follow dp/du: `alpha_u` and `alpha_v` that differ or may (textures), in the
@@ -45,7 +45,10 @@ impl Scene {
     #[inline(always)]
     pub fn shading_frame(&self, it: &Interaction) -> Frame {
         if self.shapes[it.shape as usize].oriented {
-            self.oriented_frame(*it)
+            match self.dpdu(*it) {
+                Some(dpdu) => tangent_frame(it.ns, dpdu),
+                None => Frame::from_normal(it.ns),
+            }
         } else {
             Frame::from_normal(it.ns)
         }
@@ -63,12 +66,15 @@ impl Scene {
         }
     }
 
+    /// dp/du at a hit on an oriented shape (None without tangents). Out of line, and
+    /// only the tangent returned: a frame returned from here was written through the
+    /// caller's frame, which then stayed in memory on the common path too.
     #[cold]
     #[inline(never)]
-    fn oriented_frame(&self, it: Interaction) -> Frame {
+    fn dpdu(&self, it: Interaction) -> Option<Vec3> {
         match &self.shapes[it.shape as usize].tangents {
-            Some(t) => tangent_frame(it.ns, t.at(&it).0),
-            None => Frame::from_normal(it.ns),
+            Some(t) => Some(t.at(&it).0),
+            None => None,
         }
     }
 }
@@ -76,7 +82,6 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
     use crate::scene::load::parse_scene;
 
     fn scene(materials: &str, shape: &str) -> Scene {

@@ -6,7 +6,7 @@ use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
 use crate::integrator::paths::light_vertex::LightVertex;
-use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event};
+use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event, Owner};
 use crate::integrator::paths::partial::{Merge, Site};
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
@@ -149,9 +149,10 @@ impl<M: Media> CameraPass<'_, M> {
         // after delta bounces alone: MIS weight 1) comes from the segment's
         // transmittance (medium_walk::seen_emission), not from the flight.
         let seen = (M::ON && walk.specular).then_some((*ray, walk.medium, walk.throughput));
+        let mut owner = Owner::default();
         let (event, tr) = if M::ON {
             if !pass.query_beams() {
-                next_event::<M>(scene, ray, walk, rng, stats, None)
+                next_event::<M>(scene, ray, walk, rng, stats, None, &mut owner)
             } else {
                 pieces.clear();
                 let mut over = false;
@@ -166,7 +167,7 @@ impl<M: Media> CameraPass<'_, M> {
                         area: NO_AREA,
                     },
                 };
-                let r = next_event::<M>(scene, ray, walk, rng, stats, Some(&mut sink));
+                let r = next_event::<M>(scene, ray, walk, rng, stats, Some(&mut sink), &mut owner);
                 let len = walk.len;
                 beams::gather(pass, &ws.beams, pieces, len, rng, stats, |k, v| {
                     record(layers, pass.layers.merge(k), v);
@@ -176,7 +177,7 @@ impl<M: Media> CameraPass<'_, M> {
             }
         } else {
             let shadow = pending.as_ref().map(|p| &p.0);
-            let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays);
+            let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays, &mut owner);
             // Read in place, then cleared: `take` copied the whole pending sample.
             if let Some(&(_, e)) = pending.as_ref().filter(|_| visible) {
                 record(layers, light_layer(walk.len - 1), e);
@@ -436,7 +437,8 @@ fn connect<M: Media>(
         let Some(ec) = v.eval(dir, Mode::Radiance) else {
             continue;
         };
-        let ys = y.scatterer::<M>(pass);
+        let mut owner = Owner::default();
+        let ys = y.scatterer::<M>(pass, &mut owner);
         let Some(el) = ys.eval(-dir, Mode::Importance) else {
             continue;
         };

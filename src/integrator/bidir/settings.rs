@@ -5,13 +5,13 @@ use super::beams::BeamStore;
 use super::merge::MergeSet;
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::estimators::beams::BeamForm;
-use crate::integrator::transport::params::{check_max_depth, check_radius, ParamError};
-use crate::integrator::transport::Heuristic;
 use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::partial::Merge;
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
+use crate::integrator::transport::params::{check_max_depth, check_radius, ParamError};
+use crate::integrator::transport::Heuristic;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicU32;
 

@@ -4,12 +4,12 @@
 use super::lights::{Kinds, Lights};
 use crate::integrator::drive::pixels::tile_memory;
 use crate::integrator::many::vrl::Sampler;
-use crate::integrator::transport::params::ParamError;
 use crate::integrator::memory::{paths_driver, Estimate, Facts};
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
 use crate::integrator::transport::light_paths::check_light_pass;
 pub use crate::integrator::transport::light_paths::LightPaths;
+use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_radius};
 use serde::{Deserialize, Deserializer, Serialize};
 

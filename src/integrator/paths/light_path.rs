@@ -3,7 +3,7 @@
 //! camera (splats).
 
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
-use super::media::{next_event, next_event_with, shadow, Event};
+use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::segments::{FlightStart, SegmentSink, NO_AREA};
 use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
 use super::vertex::{Media, NoMedia, Vertex, WithMedia};
@@ -208,6 +208,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     let mut lens: Option<LensShadow> = None;
     loop {
         chunk.stats.rays += 1;
+        let mut owner = Owner::default();
         let (event, tr) = if M::ON {
             let Chunk {
                 segments,
@@ -231,12 +232,12 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
                 },
             };
             let keep = pass.keep_segments.then_some(&mut sink);
-            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep)
+            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep, &mut owner)
         } else {
             // Read in place, then cleared: `take` copied the whole lens connection.
             let shadow = lens.as_ref().map(|l| &l.ray);
             let rays = &mut chunk.stats.rays;
-            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays);
+            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays, &mut owner);
             if let Some(l) = lens.as_ref().filter(|_| visible) {
                 push_splat(chunk, l.raster, l.value, l.layer);
             }

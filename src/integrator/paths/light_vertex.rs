@@ -1,9 +1,11 @@
 //! A stored light-subpath vertex: where connections, merges and virtual lights attach.
 
+use super::media::Owner;
 use super::partial::{Partial, Site};
 use super::vertex::{mis_sigma, Media, MediumPoint, Scatterer};
 use super::walk::Surface;
 use super::Pass;
+use crate::material::textured::MaterialRef;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 
 /// `LightVertex::material` of a scattering point in a medium.
@@ -66,12 +68,17 @@ impl LightVertex {
         }
     }
 
-    /// What scatters at the vertex, for connections (only surfaces without media).
+    /// What scatters at the vertex, for connections (only surfaces without media); a
+    /// textured surface's material is kept in `owner`.
     #[inline(always)]
-    pub fn scatterer<'a, M: Media>(&self, pass: &Pass<'a>) -> Scatterer<'a, M> {
+    pub fn scatterer<'a, 's: 'a, M: Media>(
+        &self,
+        pass: &Pass<'s>,
+        owner: &'a mut Owner<'s>,
+    ) -> Scatterer<'a, M> {
         if M::ON && self.material == MEDIUM_VERTEX {
             let medium = &pass.scene.media[self.medium as usize];
-            let m = MediumPoint {
+            let m: MediumPoint<'a> = MediumPoint {
                 phase: medium.phase(),
                 wo: self.wo,
                 sigma: mis_sigma(pass, self.medium),
@@ -81,13 +88,29 @@ impl LightVertex {
                 return Scatterer::Medium(m);
             }
         }
+        let m = match pass.scene.plain_material(self.material) {
+            Some(m) => m,
+            None => owner.keep(self.material_on(pass.scene)),
+        };
         let frame = Frame::twisted(self.ns, self.twist);
         Scatterer::Surface(Surface {
-            m: (pass.scene).material_on(self.material, self.uv, self.ng, &frame),
+            m,
             frame,
             ng: self.ng,
             wo: frame.to_local(self.wo),
             cont: self.cont,
         })
+    }
+}
+
+impl LightVertex {
+    /// The material of a textured or shadowed surface vertex. Out of line, its frame
+    /// rebuilt here: handing the caller's frame to `Scene::material_on` kept it (and
+    /// the connection's scatterer) in memory on every connection.
+    #[cold]
+    #[inline(never)]
+    fn material_on<'a>(&self, scene: &'a crate::scene::Scene) -> MaterialRef<'a> {
+        let frame = Frame::twisted(self.ns, self.twist);
+        scene.material_on(self.material, self.uv, self.ng, &frame)
     }
 }

@@ -13,8 +13,7 @@ use super::partial::Site;
 use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
-use crate::material::textured::MaterialRef;
-use crate::material::Mode;
+use crate::material::{Material, Mode};
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Phase;
 use std::convert::Infallible;
@@ -179,13 +178,13 @@ impl<'a, M: Media> Vertex<'a, M> {
     /// A surface reached along `d`; None when it is met too grazingly for the MIS
     /// quantities, which divide by the cosine.
     #[inline(always)]
-    pub fn surface(pass: &Pass, it: Interaction, m: MaterialRef<'a>, d: Vec3) -> Option<Self> {
+    pub fn surface(pass: &Pass, it: Interaction, m: &'a Material, d: Vec3) -> Option<Self> {
         let cos_in = it.ns.dot(d).abs();
         if cos_in < MIN_COS {
             return None;
         }
         let frame = pass.scene.shading_frame(&it);
-        let cont = pass.continuation(&m);
+        let cont = pass.continuation(m);
         let s = Surface {
             m,
             frame,

@@ -5,8 +5,7 @@ use super::partial::{Partial, Site};
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::transport::adjoint::adjoint_correction;
-use crate::material::textured::MaterialRef;
-use crate::material::Mode;
+use crate::material::{Material, Mode};
 use crate::math::{Frame, Rgb, Rng, Vec3};
 
 /// Cosines below this end a path: the MIS quantities divide by them.
@@ -14,7 +13,8 @@ pub(crate) const MIN_COS: f32 = 1e-6;
 
 /// The shading context of a non-specular vertex, for evaluating connections.
 pub(crate) struct Surface<'a> {
-    pub m: MaterialRef<'a>,
+    /// Borrowed, not a `MaterialRef`, so that vertices need no dropping (`media::Owner`).
+    pub m: &'a Material,
     pub frame: Frame,
     pub ng: Vec3,
     /// Towards the previous vertex, local frame.

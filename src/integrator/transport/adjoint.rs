@@ -16,13 +16,16 @@ pub(crate) fn adjoint_correction(ns: Vec3, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 
     if ns == ng {
         1.0
     } else {
-        shading_correction(ns, ng, wo, wi)
+        shading_correction([ns, ng, wo, wi])
     }
 }
 
+/// The vectors come gathered in a new array: a `Vec3` passed by value goes by
+/// reference, which pointed the call at the caller's vertex and kept that vertex in
+/// memory on the flat surfaces that never call it (`bpt`'s connections).
 #[cold]
 #[inline(never)]
-fn shading_correction(ns: Vec3, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+fn shading_correction([ns, ng, wo, wi]: [Vec3; 4]) -> f32 {
     let den = wo.dot(ng).abs() * wi.dot(ns).abs();
     if den > 0.0 {
         wo.dot(ns).abs() * wi.dot(ng).abs() / den

@@ -48,7 +48,6 @@
 
 pub use crate::integrator::estimators::beams::BeamForm;
 
-use crate::integrator::transport::params::ParamError;
 use crate::film::Film;
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::integrator::estimators::beam_estimate::Gather;
@@ -61,6 +60,7 @@ use crate::integrator::paths::Tracing;
 use crate::integrator::pilot;
 use crate::integrator::transport::density_camera::{self, Depths};
 use crate::integrator::transport::light_paths::{check_light_pass, LightPaths};
+use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_radius};
 use crate::integrator::transport::radius::radius_schedule;
 use crate::integrator::{Integrator, RenderStats};

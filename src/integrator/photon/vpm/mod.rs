@@ -82,7 +82,6 @@
 
 mod photons;
 
-use crate::integrator::transport::params::ParamError;
 use crate::film::Film;
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
 use crate::integrator::estimators::{HashGrid, PointBvh};
@@ -91,6 +90,7 @@ use crate::integrator::memory::{
 };
 use crate::integrator::transport::density_camera::{self, Depths, MediumGather};
 use crate::integrator::transport::medium_walk::Segment;
+use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_photon_params};
 use crate::integrator::transport::radius::radius_schedule;
 use crate::integrator::transport::PATHS_PER_TASK;
