@@ -72,10 +72,8 @@ impl Scene {
     #[cold]
     #[inline(never)]
     fn dpdu(&self, it: Interaction) -> Option<Vec3> {
-        match &self.shapes[it.shape as usize].tangents {
-            Some(t) => Some(t.at(&it).0),
-            None => None,
-        }
+        let tangents = self.shapes[it.shape as usize].tangents.as_ref();
+        tangents.map(|t| t.at(&it).0)
     }
 }
 

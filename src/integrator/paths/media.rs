@@ -42,7 +42,7 @@ impl<'s> Owner<'s> {
     /// Keeps `m` (dropping the material kept before) and lends it out.
     #[inline(always)]
     pub fn keep(&mut self, m: MaterialRef<'s>) -> &Material {
-        &**self.0.insert(m)
+        self.0.insert(m)
     }
 }
 
