@@ -2413,9 +2413,16 @@ fn auth_cases(s: &str) -> Vec<Case> {
             g("/v1/jobs", Some(b"Bearer  ")),
             &[401],
         ),
+        // RFC 7235 sec. 2.1: credentials = auth-scheme [ 1*SP token68 ], so more than
+        // one space may stand before the token (gRPC always took it; REST now does).
         case(
             "auth: two spaces before the token",
             g("/v1/jobs", Some(b"Bearer  secret")),
+            &[200],
+        ),
+        case(
+            "auth: a space inside the token",
+            g("/v1/jobs", Some(b"Bearer sec ret")),
             &[401],
         ),
         case(
