@@ -1,7 +1,8 @@
 //! The loops that drive the kernels: the camera-sample loop over tiles
-//! ([`pixels`]) and the progressive loop over iterations with a halting rule
-//! ([`progressive`]).
+//! ([`pixels`]), the light-path loop over fixed chunks ([`light`]), and the
+//! progressive loop over iterations with a halting rule ([`progressive`]).
 
+pub(crate) mod light;
 pub(crate) mod pixels;
 pub mod progressive;
 

@@ -5,6 +5,7 @@
 //! number of threads, so an iteration's image is the same on any machine.
 
 pub(crate) mod beam_estimate;
+pub(crate) mod beam_query;
 #[cfg(test)]
 mod beam_tests;
 pub(crate) mod beams;

@@ -10,13 +10,13 @@ use super::vertex::{Media, NoMedia, Vertex, WithMedia};
 use super::walk::{Eval, Walk};
 use super::Pass;
 use crate::geometry::{spawn_ray_to, Ray};
+use crate::integrator::drive::light::{chunk_count, trace_chunks, ChunkTracer};
 use crate::integrator::transport::emit::{sample_emission, LightStart};
 use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::RenderStats;
 use crate::light::Light;
 use crate::material::Mode;
 use crate::math::{gamma, Rgb, Rng, Vec2, Vec3};
-use rayon::prelude::*;
 
 /// Traces the iteration's light paths into `store`, chunk by chunk in parallel (the
 /// store never depends on the thread count).
@@ -27,35 +27,14 @@ pub(crate) fn trace_light_paths(
     ws: &mut Store,
 ) -> RenderStats {
     let n = pass.light_paths;
-    let chunks = n.div_ceil(PATHS_PER_TASK);
-    ws.chunks.resize_with(chunks, Chunk::default);
-    ws.chunks.truncate(chunks);
-    let budget = Budget::new(pass.max_vertex_mib, chunks);
-    let t = pass.tracing;
-    ws.chunks.par_iter_mut().enumerate().for_each(|(c, chunk)| {
-        if chunk.ends.capacity() == 0 {
-            // Only what the technique fills: a light pass that stores no vertex (`lt`)
-            // or splats none (the merging and many-light passes) reserves none.
-            if t.stores {
-                chunk
-                    .vertices
-                    .reserve(RESERVED_VERTICES.min(budget.vertices));
-            }
-            chunk.ends.reserve(PATHS_PER_TASK);
-            if t.splats {
-                chunk.splats.reserve(RESERVED_SPLATS);
-            }
-        }
-        chunk.vertices.clear();
-        chunk.ends.clear();
-        chunk.segments.clear();
-        chunk.segment_ends.clear();
-        chunk.splats.clear();
-        chunk.stats = RenderStats::default();
-        chunk.over_budget = false;
-        let paths = c * PATHS_PER_TASK..((c + 1) * PATHS_PER_TASK).min(n);
-        trace_chunk(pass, seed, iteration, paths, chunk, budget);
-    });
+    let paths = 0..n as u64;
+    let tracer = Subpaths {
+        pass,
+        seed,
+        iteration,
+        budget: Budget::new(pass.max_vertex_mib, chunk_count(&paths)),
+    };
+    trace_chunks(&tracer, &mut ws.chunks, paths);
     ws.paths = n;
     let mut total = 0;
     let mut stats = RenderStats::default();
@@ -73,54 +52,50 @@ pub(crate) fn trace_light_paths(
     stats
 }
 
-/// One chunk of light paths, compiled for AVX2 + FMA processors (chosen at run time)
-/// and for baseline x86-64, as the camera pass is (see `pixels.rs`).
-fn trace_chunk(
-    pass: &Pass,
+/// The bidirectional family's light subpaths, for the light-path loop.
+struct Subpaths<'a, 'p> {
+    pass: &'a Pass<'p>,
     seed: u64,
     iteration: u64,
-    paths: std::ops::Range<usize>,
-    chunk: &mut Chunk,
     budget: Budget,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: the features were detected on this processor just above.
-            return unsafe { trace_chunk_avx2(pass, seed, iteration, paths, chunk, budget) };
+}
+
+impl ChunkTracer for Subpaths<'_, '_> {
+    type Chunk = Chunk;
+
+    fn clear(&self, chunk: &mut Chunk) {
+        if chunk.ends.capacity() == 0 {
+            // Only what the technique fills: a light pass that stores no vertex (`lt`)
+            // or splats none (the merging and many-light passes) reserves none.
+            let t = self.pass.tracing;
+            if t.stores {
+                chunk
+                    .vertices
+                    .reserve(RESERVED_VERTICES.min(self.budget.vertices));
+            }
+            chunk.ends.reserve(PATHS_PER_TASK);
+            if t.splats {
+                chunk.splats.reserve(RESERVED_SPLATS);
+            }
         }
+        chunk.vertices.clear();
+        chunk.ends.clear();
+        chunk.segments.clear();
+        chunk.segment_ends.clear();
+        chunk.splats.clear();
+        chunk.stats = RenderStats::default();
+        chunk.over_budget = false;
     }
-    trace_chunk_body(pass, seed, iteration, paths, chunk, budget)
-}
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-unsafe fn trace_chunk_avx2(
-    pass: &Pass,
-    seed: u64,
-    iteration: u64,
-    paths: std::ops::Range<usize>,
-    chunk: &mut Chunk,
-    budget: Budget,
-) {
-    trace_chunk_body(pass, seed, iteration, paths, chunk, budget)
-}
-
-#[inline(always)]
-fn trace_chunk_body(
-    pass: &Pass,
-    seed: u64,
-    iteration: u64,
-    paths: std::ops::Range<usize>,
-    chunk: &mut Chunk,
-    budget: Budget,
-) {
-    for i in paths {
-        let mut rng = Stream::LightSubpaths.rng(seed, iteration, i as u64);
+    /// One subpath, then where it ends in the chunk's arrays.
+    #[inline(always)]
+    fn trace(&self, index: u64, chunk: &mut Chunk) {
+        let pass = self.pass;
+        let mut rng = Stream::LightSubpaths.rng(self.seed, self.iteration, index);
         if pass.scene.has_media {
-            trace_one::<WithMedia>(pass, &mut rng, chunk, budget);
+            trace_one::<WithMedia>(pass, &mut rng, chunk, self.budget);
         } else {
-            trace_one::<NoMedia>(pass, &mut rng, chunk, budget);
+            trace_one::<NoMedia>(pass, &mut rng, chunk, self.budget);
         }
         chunk.ends.push(chunk.vertices.len() as u32);
         if pass.keep_segments {
@@ -135,10 +110,13 @@ struct Start {
     ray: Ray,
     walk: Walk,
     finite: bool,
-    /// (light, pick probability, emission density, origin, normal, cos) for area
-    /// lights, whose light-sampling density depends on the receiving point.
-    area: Option<(usize, f32, f32, Vec3, Vec3, f32)>,
+    /// Area lights, whose light-sampling density depends on the receiving point.
+    area: Option<AreaStart>,
 }
+
+/// An area light's start: (light, pick probability, emission density, origin,
+/// normal, cos).
+type AreaStart = (usize, f32, f32, Vec3, Vec3, f32);
 
 #[inline(always)]
 fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
@@ -187,10 +165,9 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     let Some((st, ls)) = start(pass, rng) else {
         return;
     };
-    let (es, li, pick) = (&ls.sample, ls.light, ls.pick);
     chunk.stats.samples += 1;
     if pass.tracing.lt {
-        splat_emitter::<M>(pass, rng, chunk, es, li, pick);
+        splat_emitter::<M>(pass, rng, chunk, &ls.sample, ls.light, ls.pick);
     }
     let Start {
         mut ray,
@@ -201,8 +178,6 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     if M::ON {
         walk.medium = ls.medium;
     }
-    let store = pass.tracing.stores;
-    let to_camera = pass.tracing.splats;
     // The last vertex's connection to the lens, whose shadow ray (without media) is
     // traced together with the ray that continues the path.
     let mut lens: Option<LensShadow> = None;
@@ -210,39 +185,24 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         chunk.stats.rays += 1;
         let mut owner = Owner::default();
         let (event, tr) = if M::ON {
-            let Chunk {
-                segments,
-                over_budget,
-                stats,
-                ..
-            } = chunk;
             let area = match area {
                 Some((l, _, _, _, n0, _)) if walk.len == 1 => (l as u32, n0),
                 _ => NO_AREA,
             };
-            let mut sink = SegmentSink {
-                out: segments,
-                budget: budget.segments,
-                over_budget,
-                start: FlightStart {
-                    len: walk.len,
-                    q: walk.q,
-                    from: walk.origin,
-                    area,
-                },
-            };
-            let keep = pass.keep_segments.then_some(&mut sink);
-            next_event::<M>(scene, &mut ray, &mut walk, rng, stats, keep, &mut owner)
+            flight::<M>(
+                pass,
+                rng,
+                chunk,
+                budget,
+                (&mut ray, &mut walk),
+                area,
+                &mut owner,
+            )
         } else {
-            // Read in place, then cleared: `take` copied the whole lens connection.
-            let shadow = lens.as_ref().map(|l| &l.ray);
-            let rays = &mut chunk.stats.rays;
-            let (event, visible) = next_event_with(scene, &mut ray, shadow, rays, &mut owner);
-            if let Some(l) = lens.as_ref().filter(|_| visible) {
-                push_splat(chunk, l.raster, l.value, l.layer);
-            }
-            lens = None;
-            (event, 1.0)
+            (
+                flight_and_lens(pass, chunk, &mut ray, &mut lens, &mut owner),
+                1.0,
+            )
         };
         let v = match event {
             Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
@@ -255,27 +215,15 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         };
         let dist2 = (v.p() - walk.origin).length_squared();
         if walk.len == 1 {
-            if let Some((l, pick, emission, p0, n0, cos0)) = area {
-                // The density with which light sampling from this point picks the
-                // origin, in area measure ([TR] eq. 31); geometric, no transmittance.
-                let pdf_w = scene.lights[l].pdf_li(v.p(), -ray.d, p0, n0);
-                walk.q.dvcm = pass
-                    .mis
-                    .f(pick as f64 * pdf_w as f64 * cos0 as f64 / (dist2 as f64 * emission as f64));
+            if let Some(area) = area {
+                finish_area_start(pass, &mut walk, area, v.p(), ray.d, dist2);
             }
         }
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         walk.q = pass.mis.on_hit(walk.q, d2 / tr, v.d_in());
         if !v.skips_connections() {
-            if store && chunk.vertices.len() >= budget.vertices {
-                chunk.over_budget = true;
-            } else if store {
-                chunk.vertices.push(stored(v, &walk, ray.d, scene));
-            }
-            if to_camera {
-                lens = connect_to_camera(pass, rng, chunk, &walk, v);
-            }
+            lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
         }
         if walk.len + 2 > pass.max_depth {
             break;
@@ -290,6 +238,99 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         if scene.visible(&l.ray) {
             push_splat(chunk, l.raster, l.value, l.layer);
         }
+    }
+}
+
+/// In media: the walk to the next event, keeping the segments it crosses when the
+/// pass asks for them; the event and its MIS transmittance.
+#[inline(always)]
+fn flight<'a, 's, M: Media>(
+    pass: &Pass<'s>,
+    rng: &mut Rng,
+    chunk: &mut Chunk,
+    budget: Budget,
+    (ray, walk): (&mut Ray, &mut Walk),
+    area: (u32, Vec3),
+    owner: &'a mut Owner<'s>,
+) -> (Event<'a>, f32) {
+    let Chunk {
+        segments,
+        over_budget,
+        stats,
+        ..
+    } = chunk;
+    let mut sink = SegmentSink {
+        out: segments,
+        budget: budget.segments,
+        over_budget,
+        start: FlightStart {
+            len: walk.len,
+            q: walk.q,
+            from: walk.origin,
+            area,
+        },
+    };
+    let keep = pass.keep_segments.then_some(&mut sink);
+    next_event::<M>(pass.scene, ray, walk, rng, stats, keep, owner)
+}
+
+/// Without media: the walk to the next surface, traced together with the pending lens
+/// connection's shadow ray, whose splat is kept if nothing blocks it.
+#[inline(always)]
+fn flight_and_lens<'a, 's>(
+    pass: &Pass<'s>,
+    chunk: &mut Chunk,
+    ray: &mut Ray,
+    lens: &mut Option<LensShadow>,
+    owner: &'a mut Owner<'s>,
+) -> Event<'a> {
+    // Read in place, then cleared: `take` copied the whole lens connection.
+    let shadow = lens.as_ref().map(|l| &l.ray);
+    let rays = &mut chunk.stats.rays;
+    let (event, visible) = next_event_with(pass.scene, ray, shadow, rays, owner);
+    if let Some(l) = lens.as_ref().filter(|_| visible) {
+        push_splat(chunk, l.raster, l.value, l.layer);
+    }
+    *lens = None;
+    event
+}
+
+/// At an area light's first hit `p`, reached along `d` at squared distance `dist2`:
+/// the density with which light sampling from `p` picks the origin, in area measure
+/// ([TR] eq. 31); geometric, no transmittance.
+#[inline(always)]
+fn finish_area_start(pass: &Pass, walk: &mut Walk, area: AreaStart, p: Vec3, d: Vec3, dist2: f32) {
+    let (l, pick, emission, p0, n0, cos0) = area;
+    let pdf_w = pass.scene.lights[l].pdf_li(p, -d, p0, n0);
+    walk.q.dvcm = pass
+        .mis
+        .f(pick as f64 * pdf_w as f64 * cos0 as f64 / (dist2 as f64 * emission as f64));
+}
+
+/// A vertex that takes connections, reached along `d`: stored when the pass keeps
+/// vertices (within the budget), and connected to the lens when it splats; the lens
+/// connection whose shadow ray is still to trace.
+#[inline(always)]
+fn keep_vertex<M: Media>(
+    pass: &Pass,
+    rng: &mut Rng,
+    chunk: &mut Chunk,
+    budget: Budget,
+    walk: &Walk,
+    v: &Vertex<M>,
+    d: Vec3,
+) -> Option<LensShadow> {
+    if pass.tracing.stores {
+        if chunk.vertices.len() >= budget.vertices {
+            chunk.over_budget = true;
+        } else {
+            chunk.vertices.push(stored(v, walk, d, pass.scene));
+        }
+    }
+    if pass.tracing.splats {
+        connect_to_camera(pass, rng, chunk, walk, v)
+    } else {
+        None
     }
 }
 

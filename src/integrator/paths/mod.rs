@@ -1,13 +1,17 @@
 //! Subpaths, as every algorithm that traces light paths shares them: the vertex
 //! (a surface with its BSDF, or a scattering point in a medium), the state a walk
 //! carries and its scattering move, the walk through media, the partial MIS
-//! quantities each vertex carries ([`partial`]), and the one light tracer with its
-//! store of vertices and segments ([`light_path`], run alone by [`light_pass`]).
+//! quantities each vertex carries ([`partial`]), the one light tracer of the
+//! bidirectional family with its store of vertices and segments ([`light_path`], run
+//! alone by [`light_pass`]), and the photon walk of the estimators without MIS
+//! ([`photons`]). Both tracers run in the light-path loop of
+//! [`crate::integrator::drive::light`].
 //!
-//! Below the algorithms: imports [`crate::integrator::transport`],
-//! [`crate::integrator::estimators`] and [`crate::integrator::memory`] only. The
+//! Below the algorithms and the estimators: imports [`crate::integrator::transport`],
+//! [`crate::integrator::drive`] and [`crate::integrator::memory`] only. The
 //! bidirectional family adds its MIS weights and its camera walk on top; the
-//! many-light methods and photon beams take the store of [`light_pass`].
+//! many-light methods and photon beams take the store of [`light_pass`]; the photon
+//! mappers gather [`photons`] with the estimators.
 
 pub(crate) mod layers;
 pub(crate) mod light_pass;
@@ -15,6 +19,7 @@ pub(crate) mod light_path;
 pub(crate) mod light_vertex;
 pub(crate) mod media;
 pub(crate) mod partial;
+pub(crate) mod photons;
 pub(crate) mod segments;
 pub(crate) mod store;
 pub(crate) mod vertex;

@@ -6,6 +6,7 @@
 use super::light_vertex::LightVertex;
 use super::segments::LightSegment;
 use super::{Splat, Tracing};
+use crate::integrator::drive::light::chunk_share;
 use crate::integrator::memory::{self, array, budgeted, pushed, refilled, Estimate};
 use crate::integrator::transport::PATHS_PER_TASK;
 use crate::integrator::RenderStats;
@@ -39,12 +40,9 @@ pub(crate) struct Budget {
 impl Budget {
     /// Each of `chunks` chunks' share of `max_vertex_mib`.
     pub(crate) fn new(max_vertex_mib: f32, chunks: usize) -> Budget {
-        let per_chunk = |size: usize| {
-            (max_vertex_mib as f64 * 1048576.0 / size as f64 / chunks as f64) as usize
-        };
         Budget {
-            vertices: per_chunk(std::mem::size_of::<LightVertex>()),
-            segments: per_chunk(std::mem::size_of::<LightSegment>()),
+            vertices: chunk_share::<LightVertex>(max_vertex_mib, chunks),
+            segments: chunk_share::<LightSegment>(max_vertex_mib, chunks),
         }
     }
 }

@@ -14,10 +14,8 @@
 //!   pass's sum, divided by the photon paths of the pass, joins the camera-pass
 //!   radiance (an average over passes, like the direct light).
 
-use super::{PhotonChunk, PhotonMapper};
-use crate::geometry::{spawn_ray, Ray};
-use crate::integrator::photon::vpm::{photon_bounce, BeamQuery, Photon};
-use crate::integrator::transport::medium_walk::{Cross, MediumWalk, Segment, Segments, Step};
+use crate::integrator::estimators::beam_query::BeamQuery;
+use crate::integrator::transport::medium_walk::{Cross, Segment, Segments};
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng};
 use crate::scene::Scene;
@@ -60,77 +58,4 @@ pub(super) fn gather_segments(
         .iter()
         .map(|c| c.seg.beta * q.segment(&c.seg, c.depth, rng, stats))
         .fold(Rgb::ZERO, |a, b| a + b)
-}
-
-impl PhotonMapper {
-    /// One photon path through media from `ray` with power `beta`, emitted into
-    /// `medium`: medium photons into `out.media` (at most `budget`), surface photons as
-    /// without media.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn trace_photon_in_media(
-        &self,
-        scene: &Scene,
-        mut ray: Ray,
-        beta: Rgb,
-        medium: Option<u32>,
-        rng: &mut Rng,
-        out: &mut PhotonChunk,
-        budget: usize,
-    ) {
-        let max_depth = self.s.max_depth;
-        let mut walk = MediumWalk { beta, medium };
-        let mut depth = 0u32;
-        loop {
-            out.stats.rays += 1;
-            let next = match walk.next(scene, &mut ray, &mut (), rng, &mut out.stats) {
-                Step::Scatter { seg, t, .. } => {
-                    let p = seg.ray.at(t);
-                    if depth + 2 <= max_depth {
-                        if out.media.len() < budget {
-                            out.media.push(Photon {
-                                p,
-                                d: seg.ray.d,
-                                beta: walk.beta,
-                                medium: seg.medium,
-                                depth,
-                            });
-                            out.stats.light_vertices += 1;
-                        } else {
-                            out.over_budget = true;
-                        }
-                    }
-                    if depth + 3 > max_depth {
-                        return;
-                    }
-                    let phase = scene.media[seg.medium as usize].phase();
-                    let (wi, _) = phase.sample(seg.ray.d, rng.next_2d());
-                    // Exact phase sampling: the flight's weight is the event's.
-                    (seg.beta, Ray::new(p, wi))
-                }
-                Step::Surface(it, m) => {
-                    if depth >= 1 && !m.is_delta() {
-                        self.store_surface_photon(it.p, -ray.d, walk.beta, depth, out);
-                    }
-                    if depth + 3 > max_depth {
-                        return;
-                    }
-                    let Some((wi, weight)) = photon_bounce(scene, &it, &m, -ray.d, rng) else {
-                        return;
-                    };
-                    let old = walk.beta;
-                    walk.beta *= weight;
-                    walk.medium = scene.medium_after(&it, wi, walk.medium);
-                    (old, spawn_ray(it.p, it.p_err, it.ng, wi))
-                }
-                Step::Escaped | Step::End => return,
-            };
-            let (old, next_ray) = next;
-            depth += 1;
-            let Some(b) = self.survive(depth, old, walk.beta, rng) else {
-                return;
-            };
-            walk.beta = b;
-            ray = next_ray;
-        }
-    }
 }

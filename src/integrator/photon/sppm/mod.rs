@@ -46,16 +46,17 @@ mod state;
 
 use crate::film::{is_valid_sample, Film};
 use crate::geometry::spawn_ray;
-use crate::integrator::estimators::HashGrid;
-use crate::integrator::estimators::PointBvh;
+use crate::integrator::drive::light::{chunk_count, trace_chunks};
+use crate::integrator::estimators::beam_query::BeamQuery;
+use crate::integrator::estimators::{HashGrid, PointBvh};
 use crate::integrator::memory::{
     array, capped, paths_driver, pushed, refilled, Estimate as Memory, Facts,
 };
-use crate::integrator::photon::vpm::{
-    photon_budget, photon_paths, BeamQuery, Photon as MediumPhoton,
+use crate::integrator::paths::photons::{
+    photon_budget, photon_paths, surface_step, Photon, PhotonChunk, PhotonPass, PhotonRules,
+    SurfacePhoton,
 };
 use crate::integrator::transport::camera::{sample_bsdf, stop_or_follow_delta, Stop};
-use crate::integrator::transport::emit::sample_emission;
 use crate::integrator::transport::medium_walk::{MediumWalk, Step};
 use crate::integrator::transport::nee::{direct_unweighted, Origin};
 use crate::integrator::transport::params::check_radius;
@@ -64,14 +65,15 @@ use crate::integrator::transport::radius::radius_schedule;
 use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::{Integrator, RenderStats};
 use crate::material::Mode;
-use crate::math::{max_component, Frame, Rgb, Rng, Vec2, Vec3};
-use crate::scene::{Scene, Surfacing};
+use crate::math::{Frame, Rgb, Vec2, Vec3};
+use crate::scene::Scene;
 use media::{gather_segments, CameraSegment, Record};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 pub use settings::SppmSettings;
 pub use state::StateError;
 use state::{PixelStat, State};
+use std::ops::Range;
 use std::sync::Mutex;
 
 /// Which visible points a pass uses.
@@ -104,37 +106,15 @@ struct VisiblePoint {
     depth: u32,
 }
 
-/// A stored photon (its position lives in a separate array for the hash grid).
-#[derive(Clone, Copy)]
-struct Photon {
-    /// Towards where the photon came from, world space.
-    wi: Vec3,
-    /// Power carried (flux per emitted path).
-    beta: Rgb,
-    /// Scattering events before it arrived.
-    depth: u32,
-}
-
-/// Photons of one parallel task.
-#[derive(Default)]
-struct PhotonChunk {
-    pos: Vec<Vec3>,
-    data: Vec<Photon>,
-    /// Photons in media (scenes with media only).
-    media: Vec<MediumPhoton>,
-    over_budget: bool,
-    stats: RenderStats,
-}
-
 /// The photons of one wave and the grid over their positions; in media, the medium
 /// photons and their BVH.
 #[derive(Default)]
 struct PhotonMap {
     grid: HashGrid,
     pos: Vec<Vec3>,
-    data: Vec<Photon>,
-    media: Vec<MediumPhoton>,
-    bvh: PointBvh<MediumPhoton>,
+    data: Vec<SurfacePhoton>,
+    media: Vec<Photon>,
+    bvh: PointBvh<Photon>,
 }
 
 /// What a pixel's camera path found: radiance on the way, its visible point, and the
@@ -224,11 +204,7 @@ impl PhotonMapper {
                 };
                 walk.next(scene, &mut ray, &mut rec, &mut tr_rng, stats)
             } else {
-                match scene.next_scattering(&mut ray, &mut stats.rays) {
-                    Surfacing::Hit(it, m) => Step::Surface(it, m),
-                    Surfacing::Escaped => Step::Escaped,
-                    Surfacing::Lost => Step::End,
-                }
+                surface_step(scene.next_scattering(&mut ray, &mut stats.rays))
             };
             let beta = walk.beta;
             let (it, m) = match step {
@@ -304,141 +280,41 @@ impl PhotonMapper {
         }
     }
 
-    /// Traces photon path `index` of pass `iteration`, appending its stored photons.
-    fn trace_photon(
-        &self,
-        scene: &Scene,
-        seed: u64,
-        iteration: u64,
-        index: u64,
-        out: &mut PhotonChunk,
-        budget: usize,
-    ) {
-        let mut rng = Stream::SppmPhotons.rng(seed, iteration, index);
-        let Some(start) = sample_emission(scene, &mut rng) else {
-            return;
-        };
-        let mut beta = start.power();
-        if !is_valid_sample(beta) || beta == Rgb::ZERO {
-            return;
-        }
-        if scene.has_media {
-            let (ray, medium) = (start.ray, start.medium);
-            return self.trace_photon_in_media(scene, ray, beta, medium, &mut rng, out, budget);
-        }
-        let mut ray = start.ray;
-        let max_depth = self.s.max_depth;
-        let mut depth = 0u32; // scattering events so far
-        loop {
-            out.stats.rays += 1;
-            let Surfacing::Hit(it, m) = scene.next_scattering(&mut ray, &mut out.stats.rays) else {
-                return;
-            };
-            let wo_world = -ray.d;
-            if depth >= 1 && !m.is_delta() {
-                self.store_surface_photon(it.p, wo_world, beta, depth, out);
-            }
-            // A photon stored after depth + 1 events contributes to a visible point
-            // with camera depth 0 only if (depth + 1) + 0 + 2 <= max_depth.
-            if depth + 3 > max_depth {
-                return;
-            }
-            let frame = scene.shading_frame(&it);
-            let wo = frame.to_local(wo_world);
-            let Some(s) = m.sample(wo, rng.next_f32(), rng.next_2d(), Mode::Importance) else {
-                return;
-            };
-            let wi = frame.to_world(s.wi.into());
-            let (wo_ng, wi_ng) = (wo_world.dot(it.ng), wi.dot(it.ng));
-            if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
-                return;
-            }
-            // Adjoint BSDF with shading normals (Veach 1997, eq. (5.17)):
-            // |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|); 1 where ns = ng.
-            let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
-            if !corr.is_finite() {
-                return;
-            }
-            let new_beta = beta * Rgb::from(s.weight) * corr;
-            depth += 1;
-            let Some(b) = self.survive(depth, beta, new_beta, &mut rng) else {
-                return;
-            };
-            beta = b;
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-        }
-    }
-
-    /// A photon arriving at a non-delta surface at `p` from direction `wi` (towards
-    /// where it came from) after `depth` events.
-    #[inline]
-    fn store_surface_photon(
-        &self,
-        p: Vec3,
-        wi: Vec3,
-        beta: Rgb,
-        depth: u32,
-        out: &mut PhotonChunk,
-    ) {
-        out.pos.push(p);
-        out.data.push(Photon { wi, beta, depth });
-        out.stats.light_vertices += 1;
-    }
-
-    /// Russian roulette after the `depth`-th event took the power from `old` to `new`:
-    /// survival new / old, so surviving photons keep about the power they had
-    /// (pbrt-v4's SPPM does the same). The surviving power, or None.
-    #[inline]
-    fn survive(&self, depth: u32, old: Rgb, new: Rgb, rng: &mut Rng) -> Option<Rgb> {
-        let beta = if depth >= self.s.rr_depth {
-            let q = (max_component(new) / max_component(old)).min(1.0);
-            if q.is_nan() || rng.next_f32() >= q {
-                return None;
-            }
-            new / q
-        } else {
-            new
-        };
-        (beta != Rgb::ZERO && beta.is_finite()).then_some(beta)
-    }
-
-    /// Photon paths `start..end` of a pass into `map` (photons in path order).
+    /// Photon paths `paths` of a pass into `map` (photons in path order).
     fn trace_wave(
         &self,
         scene: &Scene,
         seed: u64,
         iteration: u64,
-        (start, end): (u64, u64),
+        paths: Range<u64>,
         map: &mut PhotonMap,
     ) -> RenderStats {
-        let chunks: Vec<(u64, u64)> = (start..end)
-            .step_by(PATHS_PER_TASK)
-            .map(|a| (a, (a + PATHS_PER_TASK as u64).min(end)))
-            .collect();
-        let budget = photon_budget(self.s.max_photon_mib, chunks.len());
-        let parts: Vec<PhotonChunk> = chunks
-            .into_par_iter()
-            .map(|(a, b)| {
-                let mut c = PhotonChunk::default();
-                for i in a..b {
-                    self.trace_photon(scene, seed, iteration, i, &mut c, budget);
-                }
-                c
-            })
-            .collect();
+        let pass = PhotonPass {
+            scene,
+            rules: PhotonRules {
+                max_depth: self.s.max_depth,
+                rr_depth: self.s.rr_depth,
+                surfaces: true,
+                budget: photon_budget(self.s.max_photon_mib, chunk_count(&paths)),
+            },
+            stream: Stream::SppmPhotons,
+            seed,
+            iteration,
+        };
+        // New chunks every wave, dropped once their photons are in the map.
+        let mut chunks: Vec<PhotonChunk> = Vec::new();
+        trace_chunks(&pass, &mut chunks, paths);
         map.pos.clear();
         map.data.clear();
         map.media.clear();
         let mut stats = RenderStats::default();
-        let mut over_budget = false;
-        for c in parts {
-            map.pos.extend_from_slice(&c.pos);
-            map.data.extend_from_slice(&c.data);
+        for c in &chunks {
+            map.pos.extend_from_slice(&c.surface_pos);
+            map.data.extend_from_slice(&c.surface);
             map.media.extend_from_slice(&c.media);
-            over_budget |= c.over_budget;
             stats += c.stats;
         }
-        if over_budget {
+        if chunks.iter().any(|c| c.over_budget) {
             tracing::warn!(
                 "medium photons beyond max_photon_mib = {} per wave were not stored; raise it or lower light_paths",
                 self.s.max_photon_mib
@@ -541,16 +417,16 @@ impl Integrator for PhotonMapper {
         let mut start = 0u64;
         while start < paths && (r_max > 0.0 || crosses_media) {
             let end = (start + WAVE as u64).min(paths);
-            stats += self.trace_wave(scene, seed, iteration, (start, end), map);
+            stats += self.trace_wave(scene, seed, iteration, start..end, map);
             map.grid.build(&map.pos, r_max.max(f32::MIN_POSITIVE));
             if crosses_media {
                 map.bvh.build(&mut map.media);
             }
             stats.vertex_bytes = stats.vertex_bytes.max(
                 (map.pos.capacity() * std::mem::size_of::<Vec3>()
-                    + map.data.capacity() * std::mem::size_of::<Photon>()
+                    + map.data.capacity() * std::mem::size_of::<SurfacePhoton>()
                     + map.grid.bytes()
-                    + map.media.capacity() * std::mem::size_of::<MediumPhoton>()
+                    + map.media.capacity() * std::mem::size_of::<Photon>()
                     + map.bvh.bytes()) as u64,
             );
             let map = &*map;

@@ -101,7 +101,7 @@ impl SppmSettings {
         let chunks = wave.div_ceil(PATHS_PER_TASK);
         let per_chunk = wave as f64 / chunks as f64;
         let surface = per_chunk * (walk.surface - walk.direct);
-        let point = std::mem::size_of::<Vec3>() + std::mem::size_of::<Photon>();
+        let point = std::mem::size_of::<Vec3>() + std::mem::size_of::<SurfacePhoton>();
         let n = surface * chunks as f64;
         // Each wave's chunks are new; the map's arrays are refilled.
         let mut photons = (chunks as f64 * pushed(surface, 0.0) + refilled(n, 0.0)) * point as f64;
@@ -112,9 +112,9 @@ impl SppmSettings {
             let wanted = per_chunk * walk.medium;
             let medium = wanted.min(budget);
             let m = medium * chunks as f64;
-            photons += chunks as f64 * array::<MediumPhoton>(pushed(medium, 0.0))
-                + array::<MediumPhoton>(refilled(m, 0.0));
-            index += PointBvh::<MediumPhoton>::bytes_for(m);
+            photons += chunks as f64 * array::<Photon>(pushed(medium, 0.0))
+                + array::<Photon>(refilled(m, 0.0));
+            index += PointBvh::<Photon>::bytes_for(m);
             driver = capped(
                 &driver,
                 wanted > budget,

@@ -80,26 +80,26 @@
 //! pass is the shared tile loop. An iteration is a pure function of (scene, settings,
 //! seed, iteration).
 
-mod photons;
-
 use crate::film::Film;
+use crate::integrator::drive::light::{chunk_count, trace_chunks};
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
+use crate::integrator::estimators::beam_query::BeamQuery;
 use crate::integrator::estimators::{HashGrid, PointBvh};
 use crate::integrator::memory::{
     array, budgeted, capped, paths_driver, refilled, Estimate as Memory, Facts,
+};
+use crate::integrator::paths::photons::{
+    photon_budget, photon_paths, Photon, PhotonChunk, PhotonPass, PhotonRules,
 };
 use crate::integrator::transport::density_camera::{self, Depths, MediumGather};
 use crate::integrator::transport::medium_walk::Segment;
 use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_photon_params};
 use crate::integrator::transport::radius::radius_schedule;
-use crate::integrator::transport::PATHS_PER_TASK;
+use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::{Integrator, RenderStats};
 use crate::math::{Rgb, Rng, Vec3, PI};
 use crate::scene::Scene;
-pub(crate) use photons::photon_budget;
-use photons::Chunk;
-pub(crate) use photons::{photon_bounce, Photon};
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
@@ -241,15 +241,10 @@ impl VpmSettings {
     }
 }
 
-/// Photon paths per iteration: `light_paths` x `pixels`, rounded up, at least one.
-pub(crate) fn photon_paths(light_paths: f32, pixels: f64) -> usize {
-    (light_paths as f64 * pixels).ceil().max(1.0) as usize
-}
-
 /// What `iterate` reuses between iterations.
 #[derive(Default)]
 struct Workspace {
-    chunks: Vec<Chunk>,
+    chunks: Vec<PhotonChunk>,
     photons: Vec<Photon>,
     positions: Vec<Vec3>,
     grid: HashGrid,
@@ -262,55 +257,6 @@ struct Gather<'a> {
     grid: &'a HashGrid,
     /// The photons, their BVH, the radius and 1 / photon paths emitted.
     q: BeamQuery<'a>,
-}
-
-/// The beam radiance estimate over one iteration's (or wave's) photons in media, for
-/// `vpm` and for the medium part of `ppm` and `sppm`.
-pub(crate) struct BeamQuery<'a> {
-    pub scene: &'a Scene,
-    pub photons: &'a [Photon],
-    pub bvh: &'a PointBvh<Photon>,
-    pub radius: f32,
-    /// 1 / photon paths emitted.
-    pub inv_paths: f32,
-    pub max_depth: u32,
-}
-
-impl BeamQuery<'_> {
-    /// Beam radiance estimate over the camera segment `seg` (ray o + t d, t in [0, tmax)):
-    /// (1 / (N pi r^2)) sum_p T(o, o + t_p d) f_p(d_p, -d) beta_p over the photons
-    /// within r of the segment [Jarosz et al. 2008, constant 2D kernel], per unit of the
-    /// throughput at the segment's start; photons stored after k events count on a
-    /// segment reached after `cam_depth` surface events when k + cam_depth + 2 <=
-    /// max_depth.
-    pub fn segment(
-        &self,
-        seg: &Segment,
-        cam_depth: u32,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> Rgb {
-        let (mi, ray, tmax) = (seg.medium, &seg.ray, seg.tmax);
-        let med = &self.scene.media[mi as usize];
-        let phase = med.phase();
-        let homogeneous = med.as_homogeneous();
-        let wo = -ray.d;
-        let mut sum = Rgb::ZERO;
-        self.bvh
-            .query(self.photons, ray.o, ray.d, tmax, self.radius, |ph, t| {
-                if ph.medium != mi || ph.depth + cam_depth + 2 > self.max_depth {
-                    return;
-                }
-                stats.merges += 1;
-                let tr = match homogeneous {
-                    Some(h) => h.transmittance(t),
-                    None => med.transmittance(ray.o, ray.d, t, rng),
-                };
-                sum += tr * ph.beta * phase.eval(ph.d, wo);
-            });
-        let r = self.radius;
-        sum * (self.inv_paths / (PI * r * r))
-    }
 }
 
 pub struct Vpm {
@@ -335,6 +281,47 @@ impl Vpm {
             self.s.light_paths,
             scene.width() as f64 * scene.height() as f64,
         )
+    }
+}
+
+impl Vpm {
+    /// The photon pass: fixed chunks in parallel, concatenated in chunk order.
+    fn trace_photons(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        iteration: u64,
+        paths: usize,
+        ws: &mut Workspace,
+    ) -> RenderStats {
+        let paths = 0..paths as u64;
+        let pass = PhotonPass {
+            scene,
+            rules: PhotonRules {
+                max_depth: self.s.max_depth,
+                // Photons are rouletted at every event (`rr_depth` is the camera's).
+                rr_depth: 0,
+                surfaces: false,
+                budget: photon_budget(self.s.max_photon_mib as f32, chunk_count(&paths)),
+            },
+            stream: Stream::VpmPhotons,
+            seed,
+            iteration,
+        };
+        trace_chunks(&pass, &mut ws.chunks, paths);
+        ws.photons.clear();
+        let mut stats = RenderStats::default();
+        for chunk in &ws.chunks {
+            ws.photons.extend_from_slice(&chunk.media);
+            stats += chunk.stats;
+        }
+        if ws.chunks.iter().any(|c| c.over_budget) {
+            tracing::warn!(
+                "photons beyond max_photon_mib = {} were not stored this iteration; raise it or lower light_paths",
+                self.s.max_photon_mib
+            );
+        }
+        stats
     }
 }
 
@@ -425,11 +412,7 @@ impl Integrator for Vpm {
             density_camera::li(scene, &g, depths, ray, rng, st)
         });
         stats.merge_radius = radius;
-        let chunk_bytes: usize = ws
-            .chunks
-            .iter()
-            .map(|c| c.photons.capacity())
-            .sum::<usize>()
+        let chunk_bytes: usize = ws.chunks.iter().map(|c| c.media.capacity()).sum::<usize>()
             * std::mem::size_of::<Photon>();
         stats.vertex_bytes = (ws.photons.capacity() * std::mem::size_of::<Photon>()
             + chunk_bytes
