@@ -17,6 +17,7 @@ use super::vertex::{Media, NoMedia, WithMedia};
 use crate::film::is_valid_sample;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::drive::light::ChunkTracer;
+use crate::integrator::transport::adjoint::adjoint_correction;
 use crate::integrator::transport::emit::sample_emission;
 use crate::integrator::transport::medium_walk::{MediumWalk, Segment, Step};
 use crate::integrator::transport::Stream;
@@ -255,8 +256,7 @@ fn emit(scene: &Scene, rng: &mut Rng) -> Option<(Ray, Rgb, Option<u32>)> {
 }
 
 /// A photon's BSDF sample at a surface: the new direction and the power factor, with
-/// the adjoint correction for shading normals |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)
-/// (Veach 1997, eq. (5.17)).
+/// the adjoint correction for shading normals that light subpaths also apply.
 #[inline(always)]
 fn photon_bounce(
     scene: &Scene,
@@ -273,8 +273,8 @@ fn photon_bounce(
     if (wi_ng > 0.0) != (s.wi.z > 0.0) || (wo_ng > 0.0) != (wo.z > 0.0) {
         return None;
     }
-    let corr = (wo.z * wi_ng).abs() / (wo_ng * s.wi.z).abs();
-    corr.is_finite().then_some((wi, Rgb::from(s.weight) * corr))
+    let corr = adjoint_correction(frame.n, it.ng, wo_world, wi);
+    Some((wi, Rgb::from(s.weight) * corr))
 }
 
 /// A photon path between events: its power and medium, and the scattering events so
