@@ -41,13 +41,13 @@
 //! current estimate, so that every consumer's sums / iterations is the estimate.
 
 mod media;
+mod pass;
 mod settings;
 mod state;
 
-use crate::film::{is_valid_sample, Film};
+use crate::film::Film;
 use crate::geometry::spawn_ray;
 use crate::integrator::drive::light::{chunk_count, trace_chunks};
-use crate::integrator::estimators::beam_query::BeamQuery;
 use crate::integrator::estimators::{HashGrid, PointBvh};
 use crate::integrator::memory::{
     array, capped, paths_driver, pushed, refilled, Estimate as Memory, Facts,
@@ -67,8 +67,8 @@ use crate::integrator::{Integrator, RenderStats};
 use crate::material::Mode;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::scene::Scene;
-use media::{gather_segments, CameraSegment, Record};
-use rayon::prelude::*;
+use media::{CameraSegment, Record};
+use pass::{estimate_film, Pass};
 use serde::{Deserialize, Serialize};
 pub use settings::SppmSettings;
 pub use state::StateError;
@@ -359,168 +359,33 @@ impl Integrator for PhotonMapper {
         let (w, h) = (scene.width(), scene.height());
         let npix = w as usize * h as usize;
         let mut guard = self.inner.lock().unwrap_or_else(|e| e.into_inner());
-        let inner = &mut *guard;
-        // Statistics belong to one sequence of passes: start afresh at iteration 0,
-        // and whenever the caller does not continue where the state left off.
-        let fresh = match &inner.state {
-            Some(st) => {
-                iteration == 0 || st.seed != seed || st.next != iteration || st.pixels.len() != npix
-            }
-            None => true,
-        };
-        if fresh {
-            inner.state = Some(State::new(
-                seed,
-                iteration,
-                npix,
-                self.s.initial_radius(scene),
-            ));
-        }
-        let state = inner.state.as_mut().expect("state was just set");
+        let Inner { state, map } = &mut *guard;
+        let state = self.state_for(state, scene, seed, iteration, npix);
         let mut stats = RenderStats::default();
-
         // 1. Camera pass: visible points, and the radiance found on the way.
-        let parts: Vec<(Vec<CameraResult>, RenderStats)> = (0..npix)
-            .step_by(PIXEL_CHUNK)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|a| {
-                let mut st = RenderStats::default();
-                let v = (a..(a + PIXEL_CHUNK).min(npix))
-                    .map(|i| self.camera_path(scene, seed, iteration, i as u64, &mut st))
-                    .collect();
-                (v, st)
-            })
-            .collect();
-        let mut camera = Vec::with_capacity(npix);
-        for (v, st) in parts {
-            camera.extend(v);
-            stats += st;
-        }
-
+        let camera = self.camera_pass(scene, seed, iteration, npix, &mut stats);
         // 2. Photon passes in waves, each gathered into every visible point.
         let paths = if scene.lights.is_empty() {
             0
         } else {
             self.paths_per_pass(scene)
         };
-        let mut gathered = vec![Gathered::default(); npix];
-        let r_max = camera
-            .iter()
-            .zip(&state.pixels)
-            .filter(|(c, _)| c.vp.is_some())
-            .map(|(_, p)| p.r as f32)
-            .fold(0.0f32, f32::max);
-        let crosses_media = camera.iter().any(|c| !c.segments.is_empty());
-        let medium_radius = self.s.medium_radius_at(scene, iteration);
-        let map = &mut inner.map;
-        let mut start = 0u64;
-        while start < paths && (r_max > 0.0 || crosses_media) {
-            let end = (start + WAVE as u64).min(paths);
-            stats += self.trace_wave(scene, seed, iteration, start..end, map);
-            map.grid.build(&map.pos, r_max.max(f32::MIN_POSITIVE));
-            if crosses_media {
-                map.bvh.build(&mut map.media);
-            }
-            stats.vertex_bytes = stats.vertex_bytes.max(
-                (map.pos.capacity() * std::mem::size_of::<Vec3>()
-                    + map.data.capacity() * std::mem::size_of::<SurfacePhoton>()
-                    + map.grid.bytes()
-                    + map.media.capacity() * std::mem::size_of::<Photon>()
-                    + map.bvh.bytes()) as u64,
-            );
-            let map = &*map;
-            let beams = BeamQuery {
-                scene,
-                photons: &map.media,
-                bvh: &map.bvh,
-                radius: medium_radius,
-                inv_paths: 1.0,
-                max_depth: self.s.max_depth,
-            };
-            let wave = start / WAVE as u64;
-            gathered
-                .par_iter_mut()
-                .with_min_len(256)
-                .zip(camera.par_iter())
-                .zip(state.pixels.par_iter())
-                .enumerate()
-                .for_each(|(i, ((acc, c), px))| {
-                    if let Some(vp) = &c.vp {
-                        self.gather(scene, map, vp, px.r as f32, acc);
-                    }
-                    if !c.segments.is_empty() {
-                        // One sequence per pixel and wave (ratio tracking to photons).
-                        let mut rng =
-                            Stream::SppmMedium.rng(seed ^ (wave + 1), iteration, i as u64);
-                        let mut st = RenderStats::default();
-                        let l = gather_segments(&beams, &c.segments, &mut rng, &mut st);
-                        acc.medium = std::array::from_fn(|k| acc.medium[k] + l[k] as f64);
-                        acc.medium_merges += st.merges;
-                    }
-                });
-            start = end;
-        }
-
+        let pass = Pass {
+            scene,
+            seed,
+            iteration,
+            paths,
+        };
+        let gathered = self.photon_waves(&pass, &camera, state, map, &mut stats);
         // 3. Per-pixel statistics [2008, eqs. (7), (8), (11)], then the film.
-        let alpha = self.s.alpha as f64;
-        let per_path = 1.0 / paths.max(1) as f64;
-        let dropped: u64 = state
-            .pixels
-            .par_iter_mut()
-            .with_min_len(256)
-            .zip(camera.par_iter())
-            .zip(gathered.par_iter())
-            .map(|((px, c), g)| {
-                let mut dropped = 0;
-                // The camera pass's radiance, media included (averaged over passes).
-                let medium = g.medium.map(|v| (v * per_path) as f32);
-                let l = c.l + Rgb::new(medium[0], medium[1], medium[2]);
-                if is_valid_sample(l) {
-                    for c in 0..3 {
-                        px.direct[c] += l[c] as f64;
-                    }
-                } else {
-                    dropped += 1;
-                }
-                let phi_ok = g.phi.iter().all(|v| v.is_finite() && *v >= 0.0);
-                if !phi_ok {
-                    dropped += 1;
-                } else if g.m > 0 {
-                    let m = g.m as f64;
-                    let n_new = px.n + alpha * m;
-                    let r_new = px.r * (n_new / (px.n + m)).sqrt();
-                    let shrink = (r_new / px.r) * (r_new / px.r);
-                    for c in 0..3 {
-                        px.tau[c] = (px.tau[c] + g.phi[c]) * shrink;
-                    }
-                    px.n = n_new;
-                    px.r = r_new;
-                }
-                dropped
-            })
-            .sum();
+        let dropped = self.update_pixels(state, &camera, &gathered, paths);
         state.passes += 1;
         state.emitted += paths;
         state.next = iteration + 1;
         stats.merges = gathered.iter().map(|g| g.m + g.medium_merges).sum();
         stats.merge_radius =
             (state.pixels.iter().map(|p| p.r).sum::<f64>() / npix.max(1) as f64) as f32;
-
-        // The estimate after this pass, times the iteration count the caller divides by.
-        let k = (iteration + 1) as f64;
-        let passes = state.passes as f64;
-        let emitted = state.emitted.max(1) as f64;
-        let sums: Vec<[f64; 3]> = state
-            .pixels
-            .par_iter()
-            .with_min_len(1024)
-            .map(|px| {
-                let norm = 1.0 / (emitted * std::f64::consts::PI * px.r * px.r);
-                std::array::from_fn(|c| k * (px.direct[c] / passes + px.tau[c] * norm))
-            })
-            .collect();
-        *film = Film::from_parts(w, h, sums, film.dropped() + dropped);
+        *film = estimate_film(state, w, h, iteration, film.dropped() + dropped);
         stats
     }
 
