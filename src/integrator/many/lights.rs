@@ -77,7 +77,7 @@ pub(super) struct RayLight {
 }
 
 /// Draws among virtual lights for a query, in proportion to an estimate of their
-/// contribution there (power over distance, `accel::light_tree`); the gather divides by
+/// contribution there (power over distance, `estimators::light_tree`); the gather divides by
 /// the probability. The cost of a draw grows with the tree's depth, not with the
 /// number of lights.
 #[derive(Default)]

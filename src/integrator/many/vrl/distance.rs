@@ -4,7 +4,7 @@
 //! exponential at sigma len ~ 1e-7 and the equi-angular angles of a point 1e-5 off the
 //! line lose every digit in f32.
 //!
-//! The crate's `common::equiangular::EquiAngular` refuses a point on the line (the
+//! The crate's `transport::equiangular::EquiAngular` refuses a point on the line (the
 //! caller falls back) and has no CDF; ray lights need both a guarded distance and the
 //! CDF, so this module keeps its own.
 

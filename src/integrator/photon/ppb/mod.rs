@@ -8,7 +8,7 @@
 //! 1. Light pass on the bidirectional core's store ([`Bidir::light_pass`]), keeping the
 //!    subpaths' segments through media; each becomes a beam ([`beams`]: `short` to the
 //!    flight's end, or `long` to the surface with transmittance).
-//! 2. A BVH over the beams (`accel::Lbvh`: Morton order of the boxes' centres with
+//! 2. A BVH over the beams (`estimators::Lbvh`: Morton order of the boxes' centres with
 //!    unique keys, so its tree and the order of every query's results do not depend on
 //!    the thread count).
 //! 3. Camera pass: every segment of a camera path in a medium is one query against the

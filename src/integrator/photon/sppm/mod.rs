@@ -10,10 +10,10 @@
 //!    camera random stream of iteration 0), so its visible points are those of the
 //!    first ray-tracing pass, recomputed rather than stored; SPPM draws a new jittered
 //!    sample (film position, lens, lobe choices) every pass.
-//! 2. A photon pass: `light_paths x pixels` photon paths. Photons that have scattered
-//!    at least once are stored at non-delta surfaces; photons arriving straight from
-//!    the light are not (that light is the NEE term above), so photons carry only
-//!    indirect light.
+//! 2. A photon pass (the photon walk of `paths::photons`): `light_paths x pixels` photon
+//!    paths. Photons that have scattered at least once are stored at non-delta
+//!    surfaces; photons arriving straight from the light are not (that light is the NEE
+//!    term above), so photons carry only indirect light.
 //!
 //! Each pixel keeps the statistics of the papers: N (accumulated photon count), R
 //! (radius) and tau (accumulated flux). With M photons found within R of this pass's
@@ -34,7 +34,7 @@
 //!
 //! In scenes with participating media the camera path crosses media with their
 //! transmittance, photons take free flights, and the media are gathered along the camera
-//! segments with `vpm`'s beam radiance estimate ([`media`]).
+//! segments with the beam radiance estimate of `estimators::beam_query` ([`media`]).
 //!
 //! Iterations are not independent: the per-pixel statistics are the integrator's state
 //! (`save_state` / `load_state`). After iteration i the film holds (i + 1) times the
@@ -46,7 +46,7 @@ mod settings;
 mod state;
 
 use crate::film::Film;
-use crate::geometry::spawn_ray;
+use crate::geometry::{spawn_ray, Interaction};
 use crate::integrator::drive::light::{chunk_count, trace_chunks};
 use crate::integrator::estimators::{HashGrid, PointBvh};
 use crate::integrator::memory::{
@@ -64,8 +64,8 @@ use crate::integrator::transport::params::{check_alpha, check_photon_params, Par
 use crate::integrator::transport::radius::radius_schedule;
 use crate::integrator::transport::{Stream, PATHS_PER_TASK};
 use crate::integrator::{Integrator, RenderStats};
-use crate::material::Mode;
-use crate::math::{Frame, Rgb, Vec2, Vec3};
+use crate::material::{Material, Mode};
+use crate::math::{Frame, Rgb, Rng, Vec2, Vec3};
 use crate::scene::Scene;
 use media::{CameraSegment, Record};
 use pass::{estimate_film, Pass};
@@ -75,6 +75,31 @@ pub use state::StateError;
 use state::{PixelStat, State};
 use std::ops::Range;
 use std::sync::Mutex;
+
+/// The visible point at `it` (shading `frame`, `wo` local), reached with throughput
+/// `beta` after `depth` events in `medium`, and the direct light it sees by light
+/// sampling alone: the camera path stops here, so no BSDF sample can find the light.
+fn visible_point(
+    scene: &Scene,
+    (it, frame, wo, m): (&Interaction, &Frame, Vec3, &Material),
+    (beta, depth, medium): (Rgb, u32, Option<u32>),
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> (VisiblePoint, Rgb) {
+    let at = Origin::Surface { it, frame, wo, m };
+    let direct = beta * direct_unweighted(scene, &at, medium, rng, stats);
+    let vp = VisiblePoint {
+        p: it.p,
+        ng: it.ng,
+        frame: *frame,
+        wo,
+        beta,
+        material: scene.shapes[it.shape as usize].material,
+        uv: scene.uv(it),
+        depth,
+    };
+    (vp, direct)
+}
 
 /// Which visible points a pass uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -237,26 +262,11 @@ impl PhotonMapper {
                 Some(Stop::Here(scale)) => {
                     let beta = if scale == 1.0 { beta } else { beta * scale };
                     let mut nee_rng = Stream::SppmDirect.rng(seed, iteration, index);
-                    // Light sampling alone: the camera path stops here, so no BSDF
-                    // sample can find the light.
-                    let at = Origin::Surface {
-                        it: &it,
-                        frame: &frame,
-                        wo,
-                        m: &m,
-                    };
-                    let medium = walk.medium;
-                    out.l += beta * direct_unweighted(scene, &at, medium, &mut nee_rng, stats);
-                    out.vp = Some(VisiblePoint {
-                        p: it.p,
-                        ng: it.ng,
-                        frame,
-                        wo,
-                        beta,
-                        material: scene.shapes[it.shape as usize].material,
-                        uv: scene.uv(&it),
-                        depth,
-                    });
+                    let at = (&it, &frame, wo, &*m);
+                    let vp =
+                        visible_point(scene, at, (beta, depth, walk.medium), &mut nee_rng, stats);
+                    out.l += vp.1;
+                    out.vp = Some(vp.0);
                     return out;
                 }
                 Some(Stop::Follow(s)) => Some(s),

@@ -6,9 +6,9 @@
 //! "The beam radiance estimate for volumetric photon mapping").
 //!
 //! ## An iteration
-//! 1. Photon pass: `light_paths x pixels` photon paths leave the lights (emission
-//!    sampling, in the medium each light emits into), take free flights through media
-//!    and scatter at surfaces and in media. Every real scattering event in a medium
+//! 1. Photon pass (the photon walk of `paths::photons`): `light_paths x pixels`
+//!    photon paths leave the lights (emission sampling, in the medium each light emits
+//!    into), take free flights through media and scatter at surfaces and in media. Every real scattering event in a medium
 //!    stores a photon: position x_p, propagation direction d_p, power beta_p, medium,
 //!    and the number of events before it. beta_p is the throughput *after* the free
 //!    flight's weight, which already holds sigma_s T / pdf, so the stored powers are a
@@ -46,7 +46,7 @@
 //! index-matched boundary would mix media of different sigma_s).
 //!
 //! ## Surfaces
-//! Path traced (the camera path shared with `ppb`, `common::density_camera`): direct
+//! Path traced (the camera path shared with `ppb`, `transport::density_camera`): direct
 //! light by next-event estimation (one light, its transmittance through media with
 //! `Scene::transmittance`), indirect light by continuing the camera path with a BSDF
 //! sample, on which the next medium segment queries the photons again.
@@ -70,7 +70,7 @@
 //!
 //! ## Acceleration
 //! Point queries use the shared hash grid (cells of 2r, 8 cells per query), beam
-//! queries the point BVH of `accel::lbvh`, rebuilt every iteration. Walking
+//! queries the point BVH of `estimators::lbvh`, rebuilt every iteration. Walking
 //! hash-grid cells along the ray would need a 3D DDA dilated by r through a hashed
 //! table whose slots alias far-away cells.
 //!
