@@ -71,6 +71,8 @@ pub struct ErrorDetail {
 #[derive(Serialize, Deserialize, Debug, Clone, ToSchema)]
 pub struct AlgorithmInfo {
     pub name: String,
+    /// What it computes, in one line.
+    pub about: String,
     /// Every parameter the algorithm takes, at its default value.
     #[schema(value_type = Object)]
     pub params: serde_json::Map<String, serde_json::Value>,
@@ -79,11 +81,12 @@ pub struct AlgorithmInfo {
 impl AlgorithmInfo {
     /// Every algorithm of [`crate::integrator::ALGORITHMS`], in its order.
     pub fn all() -> Vec<AlgorithmInfo> {
-        crate::integrator::ALGORITHMS
+        crate::integrator::registry::TABLE
             .iter()
-            .map(|name| AlgorithmInfo {
-                name: name.to_string(),
-                params: crate::integrator::Settings::defaults(name).unwrap_or_default(),
+            .map(|a| AlgorithmInfo {
+                name: a.name.to_string(),
+                about: a.about.to_string(),
+                params: crate::integrator::Settings::defaults(a.name).unwrap_or_default(),
             })
             .collect()
     }

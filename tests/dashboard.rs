@@ -317,6 +317,14 @@ fn submit_through_the_form_watch_the_preview_and_cancel() {
     );
     b.select("#scene", &scene);
     b.select("#algorithm", "pt");
+    // The registry's line on the algorithm sits above its parameters.
+    let about = caustic::integrator::registry::find("pt").unwrap().about;
+    let shown = b.wait_for(
+        "the algorithm's line",
+        "return document.getElementById('algorithm-about')?.textContent",
+        WAIT,
+    );
+    assert_eq!(shown, about);
     b.type_into("#param-max_depth", "deep");
     b.type_into("#halt-spp", "1000000");
     b.type_into("#snapshot-every", "1");

@@ -670,6 +670,16 @@ fn algorithms_are_listed_with_their_defaults() {
         .map(|a| a["name"].as_str().unwrap())
         .collect();
     assert_eq!(names, caustic::integrator::ALGORITHMS);
+    // Each says in a line what it computes, as the registry does.
+    for (a, row) in list
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(caustic::integrator::registry::TABLE)
+    {
+        let about = a["about"].as_str().unwrap();
+        assert!(!about.is_empty() && about == row.about, "{a}");
+    }
     for name in caustic::integrator::ALGORITHMS {
         // Every algorithm's defaults resolve (the list would show none otherwise).
         caustic::integrator::Settings::defaults(name).unwrap();

@@ -531,7 +531,7 @@ async fn workers(State(svc): State<Svc>) -> ApiResult<impl IntoResponse> {
     Ok(Json(blocking(&svc, |s| s.workers()).await?))
 }
 
-#[utoipa::path(get, path = "/v1/algorithms", description = "The algorithms a job may name, each with every parameter it takes at its default value.", responses((status = 200, body = Vec<AlgorithmInfo>)))]
+#[utoipa::path(get, path = "/v1/algorithms", description = "The algorithms a job may name, in the registry's order, each with a line on what it computes and every parameter it takes at its default value.", responses((status = 200, body = Vec<AlgorithmInfo>)))]
 async fn algorithms() -> Json<Vec<AlgorithmInfo>> {
     Json(AlgorithmInfo::all())
 }

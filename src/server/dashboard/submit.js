@@ -93,6 +93,7 @@ export function submitPage(view, route, signal) {
     }
     const entries = Object.entries(a.params);
     paramsBox.replaceChildren(
+      el("p", { class: "muted", id: "algorithm-about" }, a.about),
       ...(entries.length ? [] : [el("p", { class: "muted" }, `${a.name} takes no parameters.`)]),
       ...entries.map(([k, v]) =>
         field(k, `params.${k}`, text({ id: `param-${k}`, class: "param", placeholder: JSON.stringify(tidy(v)), dataset: { param: k } }), "empty: default")));
