@@ -1,8 +1,12 @@
 //! The bidirectional family on one core (Georgiev et al. 2012, "Light Transport
 //! Simulation with Vertex Connection and Merging"): light tracing (`lt`),
-//! bidirectional path tracing (`bpt`), bidirectional photon mapping (`bpm`) and vertex
-//! connection and merging (`vcm`) differ only in which techniques they use; the MIS
-//! quantities of [`mis`] weight whatever set is on.
+//! bidirectional path tracing (`bpt`), bidirectional photon mapping (`bpm`), vertex
+//! connection and merging (`vcm`) and unifying points, beams and paths (`upbp`,
+//! Křivánek et al. 2014) differ only in which techniques they use
+//! ([`Technique`], in `settings.rs`); the MIS weights of [`mis`] weigh whatever set is
+//! on. All five live here: the light subpaths come from
+//! [`crate::integrator::paths::light_path`], the camera walk is [`camera_path`], merging
+//! at points [`merge`], and `upbp`'s photon beams and camera beams [`beams`].
 //!
 //! One iteration: trace N light subpaths (N = `light_paths` x pixels), storing their
 //! non-specular vertices and splatting connections to the camera; build the hash grid
@@ -10,12 +14,13 @@
 //! light sampling, to the vertices of the light subpath with the pixel's index, and
 //! merging with every stored vertex within the radius.
 //!
-//! In scenes with participating media both subpaths also scatter in media ([`media`],
-//! [`vertex`]) and every connection carries the transmittance of its segment; the MIS
-//! quantities account for distance sampling (see [`mis`]). `bpm` and `vcm` also merge
-//! at medium vertices of the camera subpath: light vertices in the same medium within
-//! the medium radius, with the 3D kernel 1 / (4/3 pi r^3) (point x point 3D of
-//! Křivánek et al. 2014), a second merge estimator with its own eta in the MIS.
+//! In scenes with participating media both subpaths also scatter in media (the
+//! vertices and walks of [`crate::integrator::paths`]) and every connection carries the
+//! transmittance of its segment; the MIS quantities account for distance sampling (see
+//! [`mis`]). `bpm` and `vcm` also merge at medium vertices of the camera subpath: light
+//! vertices in the same medium within the medium radius, with the 3D kernel
+//! 1 / (4/3 pi r^3) (point x point 3D of Křivánek et al. 2014), a second merge
+//! estimator with its own eta in the MIS.
 
 mod beams;
 mod camera_path;

@@ -4,8 +4,8 @@
 //! beam lights (`vbl`, Novák et al. 2012, "Progressive virtual beam lights").
 //!
 //! ## An iteration
-//! 1. Light pass: N light subpaths on the bidirectional core's store
-//!    ([`Bidir::light_pass`]), storing their non-specular vertices and, for ray lights,
+//! 1. Light pass: N light subpaths of the one light tracer, run alone
+//!    ([`crate::integrator::paths::light_pass::LightPass`]), storing their non-specular vertices and, for ray lights,
 //!    their segments through media. These become the iteration's virtual lights
 //!    ([`lights`]): VPLs at vertices (every vertex for `vpl`; surface vertices only for
 //!    `vrl` and `vbl`, whose media light by ray lights) and ray lights along segments.

@@ -140,7 +140,7 @@ pub(crate) struct Stored {
     pub segments: f64,
 }
 
-/// Adds what [`trace_light_paths`] holds to `e`: per chunk of paths its vertices (the
+/// Adds what [`super::light_path::trace_light_paths`] holds to `e`: per chunk of paths its vertices (the
 /// first iteration's reservation, then doubling, at most the chunk's share of the
 /// budget), path ends, segments when kept, and splats (at most one per vertex and one
 /// for the emitter, per path). Returns what was stored.

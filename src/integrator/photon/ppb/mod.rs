@@ -5,14 +5,17 @@
 //! ([`crate::integrator::transport::density_camera`]).
 //!
 //! ## An iteration
-//! 1. Light pass on the bidirectional core's store ([`Bidir::light_pass`]), keeping the
-//!    subpaths' segments through media; each becomes a beam ([`beams`]: `short` to the
-//!    flight's end, or `long` to the surface with transmittance).
+//! 1. Light pass of the one light tracer, run alone
+//!    ([`crate::integrator::paths::light_pass::LightPass`]), keeping the subpaths'
+//!    segments through media; each becomes a beam
+//!    ([`crate::integrator::estimators::beams`]: `short` to the flight's end, or `long`
+//!    to the surface with transmittance).
 //! 2. A BVH over the beams (`estimators::Lbvh`: Morton order of the boxes' centres with
 //!    unique keys, so its tree and the order of every query's results do not depend on
 //!    the thread count).
 //! 3. Camera pass: every segment of a camera path in a medium is one query against the
-//!    beams ([`estimate`]); the path passes it with its transmittance.
+//!    beams ([`crate::integrator::estimators::beam_estimate`]); the path passes it with
+//!    its transmittance.
 //!
 //! ## The estimate
 //! The radiance scattered towards the camera along a segment o + t d is
