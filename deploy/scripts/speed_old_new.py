@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Speed of two caustic binaries, alternating in one run, on the configurations that
 integrator changes must not slow down (issue 19): cornell-box pt, gbs_p pt/bpt/vcm,
-fog-cornell volpath, smoke-room volpath.
+fog-cornell volpath, smoke-room volpath; and, since issue 38 gave the photon mappers
+the shared photon walk, cornell-box sppm and fog-cornell vpm.
 
 Each round runs `caustic bench SCENE --algorithms A --spp N --repeat 1` with both
 binaries (the order alternates between rounds, so drift in the machine's load hits
@@ -22,6 +23,8 @@ CONFIGS = [
     ("scenes/smallvcm/gbs_p.json", "vcm", 4),
     ("scenes/media/fog-cornell.json", "volpath", 4),
     ("scenes/media/smoke-room.json", "volpath", 4),
+    ("scenes/cornell-box.json", "sppm", 16),
+    ("scenes/media/fog-cornell.json", "vpm", 1),
 ]
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 
