@@ -154,8 +154,7 @@ impl Path {
         };
         match t {
             Tech::Vc(1) => {
-                (self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>())
-                    as f64
+                (self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>()) as f64
             }
             Tech::Vc(s) if s == n => (light_paths * both(n)) as f64,
             Tech::Vc(s) => both(s) as f64,
