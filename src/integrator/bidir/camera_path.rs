@@ -200,7 +200,9 @@ impl<'a, M: Media> CameraPass<'a, M> {
             return (self.fly_with_shadow(p, layers, owner, stats), 1.0);
         }
         if self.pass.query_beams() {
-            return self.fly_gathering_beams(p, layers, owner, rng, stats);
+            let r = self.fly_keeping_segments(p, owner, rng, stats);
+            self.gather_beams(p, layers, rng, stats);
+            return r;
         }
         let scene = self.pass.scene;
         next_event::<M>(scene, &mut p.ray, &mut p.walk, rng, stats, None, owner)
@@ -227,18 +229,16 @@ impl<'a, M: Media> CameraPass<'a, M> {
         event
     }
 
-    /// In media with beams to query: the flight keeps its medium segments (in
-    /// `p.pieces`, reused), and the beam estimators gather along them.
+    /// In media with beams to query: the flight keeps its medium segments in
+    /// `p.pieces` (reused from flight to flight).
     #[inline(always)]
-    fn fly_gathering_beams<'o>(
+    fn fly_keeping_segments<'o>(
         &self,
         p: &mut CameraPath,
-        layers: &[AtomicU32],
         owner: &'o mut Owner<'a>,
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> (Event<'o>, f32) {
-        let pass = self.pass;
         let walk = &mut p.walk;
         p.pieces.clear();
         let mut over = false;
@@ -253,20 +253,31 @@ impl<'a, M: Media> CameraPass<'a, M> {
                 area: NO_AREA,
             },
         };
-        let r = next_event::<M>(
-            pass.scene,
-            &mut p.ray,
-            walk,
+        let scene = self.pass.scene;
+        next_event::<M>(scene, &mut p.ray, walk, rng, stats, Some(&mut sink), owner)
+    }
+
+    /// The beam estimators along the medium segments the flight kept.
+    #[inline(always)]
+    fn gather_beams(
+        &self,
+        p: &mut CameraPath,
+        layers: &[AtomicU32],
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) {
+        let (pass, l) = (self.pass, &mut p.l);
+        beams::gather(
+            pass,
+            &self.ws.beams,
+            &p.pieces,
+            p.walk.len,
             rng,
             stats,
-            Some(&mut sink),
-            owner,
+            |k, v| {
+                add(l, layers, pass.layers.merge(k), v);
+            },
         );
-        let (len, l) = (walk.len, &mut p.l);
-        beams::gather(pass, &self.ws.beams, &p.pieces, len, rng, stats, |k, v| {
-            add(l, layers, pass.layers.merge(k), v);
-        });
-        r
     }
 
     /// Phase 2, in media: emission that only the camera subpath can find (seen
