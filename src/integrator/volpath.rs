@@ -209,7 +209,7 @@ impl VolPath {
         beta * scatter * tr * ls.li() * (w / (sel_pdf * pdf_t))
     }
 
-    /// Radiance along one camera ray: flights until the path ends (`bounce`).
+    /// Radiance along one camera ray: steps until the path ends.
     // Forced inline, like pt's kernel, so the AVX2 copy of the tile loop holds it.
     #[inline(always)]
     fn li(&self, scene: &Scene, ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
@@ -223,13 +223,13 @@ impl VolPath {
                     .iter()
                     .any(|l| Self::point_position(l).is_some()),
         };
-        while self.bounce(scene, &mut path, rng, stats) {}
+        while self.step(scene, &mut path, rng, stats) {}
         path.cam.l
     }
 
     /// One flight and what its event contributes: false when the path ends there.
     #[inline(always)]
-    fn bounce(
+    fn step(
         &self,
         scene: &Scene,
         path: &mut Path,
