@@ -229,13 +229,7 @@ impl VolPath {
 
     /// One flight and what its event contributes: false when the path ends there.
     #[inline(always)]
-    fn step(
-        &self,
-        scene: &Scene,
-        path: &mut Path,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> bool {
+    fn step(&self, scene: &Scene, path: &mut Path, rng: &mut Rng, stats: &mut RenderStats) -> bool {
         match self.fly(scene, path, rng, stats) {
             Step::Surface(it, m) => self.at_surface(scene, path, &it, &m, rng, stats),
             Step::Scatter { seg, t, .. } => self.in_medium(scene, path, seg, t, rng, stats),
