@@ -7,10 +7,10 @@ use super::volpath::{VolPath, VolpathSettings};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::{spawn_ray, Interaction, Ray};
-use crate::integrator::drive::pixels::{render_paths, tile_memory, PathKernel};
+use crate::integrator::drive::pixels::{render_paths, PathKernel};
 use crate::integrator::transport::camera::sample_bsdf;
 use crate::integrator::transport::nee::{sample_light, Origin};
-use crate::integrator::transport::params::{check_max_depth, ParamError};
+use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::material::Material;
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
@@ -59,17 +59,28 @@ impl Default for PtSettings {
     }
 }
 
+// `pt` renders scenes with media as `volpath` with the same depths and heuristic, so
+// `volpath`'s checks and memory are `pt`'s (its own paths also keep nothing between
+// pixels: the camera pass's tile buffers alone).
 impl PtSettings {
-    /// A job's memory (module `memory`): the camera pass's tile buffers; paths keep
-    /// nothing between pixels.
+    /// A job's memory (module `memory`): as `volpath`'s.
     pub fn memory(&self, facts: &Facts) -> Estimate {
-        let mut e = Estimate::default();
-        tile_memory(&mut e, facts);
-        e
+        self.volpath().memory(facts)
     }
 
+    /// As `volpath`'s (`max_depth`); `roulette` takes any of its values.
     pub fn validate(&self) -> Result<(), ParamError> {
-        check_max_depth(self.max_depth)
+        self.volpath().validate()
+    }
+
+    /// The settings of the `volpath` that renders scenes with media for `pt`.
+    fn volpath(&self) -> VolpathSettings {
+        VolpathSettings {
+            max_depth: self.max_depth,
+            rr_depth: self.rr_depth,
+            heuristic: self.heuristic,
+            equiangular: true,
+        }
     }
 }
 
@@ -92,12 +103,7 @@ pub struct PathTracer {
 
 impl PathTracer {
     pub fn new(s: PtSettings) -> Self {
-        let media = VolPath::new(VolpathSettings {
-            max_depth: s.max_depth,
-            rr_depth: s.rr_depth,
-            heuristic: s.heuristic,
-            equiangular: true,
-        });
+        let media = VolPath::new(s.volpath());
         PathTracer { s, media }
     }
 

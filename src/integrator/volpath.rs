@@ -15,17 +15,18 @@ use super::memory::{Estimate, Facts};
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::geometry::offset::SHADOW_EPSILON;
-use crate::geometry::{spawn_ray, Ray};
+use crate::geometry::{Interaction, Ray};
 use crate::integrator::drive::pixels::{render_pixels, tile_memory};
-use crate::integrator::transport::camera::{roulette, sample_bsdf};
+use crate::integrator::transport::camera::{roulette, sample_bsdf, CameraWalk};
 use crate::integrator::transport::equiangular::EquiAngular;
 use crate::integrator::transport::medium_walk::{
-    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
+    seen_emission, sees_emission, Cross, Segment, Segments, Step,
 };
-use crate::integrator::transport::nee::{sample_light, Origin};
+use crate::integrator::transport::nee::{sample_light_through, Origin};
 use crate::integrator::transport::params::{check_max_depth, ParamError};
 use crate::integrator::transport::{emitted, escaped, Heuristic};
 use crate::light::Light;
+use crate::material::Material;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Homogeneous;
 use crate::scene::Scene;
@@ -60,7 +61,8 @@ impl Default for VolpathSettings {
 }
 
 impl VolpathSettings {
-    /// A job's memory (module `memory`): as `pt`'s.
+    /// A job's memory (module `memory`): the camera pass's tile buffers; paths keep
+    /// nothing between pixels.
     pub fn memory(&self, facts: &Facts) -> Estimate {
         let mut e = Estimate::default();
         tile_memory(&mut e, facts);
@@ -135,13 +137,10 @@ impl VolPath {
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) -> Rgb {
-        let Some(link) = sample_light(scene, at, rng, stats) else {
+        let seen = sample_light_through(scene, at, medium, rng, stats);
+        let Some((link, tr)) = seen.filter(|(_, tr)| *tr != Rgb::ZERO) else {
             return Rgb::ZERO;
         };
-        let tr = link.transmittance(scene, at, medium, rng, stats);
-        if tr == Rgb::ZERO {
-            return Rgb::ZERO;
-        }
         let w = if !link.delta {
             self.mis(link.pdf_light, link.pdf_scatter)
         } else {
@@ -210,115 +209,178 @@ impl VolPath {
         beta * scatter * tr * ls.li() * (w / (sel_pdf * pdf_t))
     }
 
-    /// Radiance along one camera ray.
+    /// Radiance along one camera ray: steps until the path ends.
     // Forced inline, like pt's kernel, so the AVX2 copy of the tile loop holds it.
     #[inline(always)]
-    fn li(&self, scene: &Scene, mut ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
-        let equi = self.s.equiangular
-            && scene
-                .lights
-                .iter()
-                .any(|l| Self::point_position(l).is_some());
-        let mut l = Rgb::ZERO;
-        let mut walk = MediumWalk {
-            beta: Rgb::ONE,
-            medium: scene.camera_medium,
+    fn li(&self, scene: &Scene, ray: Ray, rng: &mut Rng, stats: &mut RenderStats) -> Rgb {
+        let mut path = Path {
+            cam: CameraWalk::new(scene, ray),
+            pdf_dir: 0.0,
+            prev_p: ray.o,
+            equi: self.s.equiangular
+                && scene
+                    .lights
+                    .iter()
+                    .any(|l| Self::point_position(l).is_some()),
         };
-        let mut depth = 0u32;
-        let mut specular = true;
-        let mut pdf_dir = 0.0f32;
-        let mut prev_p = ray.o;
-        loop {
-            let mut gather = Gather {
-                vp: self,
-                scene,
-                on: equi && depth + 1 < self.s.max_depth,
-                l: Rgb::ZERO,
-            };
-            let (first, beta, medium) = (ray, walk.beta, walk.medium);
-            let step = walk.next(scene, &mut ray, &mut gather, rng, stats);
-            l += gather.l;
-            // Emission with MIS weight 1 (seen directly or after a delta bounce), in
-            // media from the segment's transmittance instead of the flight
-            // (medium_walk::seen_emission).
-            let seen = specular && scene.has_media;
-            if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
-                l += beta * seen_emission(scene, &first, medium, rng, stats);
-            }
-            let (it, m) = match step {
-                Step::Surface(it, m) => (it, m),
-                Step::Scatter { seg, t, .. } => {
-                    if depth + 1 >= self.s.max_depth {
-                        break;
-                    }
-                    let p = seg.ray.at(t);
-                    let med = &scene.media[seg.medium as usize];
-                    let fp = med.as_homogeneous().filter(|_| equi).map(|h| FlightPoint {
-                        medium: h,
-                        seg,
-                        t,
-                    });
-                    let phase = med.phase();
-                    if !scene.lights.is_empty() {
-                        let at = Origin::Medium { p, d: ray.d, phase };
-                        let e = self.direct(scene, &at, fp.as_ref(), walk.medium, rng, stats);
-                        l += walk.beta * e;
-                    }
-                    let (wi, pdf) = phase.sample(ray.d, rng.next_2d());
-                    specular = false;
-                    pdf_dir = pdf;
-                    prev_p = p;
-                    depth += 1;
-                    if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
-                        break;
-                    }
-                    ray = Ray::new(p, wi);
-                    stats.rays += 1;
-                    continue;
+        while self.step(scene, &mut path, rng, stats) {}
+        path.cam.l
+    }
+
+    /// One flight and what its event contributes: false when the path ends there.
+    #[inline(always)]
+    fn step(&self, scene: &Scene, path: &mut Path, rng: &mut Rng, stats: &mut RenderStats) -> bool {
+        match self.fly(scene, path, rng, stats) {
+            Step::Surface(it, m) => self.at_surface(scene, path, &it, &m, rng, stats),
+            Step::Scatter { seg, t, .. } => self.in_medium(scene, path, seg, t, rng, stats),
+            Step::Escaped => {
+                if !path.seen(scene) {
+                    let (c, h) = (&mut path.cam, self.s.heuristic);
+                    c.l += c.walk.beta * escaped(scene, c.ray.d, c.specular, path.pdf_dir, h);
                 }
-                Step::Escaped => {
-                    if !seen {
-                        let h = self.s.heuristic;
-                        l += walk.beta * escaped(scene, ray.d, specular, pdf_dir, h);
-                    }
-                    break;
-                }
-                Step::End => break,
-            };
-            if !seen {
-                let h = self.s.heuristic;
-                l += walk.beta * emitted(scene, &it, ray.d, prev_p, specular, pdf_dir, h);
+                false
             }
-            if depth + 1 >= self.s.max_depth {
-                break;
-            }
-            let frame = scene.shading_frame(&it);
-            let wo = frame.to_local(-ray.d);
-            if !m.is_delta() && !scene.lights.is_empty() {
-                let at = Origin::Surface {
-                    it: &it,
-                    frame: &frame,
-                    wo,
-                    m: &m,
-                };
-                l += walk.beta * self.direct(scene, &at, None, walk.medium, rng, stats);
-            }
-            let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, rng) else {
-                break;
-            };
-            walk.beta *= Rgb::from(s.weight);
-            specular = s.delta;
-            pdf_dir = s.pdf;
-            prev_p = it.p;
-            depth += 1;
-            if !roulette(depth, self.s.rr_depth, &mut walk.beta, rng) {
-                break;
-            }
-            walk.medium = scene.medium_after(&it, wi, walk.medium);
-            ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-            stats.rays += 1;
+            Step::End => false,
         }
-        l
+    }
+
+    /// The flight to the next event. Point and spot lights are gathered by
+    /// equi-angular sampling on the medium segments it crosses (while a scattering
+    /// there could still count); emission with MIS weight 1 (seen directly or after a
+    /// delta bounce) comes in media from the segment's transmittance instead of the
+    /// flight (medium_walk::seen_emission), which rarely reaches it in dense media.
+    #[inline(always)]
+    fn fly<'s>(
+        &self,
+        scene: &'s Scene,
+        path: &mut Path,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> Step<'s> {
+        let seen = path.seen(scene);
+        let c = &mut path.cam;
+        let mut gather = Gather {
+            vp: self,
+            scene,
+            on: path.equi && c.depth + 1 < self.s.max_depth,
+            l: Rgb::ZERO,
+        };
+        let (first, beta, medium) = (c.ray, c.walk.beta, c.walk.medium);
+        let step = c.walk.next(scene, &mut c.ray, &mut gather, rng, stats);
+        c.l += gather.l;
+        if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
+            c.l += beta * seen_emission(scene, &first, medium, rng, stats);
+        }
+        step
+    }
+
+    /// A real scattering event at distance `t` on `seg`: next-event estimation
+    /// (against equi-angular sampling of the same segment where that serves), then a
+    /// phase function sample and roulette. False when the path ends.
+    #[inline(always)]
+    fn in_medium(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        seg: Segment,
+        t: f32,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> bool {
+        let c = &mut path.cam;
+        if c.depth + 1 >= self.s.max_depth {
+            return false;
+        }
+        let p = seg.ray.at(t);
+        let med = &scene.media[seg.medium as usize];
+        let fp = med
+            .as_homogeneous()
+            .filter(|_| path.equi)
+            .map(|h| FlightPoint { medium: h, seg, t });
+        let phase = med.phase();
+        if !scene.lights.is_empty() {
+            let at = Origin::Medium {
+                p,
+                d: c.ray.d,
+                phase,
+            };
+            let e = self.direct(scene, &at, fp.as_ref(), c.walk.medium, rng, stats);
+            c.l += c.walk.beta * e;
+        }
+        let (wi, pdf) = phase.sample(c.ray.d, rng.next_2d());
+        c.specular = false;
+        path.pdf_dir = pdf;
+        path.prev_p = p;
+        c.depth += 1;
+        if !roulette(c.depth, self.s.rr_depth, &mut c.walk.beta, rng) {
+            return false;
+        }
+        c.ray = Ray::new(p, wi);
+        stats.rays += 1;
+        true
+    }
+
+    /// A surface: its emission (MIS against the light sample that could have found
+    /// it, unless `fly` counted it), then next-event estimation and a BSDF sample.
+    /// False when the path ends.
+    #[inline(always)]
+    fn at_surface(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        it: &Interaction,
+        m: &Material,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> bool {
+        let seen = path.seen(scene);
+        let c = &mut path.cam;
+        if !seen {
+            let (h, pdf_dir) = (self.s.heuristic, path.pdf_dir);
+            c.l += c.walk.beta * emitted(scene, it, c.ray.d, path.prev_p, c.specular, pdf_dir, h);
+        }
+        if c.depth + 1 >= self.s.max_depth {
+            return false;
+        }
+        let frame = scene.shading_frame(it);
+        let wo = frame.to_local(-c.ray.d);
+        if !m.is_delta() && !scene.lights.is_empty() {
+            let at = Origin::Surface {
+                it,
+                frame: &frame,
+                wo,
+                m,
+            };
+            c.l += c.walk.beta * self.direct(scene, &at, None, c.walk.medium, rng, stats);
+        }
+        let Some(sample) = sample_bsdf(it, &frame, wo, m, rng) else {
+            return false;
+        };
+        path.pdf_dir = sample.1.pdf;
+        path.prev_p = it.p;
+        c.bounce(scene, it, sample, self.s.rr_depth, rng, stats)
+    }
+}
+
+/// A camera path between flights: the state every tracer in media keeps
+/// ([`CameraWalk`]), and what MIS against light sampling needs of its last scattering.
+struct Path {
+    cam: CameraWalk,
+    /// Solid-angle density of the last scattering direction.
+    pdf_dir: f32,
+    /// The last scattering point, where light sampling's density is measured from.
+    prev_p: Vec3,
+    /// Equi-angular sampling serves this scene (it is on, and there is a point or spot
+    /// light).
+    equi: bool,
+}
+
+impl Path {
+    /// Emission the next flight finds counts with MIS weight 1 and, in media, from the
+    /// flight's transmittance (`VolPath::fly`): the path has only specular events.
+    #[inline(always)]
+    fn seen(&self, scene: &Scene) -> bool {
+        self.cam.specular && scene.has_media
     }
 }
 

@@ -108,16 +108,19 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
         // A path that ends at a vertex with a light sample traces its shadow ray alone.
         if let Some((shadow, e)) = p.pending.take() {
             if self.pass.scene.visible(&shadow) {
-                let layer = self.pass.layers.connection(1, p.walk.len + 1);
-                record(self.slots(p.pixel), layer, e);
-                p.l += e;
+                let layer = self.light_layer(p.walk.len);
+                add(&mut p.l, self.slots(p.pixel), layer, e);
             }
         }
         Some(p.l)
     }
 }
 
-impl<M: Media> CameraPass<'_, M> {
+/// What a flight's start gives [`CameraPass::seen_emission`]: the ray, the medium it
+/// starts in and the throughput there.
+type Seen = (Ray, Option<u32>, Rgb);
+
+impl<'a, M: Media> CameraPass<'a, M> {
     /// Pixel `pixel`'s layer slots.
     #[inline(always)]
     fn slots(&self, pixel: usize) -> &[AtomicU32] {
@@ -129,88 +132,32 @@ impl<M: Media> CameraPass<'_, M> {
         &self.side[pixel * n..(pixel + 1) * n]
     }
 
+    /// The layer of a light sample taken at the camera subpath's vertex `len`.
+    #[inline(always)]
+    fn light_layer(&self, len: u32) -> Option<usize> {
+        self.pass.layers.connection(1, len + 1)
+    }
+
     /// One traced segment and what its vertex contributes; false when the path ends.
+    /// The phases, each a function below: the flight, emission found by the flight's
+    /// transmittance, the arrival (an escape, or the vertex's emitter hit), the
+    /// estimates at the vertex (light sample, connections, merges), and the scatter.
     #[inline(always)]
     fn step(&self, p: &mut CameraPath, rng: &mut Rng, stats: &mut RenderStats) -> bool {
-        let (pass, ws) = (self.pass, self.ws);
-        let scene = pass.scene;
-        let CameraPath {
-            pixel,
-            light,
-            ray,
-            walk,
-            l,
-            pending,
-            pieces,
-        } = p;
-        let layers = self.slots(*pixel);
-        let light_layer = |len: u32| pass.layers.connection(1, len + 1);
-        // In media, emission that only the camera subpath can find (seen directly or
-        // after delta bounces alone: MIS weight 1) comes from the segment's
-        // transmittance (medium_walk::seen_emission), not from the flight.
-        let seen = (M::ON && walk.specular).then_some((*ray, walk.medium, walk.throughput));
+        let pass = self.pass;
+        let layers = self.slots(p.pixel);
+        // Taken before the flight moves the walk on.
+        let seen = (M::ON && p.walk.specular).then_some((p.ray, p.walk.medium, p.walk.throughput));
         let mut owner = Owner::default();
-        let (event, tr) = if M::ON {
-            if !pass.query_beams() {
-                next_event::<M>(scene, ray, walk, rng, stats, None, &mut owner)
-            } else {
-                pieces.clear();
-                let mut over = false;
-                let mut sink = SegmentSink {
-                    out: pieces,
-                    budget: usize::MAX,
-                    over_budget: &mut over,
-                    start: FlightStart {
-                        len: walk.len,
-                        q: walk.q,
-                        from: walk.origin,
-                        area: NO_AREA,
-                    },
-                };
-                let r = next_event::<M>(scene, ray, walk, rng, stats, Some(&mut sink), &mut owner);
-                let len = walk.len;
-                beams::gather(pass, &ws.beams, pieces, len, rng, stats, |k, v| {
-                    record(layers, pass.layers.merge(k), v);
-                    *l += v;
-                });
-                r
-            }
-        } else {
-            let shadow = pending.as_ref().map(|p| &p.0);
-            let (event, visible) = next_event_with(scene, ray, shadow, &mut stats.rays, &mut owner);
-            // Read in place, then cleared: `take` copied the whole pending sample.
-            if let Some(&(_, e)) = pending.as_ref().filter(|_| visible) {
-                record(layers, light_layer(walk.len - 1), e);
-                *l += e;
-            }
-            *pending = None;
-            (event, 1.0)
-        };
-        if let Some((first, medium, throughput)) = &seen {
-            let surface = match &event {
-                Event::Surface(it, _) => Some(it),
-                _ => None,
-            };
-            if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
-                let v = *throughput * seen_emission(scene, first, *medium, rng, stats);
-                record(layers, pass.layers.connection(0, walk.len + 1), v);
-                *l += v;
-            }
+        let (event, tr) = self.fly(p, layers, &mut owner, rng, stats);
+        if let Some(seen) = &seen {
+            self.seen_emission(p, seen, &event, layers, rng, stats);
         }
         let v = match event {
-            Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, ray.d),
-            Event::Medium(p, medium) => Vertex::medium(pass, medium, p, ray.d),
+            Event::Surface(it, m) => Vertex::<M>::surface(pass, it, m, p.ray.d),
+            Event::Medium(x, medium) => Vertex::medium(pass, medium, x, p.ray.d),
             Event::Escaped => {
-                if M::ON {
-                    // The escaping segment's T enters the density of the vertex at
-                    // infinity; there is no distance and no cosine (mis.rs).
-                    walk.q = pass.mis.on_hit(walk.q, 1.0 / tr, 1.0);
-                }
-                if seen.is_none() {
-                    let v = walk.throughput * escaped(pass, walk, ray.d);
-                    record(layers, pass.layers.connection(0, walk.len + 1), v);
-                    *l += v;
-                }
+                self.escape(p, tr, seen.is_some(), layers);
                 return false;
             }
             Event::End => return false,
@@ -220,52 +167,230 @@ impl<M: Media> CameraPass<'_, M> {
         let Some(v) = &v else {
             return false;
         };
-        let dist2 = (v.p() - walk.origin).length_squared();
-        walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
-        if let (Vertex::Surface { it, .. }, None) = (v, &seen) {
-            let e = walk.throughput * emitter_hit(pass, walk, it, ray.d, dist2);
-            record(layers, pass.layers.connection(0, walk.len + 1), e);
-            *l += e;
-        }
-        if walk.len >= pass.s.max_depth {
+        self.arrive(p, v, tr, seen.is_some(), layers);
+        if p.walk.len >= pass.s.max_depth {
             return false;
         }
         if !v.skips_connections() {
-            if pass.technique.connects() {
-                let (e, shadow) = light_sample(pass, walk, v, rng, stats);
-                let e = walk.throughput * e;
-                match shadow {
-                    Some(ray) => *pending = Some((ray, e)),
-                    None => {
-                        record(layers, light_layer(walk.len), e);
-                        *l += e;
-                    }
-                }
-                *l += connect(pass, light, walk, v, rng, stats, layers);
-            }
-            if walk.len > 1 || pass.s.merge_first {
-                let (k, e) = match v {
-                    Vertex::Surface { it, s: surface, .. } => {
-                        let e = merge(pass, ws, walk, it, surface, stats);
-                        (Merge::Surface, walk.throughput * e)
-                    }
-                    Vertex::Medium { p, m } => {
-                        let e = merge_medium(pass, ws, walk, *p, M::get(m), stats);
-                        (Merge::Point3d, e)
-                    }
-                };
-                record(layers, pass.layers.merge(k), e);
-                *l += e;
-            }
+            self.estimate(p, v, layers, rng, stats);
         }
-        let len = walk.len;
-        let Some(next) = v.scatter(pass, rng, walk, Mode::Radiance, Some(len)) else {
+        let len = p.walk.len;
+        let Some(next) = v.scatter(pass, rng, &mut p.walk, Mode::Radiance, Some(len)) else {
             return false;
         };
-        *ray = next;
+        p.ray = next;
         stats.rays += 1;
         true
     }
+
+    /// Phase 1, the flight to the next event, as the scene needs it: without media
+    /// with the previous vertex's shadow ray alongside, in media with the MIS
+    /// transmittance of the segment (returned; 1 without media), and where beams are
+    /// queried gathering them along the flight's medium segments.
+    #[inline(always)]
+    fn fly<'o>(
+        &self,
+        p: &mut CameraPath,
+        layers: &[AtomicU32],
+        owner: &'o mut Owner<'a>,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> (Event<'o>, f32) {
+        if !M::ON {
+            return (self.fly_with_shadow(p, layers, owner, stats), 1.0);
+        }
+        if self.pass.query_beams() {
+            let r = self.fly_keeping_segments(p, owner, rng, stats);
+            self.gather_beams(p, layers, rng, stats);
+            return r;
+        }
+        let scene = self.pass.scene;
+        next_event::<M>(scene, &mut p.ray, &mut p.walk, rng, stats, None, owner)
+    }
+
+    /// Without media: the flight and the pending shadow ray are traced together (the
+    /// traversals overlap, as in `pt`); the light sample counts if it is unblocked.
+    #[inline(always)]
+    fn fly_with_shadow<'o>(
+        &self,
+        p: &mut CameraPath,
+        layers: &[AtomicU32],
+        owner: &'o mut Owner<'a>,
+        stats: &mut RenderStats,
+    ) -> Event<'o> {
+        let scene = self.pass.scene;
+        let shadow = p.pending.as_ref().map(|p| &p.0);
+        let (event, visible) = next_event_with(scene, &mut p.ray, shadow, &mut stats.rays, owner);
+        // Read in place, then cleared: `take` copied the whole pending sample.
+        if let Some(&(_, e)) = p.pending.as_ref().filter(|_| visible) {
+            add(&mut p.l, layers, self.light_layer(p.walk.len - 1), e);
+        }
+        p.pending = None;
+        event
+    }
+
+    /// In media with beams to query: the flight keeps its medium segments in
+    /// `p.pieces` (reused from flight to flight).
+    #[inline(always)]
+    fn fly_keeping_segments<'o>(
+        &self,
+        p: &mut CameraPath,
+        owner: &'o mut Owner<'a>,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> (Event<'o>, f32) {
+        let walk = &mut p.walk;
+        p.pieces.clear();
+        let mut over = false;
+        let mut sink = SegmentSink {
+            out: &mut p.pieces,
+            budget: usize::MAX,
+            over_budget: &mut over,
+            start: FlightStart {
+                len: walk.len,
+                q: walk.q,
+                from: walk.origin,
+                area: NO_AREA,
+            },
+        };
+        let scene = self.pass.scene;
+        next_event::<M>(scene, &mut p.ray, walk, rng, stats, Some(&mut sink), owner)
+    }
+
+    /// The beam estimators along the medium segments the flight kept.
+    #[inline(always)]
+    fn gather_beams(
+        &self,
+        p: &mut CameraPath,
+        layers: &[AtomicU32],
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) {
+        let (pass, l) = (self.pass, &mut p.l);
+        beams::gather(
+            pass,
+            &self.ws.beams,
+            &p.pieces,
+            p.walk.len,
+            rng,
+            stats,
+            |k, v| {
+                add(l, layers, pass.layers.merge(k), v);
+            },
+        );
+    }
+
+    /// Phase 2, in media: emission that only the camera subpath can find (seen
+    /// directly or after delta bounces alone: MIS weight 1) comes from the segment's
+    /// transmittance (medium_walk::seen_emission), not from the flight, whose free
+    /// flights would rarely reach an emitter through a dense medium.
+    #[inline(always)]
+    fn seen_emission(
+        &self,
+        p: &mut CameraPath,
+        seen: &Seen,
+        event: &Event,
+        layers: &[AtomicU32],
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) {
+        let scene = self.pass.scene;
+        let (first, medium, throughput) = seen;
+        let surface = match event {
+            Event::Surface(it, _) => Some(it),
+            _ => None,
+        };
+        if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
+            let v = *throughput * seen_emission(scene, first, *medium, rng, stats);
+            add(
+                &mut p.l,
+                layers,
+                self.pass.layers.connection(0, p.walk.len + 1),
+                v,
+            );
+        }
+    }
+
+    /// Phase 3, a path that leaves the scene: environment lights, unless phase 2 found
+    /// them (`seen`).
+    #[inline(always)]
+    fn escape(&self, p: &mut CameraPath, tr: f32, seen: bool, layers: &[AtomicU32]) {
+        let pass = self.pass;
+        if M::ON {
+            // The escaping segment's T enters the density of the vertex at infinity;
+            // there is no distance and no cosine (mis.rs).
+            p.walk.q = pass.mis.on_hit(p.walk.q, 1.0 / tr, 1.0);
+        }
+        if !seen {
+            let v = p.walk.throughput * escaped(pass, &p.walk, p.ray.d);
+            add(
+                &mut p.l,
+                layers,
+                pass.layers.connection(0, p.walk.len + 1),
+                v,
+            );
+        }
+    }
+
+    /// Phase 3, a path that reaches vertex `v`: the vertex's density enters the MIS
+    /// quantities, and an emitter there counts unless phase 2 found it (`seen`).
+    #[inline(always)]
+    fn arrive(&self, p: &mut CameraPath, v: &Vertex<M>, tr: f32, seen: bool, layers: &[AtomicU32]) {
+        let pass = self.pass;
+        let walk = &mut p.walk;
+        let dist2 = (v.p() - walk.origin).length_squared();
+        walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
+        if let (Vertex::Surface { it, .. }, false) = (v, seen) {
+            let e = walk.throughput * emitter_hit(pass, walk, it, p.ray.d, dist2);
+            add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
+        }
+    }
+
+    /// Phase 4, the estimates at a vertex that takes them: a light sample (its shadow
+    /// ray left pending without media, to be traced with the next flight) and
+    /// connections to the paired light subpath where the technique connects, and
+    /// merges from the second vertex on (or the first with `merge_first`).
+    #[inline(always)]
+    fn estimate(
+        &self,
+        p: &mut CameraPath,
+        v: &Vertex<M>,
+        layers: &[AtomicU32],
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) {
+        let (pass, ws) = (self.pass, self.ws);
+        let walk = &p.walk;
+        if pass.technique.connects() {
+            let (e, shadow) = light_sample(pass, walk, v, rng, stats);
+            let e = walk.throughput * e;
+            match shadow {
+                Some(ray) => p.pending = Some((ray, e)),
+                None => add(&mut p.l, layers, self.light_layer(walk.len), e),
+            }
+            p.l += connect(pass, p.light, walk, v, rng, stats, layers);
+        }
+        if walk.len > 1 || pass.s.merge_first {
+            let (k, e) = match v {
+                Vertex::Surface { it, s: surface, .. } => {
+                    let e = merge(pass, ws, walk, it, surface, stats);
+                    (Merge::Surface, walk.throughput * e)
+                }
+                Vertex::Medium { p: x, m } => {
+                    let e = merge_medium(pass, ws, walk, *x, M::get(m), stats);
+                    (Merge::Point3d, e)
+                }
+            };
+            add(&mut p.l, layers, pass.layers.merge(k), e);
+        }
+    }
+}
+
+/// Records `v` in its layer and adds it to the path's radiance `l`.
+#[inline(always)]
+fn add(l: &mut Rgb, layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
+    record(layers, layer, v);
+    *l += v;
 }
 
 #[inline(always)]

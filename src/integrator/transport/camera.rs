@@ -1,10 +1,14 @@
 //! The moves of a unidirectional camera path that `pt`, `volpath`, `vpm` and `sppm`
 //! share: continuing with a BSDF sample at a surface, and Russian roulette on the
-//! throughput.
+//! throughput; and the state of such a path in media between two flights
+//! ([`CameraWalk`], for `volpath` and the density estimators' camera path).
 
-use crate::geometry::Interaction;
+use super::medium_walk::MediumWalk;
+use crate::geometry::{spawn_ray, Interaction, Ray};
+use crate::integrator::RenderStats;
 use crate::material::{BsdfSample, Material, Mode};
 use crate::math::{max_component, Frame, Rgb, Rng, Vec3};
+use crate::scene::Scene;
 
 /// A BSDF sample at a surface (`wo` towards the previous vertex, in `frame`): the world
 /// direction and the sample. None when the material gives none, or when the direction
@@ -80,4 +84,58 @@ pub fn roulette(depth: u32, rr_depth: u32, beta: &mut Rgb, rng: &mut Rng) -> boo
         *beta /= q;
     }
     *beta != Rgb::ZERO
+}
+
+/// A unidirectional camera path in media between two flights: the ray it follows
+/// next, its throughput and the medium it travels in, the scattering events so far,
+/// whether they were all delta events (emission found then has MIS weight 1), and the
+/// radiance gathered.
+pub struct CameraWalk {
+    pub ray: Ray,
+    pub walk: MediumWalk,
+    pub depth: u32,
+    pub specular: bool,
+    pub l: Rgb,
+}
+
+impl CameraWalk {
+    /// A path that starts with camera ray `ray`, in the camera's medium.
+    #[inline(always)]
+    pub fn new(scene: &Scene, ray: Ray) -> Self {
+        CameraWalk {
+            ray,
+            walk: MediumWalk {
+                beta: Rgb::ONE,
+                medium: scene.camera_medium,
+            },
+            depth: 0,
+            specular: true,
+            l: Rgb::ZERO,
+        }
+    }
+
+    /// Continues from surface `it` with BSDF sample `(wi, s)` (from [`sample_bsdf`]):
+    /// its weight, one more scattering event, [`roulette`] after `rr_depth` of them,
+    /// the medium on `wi`'s side and the ray along `wi`. False when the path ends.
+    #[inline(always)]
+    pub fn bounce(
+        &mut self,
+        scene: &Scene,
+        it: &Interaction,
+        (wi, s): (Vec3, BsdfSample),
+        rr_depth: u32,
+        rng: &mut Rng,
+        stats: &mut RenderStats,
+    ) -> bool {
+        self.walk.beta *= Rgb::from(s.weight);
+        self.specular = s.delta;
+        self.depth += 1;
+        if !roulette(self.depth, rr_depth, &mut self.walk.beta, rng) {
+            return false;
+        }
+        self.walk.medium = scene.medium_after(it, wi, self.walk.medium);
+        self.ray = spawn_ray(it.p, it.p_err, it.ng, wi);
+        stats.rays += 1;
+        true
+    }
 }

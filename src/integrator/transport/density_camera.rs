@@ -8,12 +8,10 @@
 //! scattering point, where the path ends. So surface transport is unbiased and all
 //! bias is the volume kernel's.
 
-use super::camera::{roulette, sample_bsdf};
-use super::medium_walk::{
-    seen_emission, sees_emission, Cross, MediumWalk, Segment, Segments, Step,
-};
+use super::camera::{sample_bsdf, CameraWalk};
+use super::medium_walk::{seen_emission, sees_emission, Cross, Segment, Segments, Step};
 use super::nee::{direct_unweighted, Origin};
-use crate::geometry::{spawn_ray, Ray};
+use crate::geometry::Ray;
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng};
 use crate::scene::Scene;
@@ -81,64 +79,58 @@ pub fn li<G: MediumGather>(
     scene: &Scene,
     g: &G,
     d: Depths,
-    mut ray: Ray,
+    ray: Ray,
     rng: &mut Rng,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let mut l = Rgb::ZERO;
-    let mut walk = MediumWalk {
-        beta: Rgb::ONE,
-        medium: scene.camera_medium,
-    };
-    let mut depth = 0u32;
-    let mut specular = true;
+    let mut c = CameraWalk::new(scene, ray);
     loop {
-        let counts = depth + 2 <= d.max_depth;
+        let counts = c.depth + 2 <= d.max_depth;
         let mut visit = Gathers {
             g,
             scene,
-            depth,
+            depth: c.depth,
             counts,
             l: Rgb::ZERO,
         };
-        let (first, beta, medium) = (ray, walk.beta, walk.medium);
-        let step = walk.next(scene, &mut ray, &mut visit, rng, stats);
-        l += visit.l;
+        let (first, beta, medium) = (c.ray, c.walk.beta, c.walk.medium);
+        let step = c.walk.next(scene, &mut c.ray, &mut visit, rng, stats);
+        c.l += visit.l;
         // Estimates at flights leave the emission seen directly or after a delta
         // bounce to the flight: from its transmittance instead
         // (medium_walk::seen_emission). Otherwise the walk passes every segment with
         // its transmittance already.
-        let seen = specular && scene.has_media && g.at_flights();
+        let seen = c.specular && scene.has_media && g.at_flights();
         if seen && sees_emission(scene, step.surface(), matches!(step, Step::Escaped)) {
-            l += beta * seen_emission(scene, &first, medium, rng, stats);
+            c.l += beta * seen_emission(scene, &first, medium, rng, stats);
         }
         let (it, m) = match step {
             Step::Surface(it, m) => (it, m),
             // Only estimates made at flights sample them: the query ends the path.
             Step::Scatter { seg, t, weight } => {
                 if counts {
-                    l += seg.beta * g.point(&seg, t, weight, depth, rng, stats);
+                    c.l += seg.beta * g.point(&seg, t, weight, c.depth, rng, stats);
                 }
                 break;
             }
             Step::Escaped => {
-                if specular && !seen && !scene.env_lights.is_empty() {
-                    l += walk.beta * scene.env_radiance(ray.d);
+                if c.specular && !seen && !scene.env_lights.is_empty() {
+                    c.l += c.walk.beta * scene.env_radiance(c.ray.d);
                 }
                 break;
             }
             Step::End => break,
         };
-        if specular && !seen {
+        if c.specular && !seen {
             if let Some((_, area)) = scene.area_light(&it) {
-                l += walk.beta * area.le(&it, -ray.d);
+                c.l += c.walk.beta * area.le(&it, -c.ray.d);
             }
         }
-        if depth + 1 >= d.max_depth {
+        if c.depth + 1 >= d.max_depth {
             break;
         }
         let frame = scene.shading_frame(&it);
-        let wo = frame.to_local(-ray.d);
+        let wo = frame.to_local(-c.ray.d);
         if !m.is_delta() {
             let at = Origin::Surface {
                 it: &it,
@@ -146,20 +138,14 @@ pub fn li<G: MediumGather>(
                 wo,
                 m: &m,
             };
-            l += walk.beta * direct_unweighted(scene, &at, walk.medium, rng, stats);
+            c.l += c.walk.beta * direct_unweighted(scene, &at, c.walk.medium, rng, stats);
         }
-        let Some((wi, s)) = sample_bsdf(&it, &frame, wo, &m, rng) else {
+        let Some(sample) = sample_bsdf(&it, &frame, wo, &m, rng) else {
             break;
         };
-        walk.beta *= Rgb::from(s.weight);
-        specular = s.delta;
-        depth += 1;
-        if !roulette(depth, d.rr_depth, &mut walk.beta, rng) {
+        if !c.bounce(scene, &it, sample, d.rr_depth, rng, stats) {
             break;
         }
-        walk.medium = scene.medium_after(&it, wi, walk.medium);
-        ray = spawn_ray(it.p, it.p_err, it.ng, wi);
-        stats.rays += 1;
     }
-    l
+    c.l
 }

@@ -136,30 +136,32 @@ pub fn sample_light(
 }
 
 impl LightLink {
-    /// Transmittance along the shadow ray through media and `null` boundaries (0 when
-    /// something opaque blocks it); `medium` is the one the path travels in at the
-    /// origin. Its tracking rays count in `stats`.
-    #[inline(always)]
-    pub fn transmittance(
-        &self,
-        scene: &Scene,
-        at: &Origin,
-        medium: Option<u32>,
-        rng: &mut Rng,
-        stats: &mut RenderStats,
-    ) -> Rgb {
-        let start = match at {
-            Origin::Surface { it, .. } => scene.medium_after(it, self.wi, medium),
-            Origin::Medium { .. } => medium,
-        };
-        scene.transmittance(&self.ray, start, rng, &mut stats.shadow_rays)
-    }
-
     /// f Li / p_light: the unweighted estimate (light sampling alone).
     #[inline(always)]
     pub fn unweighted(&self) -> Rgb {
         self.f * self.li / self.pdf_light
     }
+}
+
+/// [`sample_light`] through media: the link and the transmittance along its shadow ray
+/// through media and `null` boundaries (0 when something opaque blocks it), the move
+/// that `volpath` and [`direct_unweighted`] share. `medium` is the one the path
+/// travels in at the origin. The shadow ray's tracking rays count in `stats`.
+#[inline(always)]
+pub fn sample_light_through(
+    scene: &Scene,
+    at: &Origin,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut RenderStats,
+) -> Option<(LightLink, Rgb)> {
+    let link = sample_light(scene, at, rng, stats)?;
+    let start = match at {
+        Origin::Surface { it, .. } => scene.medium_after(it, link.wi, medium),
+        Origin::Medium { .. } => medium,
+    };
+    let tr = scene.transmittance(&link.ray, start, rng, &mut stats.shadow_rays);
+    Some((link, tr))
 }
 
 /// Light sampling alone from `at`, through media and null boundaries (`medium`: the
@@ -174,10 +176,9 @@ pub fn direct_unweighted(
     rng: &mut Rng,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let Some(link) = sample_light(scene, at, rng, stats) else {
+    let Some((link, tr)) = sample_light_through(scene, at, medium, rng, stats) else {
         return Rgb::ZERO;
     };
     stats.connections += 1;
-    let tr = link.transmittance(scene, at, medium, rng, stats);
     link.f * tr * link.li / link.pdf_light
 }

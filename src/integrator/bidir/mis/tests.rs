@@ -1,0 +1,395 @@
+//! Checks the recursive weights against the balance and power heuristics computed
+//! from explicit path densities ([TR] sec. 2-3), on random non-specular paths with
+//! an area light or a light at infinity and a pinhole camera, for every technique
+//! set. Paths may have medium vertices (D = sigma_t from both sides instead of two
+//! cosines) and segments with transmittance T < 1 in the densities of whatever is
+//! sampled along them; the recursive side gets them as the module notes say.
+use crate::integrator::paths::partial::{
+    transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH, MIN_BEAM_SIN,
+};
+use crate::integrator::transport::Heuristic;
+use crate::math::Rng;
+
+/// A path x0 (light) .. xn (camera) described by its densities and cosines.
+struct Path {
+    n: usize,
+    d2: Vec<f32>,
+    /// MIS transmittance of segment (x_i, x_{i+1}).
+    tr: Vec<f32>,
+    /// D at x_i towards x_{i+1} (i < n) and towards x_{i-1} (i > 0): cosines at
+    /// surfaces, the same sigma_t both ways at medium vertices.
+    cf: Vec<f32>,
+    cb: Vec<f32>,
+    /// Solid-angle densities at scattering vertex i of sampling x_{i+1} (light
+    /// direction) and x_{i-1} (camera direction).
+    pl: Vec<f32>,
+    site: Vec<Site>,
+    pc: Vec<f32>,
+    /// Sine between the two segments at each vertex (beam x beam's density).
+    sin: Vec<f32>,
+    pick: f32,
+    /// x0 is a direction (environment light): positions come from a disk and
+    /// light sampling picks a solid angle, with no distance or cosine at x0.
+    infinite: bool,
+    /// Density of x0 for light sampling (area, or solid angle at infinity),
+    /// emission position (area, or on the disk) and direction.
+    a_direct: f32,
+    e_pos: f32,
+    e_dir: f32,
+    camera: f32,
+}
+
+fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
+    let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+    let mut p = Path {
+        n,
+        d2: (0..n).map(|_| r(0.05, 4.0)).collect(),
+        tr: (0..n)
+            .map(|_| if media { r(0.01, 1.0) } else { 1.0 })
+            .collect(),
+        cf: (0..=n).map(|_| r(0.05, 1.0)).collect(),
+        cb: (0..=n).map(|_| r(0.05, 1.0)).collect(),
+        pl: (0..=n).map(|_| r(0.05, 3.0)).collect(),
+        pc: (0..=n).map(|_| r(0.05, 3.0)).collect(),
+        site: vec![Site::Surface; n + 1],
+        sin: (0..=n)
+            .map(|_| if r(0.0, 1.0) < 0.1 { 0.0 } else { r(0.0, 1.0) })
+            .collect(),
+        pick: r(0.2, 1.0),
+        infinite,
+        a_direct: r(0.5, 4.0),
+        e_pos: r(0.5, 4.0),
+        e_dir: r(0.05, 1.0),
+        camera: r(0.5, 3.0),
+    };
+    if media {
+        for i in 1..n {
+            if r(0.0, 1.0) < 0.5 {
+                let sigma = r(0.05, 5.0);
+                p.cf[i] = sigma;
+                p.cb[i] = sigma;
+                p.site[i] = Site::Medium;
+            }
+        }
+    }
+    p
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tech {
+    /// Connection with s light vertices.
+    Vc(usize),
+    /// Merge at vertex j by an estimator.
+    Vm(usize, Merge),
+}
+
+const ALL_MERGES: [Merge; Merge::COUNT] = [
+    Merge::Surface,
+    Merge::Point3d,
+    Merge::PointBeam2d,
+    Merge::BeamBeam1d,
+];
+
+impl Path {
+    /// Density of x_i sampled from the light side (area measure, or the
+    /// direction for x0 at infinity).
+    fn fwd(&self, i: usize) -> f32 {
+        match (i, self.infinite) {
+            (0, false) => self.pick * self.e_pos,
+            (0, true) => self.pick * self.e_dir,
+            (1, false) => self.e_dir * self.cb[1] * self.tr[0] / self.d2[0],
+            (1, true) => self.e_pos * self.cb[1] * self.tr[0],
+            _ => self.pl[i - 1] * self.cb[i] * self.tr[i - 1] / self.d2[i - 1],
+        }
+    }
+
+    /// Density of x_i sampled from the camera side.
+    fn bwd(&self, i: usize) -> f32 {
+        if i == self.n - 1 {
+            self.camera * self.cf[i] * self.tr[i] / self.d2[i]
+        } else if i == 0 && self.infinite {
+            self.pc[1] * self.tr[0]
+        } else {
+            self.pc[i + 1] * self.cf[i] * self.tr[i] / self.d2[i]
+        }
+    }
+
+    /// D at vertex i as the MIS takes it (1 at surfaces).
+    fn sigma(&self, i: usize) -> f32 {
+        match self.site[i] {
+            Site::Surface => 1.0,
+            Site::Medium => self.cf[i],
+        }
+    }
+
+    /// eta_k(x_j) from its definition ([UPBP], the notes on `Mis`): 0 where the
+    /// estimator is not used or cannot sit at x_j.
+    fn eta(&self, j: usize, k: Merge, merges: &Merges) -> f64 {
+        let Some(eta) = merges.eta[k as usize] else {
+            return 0.0;
+        };
+        let sigma = self.sigma(j) as f64;
+        match (self.site[j], k) {
+            (Site::Surface, Merge::Surface) => eta,
+            (Site::Medium, Merge::Point3d) => eta,
+            (Site::Medium, Merge::PointBeam2d) => eta / sigma,
+            (Site::Medium, Merge::BeamBeam1d) if self.sin[j] >= MIN_BEAM_SIN => {
+                eta * self.sin[j] as f64 / (sigma * sigma)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// M(x_i) as the recursion takes it.
+    fn vm(&self, m: &Mis, i: usize, camera_len: Option<u32>) -> f64 {
+        m.merges(self.site[i], self.sigma(i), self.sin[i], camera_len)
+    }
+
+    /// The technique's density times its sample count.
+    fn density(&self, t: Tech, merges: &Merges, light_paths: f32) -> f64 {
+        let n = self.n;
+        let both = |s: usize| -> f32 {
+            (0..s).map(|i| self.fwd(i)).product::<f32>()
+                * (s..n).map(|i| self.bwd(i)).product::<f32>()
+        };
+        match t {
+            Tech::Vc(1) => {
+                (self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>()) as f64
+            }
+            Tech::Vc(s) if s == n => (light_paths * both(n)) as f64,
+            Tech::Vc(s) => both(s) as f64,
+            Tech::Vm(j, k) => self.eta(j, k, merges) * (both(j) * self.fwd(j)) as f64,
+        }
+    }
+
+    /// d^2 / T of segment i as on_hit takes it (1 / T from infinity).
+    fn seg(&self, i: usize) -> f32 {
+        if i == 0 && self.infinite {
+            1.0 / self.tr[0]
+        } else {
+            self.d2[i] / self.tr[i]
+        }
+    }
+
+    fn emission(&self) -> f32 {
+        self.pick * self.e_pos * self.e_dir
+    }
+
+    /// The light subpath's partial weights at vertex `k` (after the hit).
+    fn light_q(&self, m: &Mis, k: usize) -> Partial {
+        let direct = self.pick * self.a_direct;
+        let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
+        q = m.on_hit(q, self.seg(0), self.cb[1]);
+        for i in 1..k {
+            let vm = self.vm(m, i, None);
+            q = m.on_scatter(q, vm, self.cf[i], self.pl[i], self.pc[i], false);
+            q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
+        }
+        q
+    }
+
+    /// The camera subpath's partial weights at vertex `k` (after the hit), with
+    /// its length in segments.
+    fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32) {
+        let n = self.n;
+        let mut q = m.camera_start(self.camera);
+        q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
+        let mut len = 1;
+        for i in (k + 1..n).rev() {
+            let (vm, cos) = (self.vm(m, i, Some(len)), self.cb[i]);
+            q = m.on_scatter(q, vm, cos, self.pc[i], self.pl[i], false);
+            // An escaping ray: no cosine at infinity, only the 1 / T of its
+            // segment (as the camera subpath applies on escape).
+            let cos = if i == 1 && self.infinite {
+                1.0
+            } else {
+                self.cf[i - 1]
+            };
+            q = m.on_hit(q, self.seg(i - 1), cos);
+            len += 1;
+        }
+        (q, len)
+    }
+
+    /// The weight the recursive quantities give technique `t`.
+    fn recursive_weight(&self, m: &Mis, t: Tech) -> f32 {
+        let n = self.n;
+        match t {
+            Tech::Vc(0) => {
+                let (q, _) = self.camera_q(m, 0);
+                m.weight_emitter_hit(q, self.pick * self.a_direct, self.emission())
+            }
+            Tech::Vc(1) => {
+                let (q, len) = self.camera_q(m, 1);
+                // Light sampling's solid-angle density, with the segment's T.
+                let (direct_w, cos_light) = if self.infinite {
+                    (self.a_direct, 1.0)
+                } else {
+                    (self.a_direct * self.d2[0] / self.cf[0], self.cf[0])
+                };
+                m.weight_light_sample(
+                    q,
+                    self.vm(m, 1, Some(len)),
+                    self.pick,
+                    direct_w / self.tr[0],
+                    self.e_pos * self.e_dir,
+                    cos_light,
+                    self.cb[1],
+                    self.pc[1],
+                    self.pl[1],
+                )
+            }
+            Tech::Vc(s) if s == n => {
+                let q = self.light_q(m, n - 1);
+                let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
+                let vm = self.vm(m, n - 1, Some(1));
+                m.weight_camera_connection((q, vm), camera_a, self.pc[n - 1])
+            }
+            Tech::Vc(s) => {
+                let ql = self.light_q(m, s - 1);
+                let (qc, len) = self.camera_q(m, s);
+                let seg = self.seg(s - 1);
+                m.weight_connection(
+                    (ql, self.vm(m, s - 1, None)),
+                    (qc, self.vm(m, s, Some(len))),
+                    self.pc[s] * self.cf[s - 1] / seg,
+                    self.pl[s - 1] * self.cb[s] / seg,
+                    self.pc[s - 1],
+                    self.pl[s],
+                )
+            }
+            Tech::Vm(j, k) => {
+                let ql = self.light_q(m, j);
+                let (qc, _) = self.camera_q(m, j);
+                let own = m.eta(k, self.sigma(j), self.sin[j]);
+                let all = self.vm(m, j, None);
+                m.weight_merge(ql, qc, (own, all), self.pc[j], self.pl[j])
+            }
+        }
+    }
+}
+
+/// Merge estimators of the tests: none, surfaces only ([TR]), or surfaces and
+/// media with a different eta (as a volume kernel would have).
+fn merges(vm: bool, volume: bool) -> Merges {
+    let (radius, light_paths) = (0.01f32, 1000.0f32);
+    let mut m = if vm {
+        Merges::surface(radius, light_paths)
+    } else {
+        Merges::default()
+    };
+    if vm && volume {
+        m = m.with(Merge::Point3d, 0.05, light_paths);
+    }
+    m
+}
+
+/// A set of [UPBP]'s estimators: `mask` bit k turns on `ALL_MERGES[k]`, each with
+/// its own radius.
+fn upbp(mask: u32) -> Merges {
+    let radii = [0.01f32, 0.05, 0.02, 0.03];
+    (0..Merge::COUNT)
+        .filter(|k| mask & (1 << k) != 0)
+        .fold(Merges::default(), |m, k| {
+            m.with(ALL_MERGES[k], radii[k], 1000.0)
+        })
+}
+
+fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, media: bool) {
+    let mut rng = Rng::new(3, 1, 4);
+    let light_paths = 1000.0f32;
+    let mut m = Mis::new(heuristic, light_paths, vc, merges);
+    m.merge_first = merge_first;
+    for n in 2..7 {
+        for k in 0..40 {
+            let infinite = k % 2 == 1;
+            let path = random_path(&mut rng, n, media, infinite);
+            let mut techs = Vec::new();
+            if vc {
+                techs.extend((0..=n).map(Tech::Vc));
+            }
+            let last = if merge_first { n } else { n - 1 };
+            for j in 1..last {
+                let can = ALL_MERGES
+                    .into_iter()
+                    .filter(|&k| path.eta(j, k, &merges) > 0.0);
+                techs.extend(can.map(|k| Tech::Vm(j, k)));
+            }
+            let p = |t: Tech| m.f(path.density(t, &merges, light_paths));
+            if techs.is_empty() {
+                continue; // merging alone, where no estimator can sit on this path
+            }
+            let total: f64 = techs.iter().map(|&t| p(t)).sum();
+            let mut sum = 0.0;
+            for &t in &techs {
+                let expect = (p(t) / total) as f32;
+                let got = path.recursive_weight(&m, t);
+                assert!(
+                    (got - expect).abs() <= 1e-4 * expect.max(1e-3),
+                    "{heuristic:?} vc={vc} {merges:?} merge_first={merge_first} media={media} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
+                );
+                sum += got;
+            }
+            assert!((sum - 1.0).abs() < 1e-4, "weights sum to {sum}");
+        }
+    }
+}
+
+#[test]
+fn vcm_weights_match_explicit_heuristics_and_sum_to_one() {
+    for h in [Heuristic::Balance, Heuristic::Power] {
+        check(h, true, merges(true, false), true, false);
+        check(h, true, merges(true, false), false, false);
+    }
+}
+
+#[test]
+fn bpt_and_bpm_weights_sum_to_one() {
+    for h in [Heuristic::Balance, Heuristic::Power] {
+        check(h, true, merges(false, false), true, false);
+        check(h, false, merges(true, false), true, false);
+    }
+}
+
+/// Medium vertices and transmittances in the densities: the recursive weights with
+/// d^2 / T and D in place of d^2 and the cosine are still the explicit heuristics,
+/// with merging at surfaces only or with a second estimator of its own eta in media.
+#[test]
+fn weights_with_medium_vertices_match_explicit_heuristics_and_sum_to_one() {
+    for h in [Heuristic::Balance, Heuristic::Power] {
+        check(h, true, merges(false, false), true, true);
+        for volume in [false, true] {
+            check(h, true, merges(true, volume), true, true);
+            check(h, true, merges(true, volume), false, true);
+            check(h, false, merges(true, volume), true, true);
+        }
+    }
+}
+
+/// Every subset of [UPBP]'s estimators, with and without connections: the weights
+/// of all techniques that can produce a path (connections, and each estimator at
+/// each vertex where it can sit: surfaces, medium points, camera beams through
+/// photon points, beams meeting at a sine above MIN_BEAM_SIN) are the explicit
+/// heuristics and sum to one.
+#[test]
+fn upbp_weights_match_explicit_heuristics_and_sum_to_one() {
+    for h in [Heuristic::Balance, Heuristic::Power] {
+        for mask in 0..(1 << Merge::COUNT) {
+            check(h, true, upbp(mask), true, true);
+            check(h, true, upbp(mask), false, true);
+            if mask != 0 {
+                check(h, false, upbp(mask), true, true);
+            }
+        }
+    }
+}
+
+#[test]
+fn mis_transmittance_is_clamped() {
+    assert_eq!(transmittance(0.0), 1.0);
+    assert!((transmittance(2.0) - (-2.0f32).exp()).abs() < 1e-7);
+    let floor = transmittance(MAX_MIS_DEPTH);
+    assert!(floor > 0.0);
+    assert_eq!(transmittance(f32::INFINITY), floor);
+    assert_eq!(transmittance(f32::NAN), floor);
+}
