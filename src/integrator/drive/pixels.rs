@@ -5,6 +5,7 @@
 use crate::film::{tiles, Film, Tile, TileBuffer};
 use crate::geometry::Ray;
 use crate::integrator::memory::{Estimate, Facts};
+use crate::integrator::transport::density_camera::{self, Depths, MediumGather};
 use crate::integrator::transport::Stream;
 use crate::integrator::{Counters, RenderStats};
 use crate::math::{Rgb, Rng, Vec2};
@@ -49,6 +50,20 @@ where
         #[inline(always)]
         |buf| tile_loop(scene, seed, iteration, buf, &radiance),
     )
+}
+
+/// The density estimators' camera pass (`vpm`, `ppb`): one camera path per pixel
+/// ([`density_camera::li`]), whose medium segments `g` gathers.
+pub fn render_density_camera<G: MediumGather + Sync>(
+    scene: &Scene,
+    (seed, iteration): (u64, u64),
+    film: &mut Film,
+    g: &G,
+    depths: Depths,
+) -> RenderStats {
+    render_pixels(scene, seed, iteration, film, |ray, rng, st| {
+        density_camera::li(scene, g, depths, ray, rng, st)
+    })
 }
 
 /// Runs `body` over every tile, in parallel, and adds the tiles to `film` in a fixed

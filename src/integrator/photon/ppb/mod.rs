@@ -52,7 +52,7 @@
 pub use crate::integrator::estimators::beams::BeamForm;
 
 use crate::film::Film;
-use crate::integrator::drive::pixels::{render_pixels, tile_memory};
+use crate::integrator::drive::pixels::{render_density_camera, tile_memory};
 use crate::integrator::estimators::beam_estimate::Gather;
 use crate::integrator::estimators::beams::{self, Beam, PIECE};
 use crate::integrator::estimators::Lbvh;
@@ -61,7 +61,7 @@ use crate::integrator::paths::light_pass::LightPass;
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
 use crate::integrator::pilot;
-use crate::integrator::transport::density_camera::{self, Depths};
+use crate::integrator::transport::density_camera::Depths;
 use crate::integrator::transport::light_paths::{check_light_pass, LightPaths};
 use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_radius};
@@ -231,9 +231,7 @@ impl Integrator for Ppb {
             max_depth: self.s.max_depth,
             rr_depth: self.s.rr_depth,
         };
-        stats += render_pixels(scene, seed, iteration, film, |ray, rng, st| {
-            density_camera::li(scene, &g, depths, ray, rng, st)
-        });
+        stats += render_density_camera(scene, (seed, iteration), film, &g, depths);
         stats
     }
 }

@@ -82,7 +82,7 @@
 
 use crate::film::Film;
 use crate::integrator::drive::light::{chunk_count, trace_chunks};
-use crate::integrator::drive::pixels::{render_pixels, tile_memory};
+use crate::integrator::drive::pixels::{render_density_camera, tile_memory};
 use crate::integrator::estimators::beam_query::BeamQuery;
 use crate::integrator::estimators::{HashGrid, PointBvh};
 use crate::integrator::memory::{
@@ -91,7 +91,7 @@ use crate::integrator::memory::{
 use crate::integrator::paths::photons::{
     photon_budget, photon_paths, Photon, PhotonChunk, PhotonPass, PhotonRules,
 };
-use crate::integrator::transport::density_camera::{self, Depths, MediumGather};
+use crate::integrator::transport::density_camera::{Depths, MediumGather};
 use crate::integrator::transport::medium_walk::Segment;
 use crate::integrator::transport::params::ParamError;
 use crate::integrator::transport::params::{check_alpha, check_photon_params};
@@ -408,9 +408,7 @@ impl Integrator for Vpm {
             max_depth: self.s.max_depth,
             rr_depth: self.s.rr_depth,
         };
-        stats += render_pixels(scene, seed, iteration, film, |ray, rng, st| {
-            density_camera::li(scene, &g, depths, ray, rng, st)
-        });
+        stats += render_density_camera(scene, (seed, iteration), film, &g, depths);
         stats.merge_radius = radius;
         let chunk_bytes: usize = ws.chunks.iter().map(|c| c.media.capacity()).sum::<usize>()
             * std::mem::size_of::<Photon>();
