@@ -95,6 +95,48 @@ fn upbp_technique_layers_sum_to_the_image() {
     }
 }
 
+/// `depth_layers` splits each merge layer by the camera vertex or segment the merge
+/// sits at: the split layers add up to the technique's layer of the same render (same
+/// seed and settings otherwise), and merges happen beyond the first camera segment.
+#[test]
+fn upbp_depth_layers_split_each_merge_layer() {
+    let scene = shipped_media("fog-cornell", 16, 8);
+    let p = json!({"technique_layers": true, "light_paths": 2, "beam_paths": 0.5,
+                   "pb2d_radius": 0.03, "bb1d_radius": 0.02, "medium_radius": 0.05});
+    let (whole, n) = render(&scene, &settings("upbp", p.clone()), 4, 2);
+    let mut p_depth = p;
+    p_depth["depth_layers"] = json!(true);
+    let (split, n_split) = render(&scene, &settings("upbp", p_depth), 4, 2);
+    assert_eq!(n, n_split);
+    let whole = whole.layer_images();
+    let split = split.layer_images();
+    let names: Vec<&str> = split.iter().map(|(n, _)| n.as_str()).collect();
+    let mut expected = vec!["bpt".to_string()];
+    for t in ["surf", "pp3d", "pb2d", "bb1d"] {
+        expected.extend(["c1", "c2", "c3+"].map(|c| format!("{t}_{c}")));
+    }
+    assert_eq!(names, expected);
+    assert_eq!(split[0].1.pixels(), whole[0].1.pixels(), "bpt changed");
+    for (k, (name, layer)) in whole.iter().enumerate().skip(1) {
+        let parts = &split[1 + 3 * (k - 1)..4 + 3 * (k - 1)];
+        let worst = parts_mismatch(layer, parts);
+        assert!(
+            worst < 1e-4,
+            "{name}'s depth layers differ from it by {worst}"
+        );
+    }
+    // Camera paths in the fog merge past their first segment too.
+    let deeper: f32 = split
+        .iter()
+        .filter(|(n, _)| n.ends_with("_c2"))
+        .flat_map(|(_, l)| l.pixels().iter().map(|p| p.element_sum()))
+        .sum();
+    assert!(
+        deeper > 0.0,
+        "no merge at the second camera vertex or segment"
+    );
+}
+
 #[test]
 fn layer_options_are_checked() {
     let map = |v: serde_json::Value| v.as_object().cloned().unwrap();
@@ -105,6 +147,13 @@ fn layer_options_are_checked() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("technique_layers"), "{err}");
+    let err = caustic::integrator::Settings::resolve(
+        Some("upbp"),
+        None,
+        &map(json!({"depth_layers": true})),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("depth_layers"), "{err}");
     let err = caustic::integrator::Settings::resolve(
         Some("bpt"),
         None,

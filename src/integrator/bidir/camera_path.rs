@@ -266,18 +266,10 @@ impl<'a, M: Media> CameraPass<'a, M> {
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) {
-        let (pass, l) = (self.pass, &mut p.l);
-        beams::gather(
-            pass,
-            &self.ws.beams,
-            &p.pieces,
-            p.walk.len,
-            rng,
-            stats,
-            |k, v| {
-                add(l, layers, pass.layers.merge(k), v);
-            },
-        );
+        let (pass, l, len) = (self.pass, &mut p.l, p.walk.len);
+        beams::gather(pass, &self.ws.beams, &p.pieces, len, rng, stats, |k, v| {
+            add(l, layers, pass.layers.merge(k, len), v);
+        });
     }
 
     /// Phase 2, in media: emission that only the camera subpath can find (seen
@@ -381,7 +373,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
                     (Merge::Point3d, e)
                 }
             };
-            add(&mut p.l, layers, pass.layers.merge(k), e);
+            add(&mut p.l, layers, pass.layers.merge(k, walk.len), e);
         }
     }
 }

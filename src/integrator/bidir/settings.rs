@@ -162,6 +162,7 @@ impl Estimators {
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
 /// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
+/// | `depth_layers` | false | with `technique_layers`: each merge layer split by the camera vertex or segment the merge sits at: `<technique>_c1`, `_c2`, `_c3+` |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -189,6 +190,7 @@ pub struct BidirSettings {
     pub heuristic: Heuristic,
     pub max_vertex_mib: f32,
     pub technique_layers: bool,
+    pub depth_layers: bool,
     pub strategy_images: u32,
 }
 
@@ -217,6 +219,7 @@ impl Default for BidirSettings {
             heuristic: Heuristic::Balance,
             max_vertex_mib: 2048.0,
             technique_layers: false,
+            depth_layers: false,
             strategy_images: 0,
         }
     }
@@ -338,6 +341,12 @@ impl BidirSettings {
                 "technique_layers (one layer per technique) needs vcm or upbp",
             ));
         }
+        if self.depth_layers && !self.technique_layers {
+            return Err(ParamError::new(
+                "depth_layers",
+                "depth_layers splits the technique layers: it needs technique_layers",
+            ));
+        }
         if !self.merge_first && technique == Technique::Bpm {
             return Err(ParamError::new(
                 "merge_first",
@@ -442,6 +451,10 @@ impl BidirSettings {
     }
 }
 
+/// Camera depths `depth_layers` tells apart: merges at camera vertex or segment 1, 2,
+/// and 3 or more.
+const DEPTH_BINS: u32 = 3;
+
 /// Longest path with per-strategy images (lengths 1..=8 give 44 layers).
 pub const MAX_STRATEGY_LENGTH: u32 = 8;
 
@@ -457,14 +470,27 @@ impl Layers {
             ..Default::default()
         };
         if s.technique_layers {
-            if let Technique::Upbp(_) = technique {
+            let merges: Vec<&str> = if let Technique::Upbp(_) = technique {
                 // One layer per technique, whether used or not: bpt surf pp3d pb2d bb1d.
-                layers.names = UpbpTechnique::ALL.map(|t| t.name().to_string()).to_vec();
-                layers.merges = [1, 2, 3, 4];
+                UpbpTechnique::ALL[1..].iter().map(|t| t.name()).collect()
             } else {
-                layers.names = vec!["vc".to_string(), "vm".to_string()];
-                layers.merges = [1; Merge::COUNT];
+                vec!["vm"]
+            };
+            let connections = if merges.len() > 1 { "bpt" } else { "vc" };
+            layers.names.push(connections.to_string());
+            layers.depths = if s.depth_layers { DEPTH_BINS } else { 1 };
+            for name in &merges {
+                if s.depth_layers {
+                    let bins = (1..DEPTH_BINS).map(|c| format!("{name}_c{c}"));
+                    layers.names.extend(bins);
+                    layers.names.push(format!("{name}_c{DEPTH_BINS}+"));
+                } else {
+                    layers.names.push(name.to_string());
+                }
             }
+            // Merge estimator k's first layer (vcm's two share one).
+            let per = layers.depths as usize;
+            layers.merges = std::array::from_fn(|k| (1 + per * k.min(merges.len() - 1)) as u8);
         } else {
             for k in 1..=s.strategy_images {
                 let names = (0..=k).map(|light| format!("s{light}_t{}", k + 1 - light));
