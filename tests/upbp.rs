@@ -45,23 +45,22 @@ fn volpath(scene: &Scene, regions: &[Rect]) -> Run {
     r
 }
 
-/// Each technique set agrees with volpath block by block, with query beams of
-/// `form`.
-fn agree_with(scene: &Scene, sets: &[&[&str]], iterations: u64, form: &str) {
+/// Each technique set agrees with volpath block by block, with `extra` settings.
+fn agree_with(scene: &Scene, sets: &[&[&str]], iterations: u64, extra: Value) {
     let regions = blocks(SIZE, SIZE, BLOCK);
     let vp = volpath(scene, &regions);
     for (k, set) in sets.iter().enumerate() {
-        let s = upbp(set, json!({ "query_beams": form }));
+        let s = upbp(set, extra.clone());
         let r = run(scene, &s, 7 + k as u64, iterations, &regions);
         assert_eq!(r.dropped, 0, "upbp {set:?}: dropped samples");
-        eprintln!("upbp {set:?}, {form} query beams:");
+        eprintln!("upbp {set:?}, {extra}:");
         assert_agree(&vp, &r, &regions);
     }
 }
 
 /// The same with the default (short) query beams.
 fn agree(scene: &Scene, sets: &[&[&str]], iterations: u64) {
-    agree_with(scene, sets, iterations, "short");
+    agree_with(scene, sets, iterations, json!({}));
 }
 
 const ALL: &[&str] = &["bpt", "surf", "pp3d", "pb2d", "bb1d"];
@@ -82,11 +81,27 @@ fn every_complete_technique_set_agrees_with_volpath_in_fog() {
 }
 
 /// Long query beams (to the next surface, weighted by transmittance) estimate the
-/// same image.
+/// same image, with the long beams' MIS weights (1 / T larger densities) and with the
+/// short beams' ones.
 #[test]
 fn long_query_beams_agree_with_volpath_too() {
-    let sets: &[&[&str]] = &[ALL, &["surf", "pb2d"], &["surf", "bb1d"]];
-    agree_with(&shipped("fog-cornell"), sets, 150, "long");
+    let sets: &[&[&str]] = &[ALL, &["bpt", "pb2d", "bb1d"], &["surf", "bb1d"]];
+    let scene = shipped("fog-cornell");
+    agree_with(&scene, sets, 150, json!({ "query_beams": "long" }));
+    let short_weights = json!({ "query_beams": "long", "long_beam_weights": false });
+    agree_with(&scene, &[ALL], 150, short_weights);
+}
+
+/// The same in the spot-light shaft, whose beam of light crosses deep fog.
+#[test]
+fn long_query_beams_agree_with_volpath_in_a_spot_light_shaft() {
+    let sets: &[&[&str]] = &[ALL, &["surf", "bb1d"]];
+    agree_with(
+        &shipped("spot-shaft"),
+        sets,
+        150,
+        json!({ "query_beams": "long" }),
+    );
 }
 
 #[test]

@@ -14,12 +14,16 @@
 //! or null boundary, weighted by T, whether or not the camera's flight scattered on
 //! the way. Each segment the flight entered is covered once, so this is the expected
 //! value of the short query over the flight's distance (Rao-Blackwellised: same mean,
-//! never more variance per iteration), which is why the MIS weights stay the short
-//! beams' ones: MIS weights only have to sum to one over the techniques for each path,
-//! and the short-beam densities are one such partition. (SmallUPBP instead divides the
-//! query's density by the camera transmittance; left for later.) Heterogeneous media
-//! have no closed-form P: there both kinds are long (to the surface, weight T by ratio
-//! tracking), still an unbiased estimate of the same MIS-weighted integral.
+//! never more variance per iteration). A long beam covers a point with probability 1
+//! where a short one has T, so its density there is larger by 1 / T of the camera
+//! segment up to the point, and the MIS weighs it so (`long_beam_weights`, as
+//! SmallUPBP: [`Mis::beam_scale`]); the short beams' weights are kept on request, also
+//! a valid partition, since MIS weights only have to sum to one over the techniques
+//! for each path. Heterogeneous media have no closed-form P: there both kinds are long
+//! (to the surface, weight T by ratio tracking), still an unbiased estimate of the same
+//! MIS-weighted integral, whose MIS proxy T is 1 there.
+//!
+//! [`Mis::beam_scale`]: crate::integrator::paths::partial::Mis::beam_scale
 
 use super::Pass;
 use crate::integrator::estimators::beam_estimate::{meet, Meeting};
@@ -104,8 +108,9 @@ impl BeamStore {
 
 /// A subpath's partial weights completed at the point x, `u` along segment `s` from its
 /// start, where a vertex with MIS factor D = `sigma` would be (as `on_hit` at a vertex
-/// reached along the segment's flight).
-fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> Partial {
+/// reached along the segment's flight), and the MIS transmittance from the segment's
+/// vertex to x.
+fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Partial, f32) {
     let scene = pass.scene;
     let dist2 = (x - s.from).length_squared();
     let grey = scene.media[s.medium as usize].mis_sigma_t().unwrap_or(0.0);
@@ -123,7 +128,8 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> Par
         let cos0 = n0.dot(s.d).abs() as f64;
         q.dvcm = pass.mis.f(pick * pdf_w * cos0 / (dist2 as f64 * emission));
     }
-    pass.mis.on_hit(q, dist2 / tr, sigma)
+    let q = pass.mis.settle(q, s.pending, tr);
+    (pass.mis.on_hit(q, dist2 / tr, sigma), tr)
 }
 
 /// The camera's query beam along camera segment `c`, and the medium it is in.
@@ -163,9 +169,9 @@ impl Query<'_> {
         ph: f32,
     ) -> f32 {
         let sin = pass.mis.sine(self.beam.d, wl);
-        let own = pass.mis.eta(k, self.sigma, sin);
-        let all = pass.mis.merges(Site::Medium, self.sigma, sin, None);
-        let qc = partial_at(pass, self.c, xc, tc, self.sigma);
+        let (qc, tr) = partial_at(pass, self.c, xc, tc, self.sigma);
+        let own = pass.mis.eta(k, self.sigma, sin, tr);
+        let all = pass.mis.merges(Site::Medium, self.sigma, sin, None, tr);
         let cont_c = self.continuation(pass, xc);
         pass.mis
             .weight_merge(ql, qc, (own, all), ph * cont_c, ph * cont_l)
@@ -251,7 +257,7 @@ fn beam_beam(
         }
         let s = &store.segments[b.seg as usize];
         let (xc, xl) = (c.o + c.d * tc, b.o + b.d * tb);
-        let ql = partial_at(pass, s, xl, b.start + tb, q.sigma);
+        let (ql, _) = partial_at(pass, s, xl, b.start + tb, q.sigma);
         let cont_l = q.continuation(pass, xl);
         let w = q.weight(pass, Merge::BeamBeam1d, xc, tc, ql, cont_l, -b.d, ph);
         stats.merges += 1;

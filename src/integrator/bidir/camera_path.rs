@@ -85,6 +85,8 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
                 throughput: Rgb::ONE,
                 len: 1,
                 q: self.pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
+                pending: 0.0,
+                tr: 1.0,
                 specular: true,
                 medium: if M::ON { scene.camera_medium } else { None },
             },
@@ -249,6 +251,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
             start: FlightStart {
                 len: walk.len,
                 q: walk.q,
+                pending: 0.0,
                 from: walk.origin,
                 area: NO_AREA,
             },
@@ -332,6 +335,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let walk = &mut p.walk;
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
+        walk.tr = tr;
         if let (Vertex::Surface { it, .. }, false) = (v, seen) {
             let e = walk.throughput * emitter_hit(pass, walk, it, p.ray.d, dist2);
             add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
@@ -513,7 +517,7 @@ fn light_sample<M: Media>(
     };
     let w = pass.mis.weight_light_sample(
         walk.q,
-        v.merges(pass, ls.wi(), Some(walk.len)),
+        v.merges(pass, ls.wi(), Some(walk.len), walk.tr),
         pick,
         direct / tr_mis,
         pos * dir,
@@ -569,8 +573,8 @@ fn connect<M: Media>(
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
         let w = pass.mis.weight_connection(
-            (y.q, ys.merges(pass, dir, None)),
-            (walk.q, v.merges(pass, dir, Some(walk.len))),
+            (y.q, ys.merges(pass, dir, None, tr_mis)),
+            (walk.q, v.merges(pass, dir, Some(walk.len), walk.tr)),
             ec.pdf_dir * cont * el.cos / seg,
             el.pdf_dir * y_cont * ec.cos / seg,
             el.pdf_rev * y_cont,
@@ -599,7 +603,7 @@ fn merge(
     }
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0);
+    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
     let surface_merge = (eta, eta);
     ws.surface.grid.query_sorted_in(
         it.p,
@@ -669,8 +673,8 @@ fn merge_medium(
             }
             let (dir, rev) = (ph * m.cont, ph * y.cont);
             let sin = pass.mis.sine(m.wo, y.wo);
-            let own = pass.mis.eta(Merge::Point3d, m.sigma, sin);
-            let all = pass.mis.merges(Site::Medium, m.sigma, sin, None);
+            let own = pass.mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
+            let all = pass.mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
             let w = pass.mis.weight_merge(y.q, walk.q, (own, all), dir, rev);
             merges += 1;
             sum += y.throughput * (ph * w);

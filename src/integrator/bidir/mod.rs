@@ -30,6 +30,7 @@ pub mod mis;
 use super::{Integrator, RenderStats};
 use crate::film::Film;
 use crate::integrator::drive::pixels::{film_sample, render_paths};
+use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::light_path::trace_light_paths;
 use crate::integrator::paths::partial::{Merge, Merges, Mis};
@@ -144,6 +145,7 @@ impl Bidir {
         }
         let mut mis = Mis::new(self.s.heuristic, n, t.connects(), merges);
         mis.merge_first = self.s.merge_first;
+        mis.long_query = self.s.query_beams == BeamForm::Long && self.s.long_beam_weights;
         let core = crate::integrator::paths::Pass {
             scene,
             tracing: t.tracing(),

@@ -154,7 +154,8 @@ impl Estimators {
 /// | `medium_alpha` | 4/7 | its reduction, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1) (Knaus and Zwicker; 4/7 balances variance and squared bias in 3D) |
 /// | `pb2d_radius`, `pb2d_radius_factor`, `pb2d_alpha` | none, 0.01, 2/3 | `upbp`'s point x beam 2D radius, as the above, r^2 schedule |
 /// | `bb1d_radius`, `bb1d_radius_factor`, `bb1d_alpha` | none, 0.005, 4/5 | `upbp`'s beam x beam 1D radius, as the above, r schedule |
-/// | `query_beams` | `short` | `upbp`: camera segments gather only up to where the camera's free flight scattered (`short`), or along their whole length to the next surface, weighted by transmittance (`long`, SmallUPBP's default: the expected value of `short` over the flight, so less variance per iteration, at a cost that grows with the optical depth of the segments); the MIS weights are the short beams' either way (beams.rs) |
+/// | `query_beams` | `short` | `upbp`: camera segments gather only up to where the camera's free flight scattered (`short`), or along their whole length to the next surface, weighted by transmittance (`long`, SmallUPBP's default: the expected value of `short` over the flight, so less variance per iteration, at a cost that grows with the optical depth of the segments) |
+/// | `long_beam_weights` | true | with `query_beams: long`, the MIS weighs query beams as long beams, whose density at a point is larger than a short one's by 1 / T of the camera segment up to it ([UPBP], SmallUPBP); false keeps the short beams' weights (also unbiased, a different partition) |
 /// | `beam_paths` | 0.1 | `upbp`: the fraction of light subpaths whose segments through media become photon beams (SmallUPBP's `-pbc`) |
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
@@ -182,6 +183,7 @@ pub struct BidirSettings {
     pub bb1d_radius_factor: f32,
     pub bb1d_alpha: f32,
     pub query_beams: BeamForm,
+    pub long_beam_weights: bool,
     pub beam_paths: f32,
     #[serde(deserialize_with = "de_techniques")]
     pub techniques: Vec<UpbpTechnique>,
@@ -212,6 +214,7 @@ impl Default for BidirSettings {
             bb1d_radius_factor: 0.005,
             bb1d_alpha: 0.8,
             query_beams: BeamForm::Short,
+            long_beam_weights: true,
             beam_paths: 0.1,
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,

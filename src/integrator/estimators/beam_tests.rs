@@ -343,7 +343,7 @@ fn beam_beam_acceptance_is_the_mis_density_of_the_estimator() {
                     let t = width * (k as f32 + (i as f32 + 0.5) / steps as f32);
                     let to = Vec3::new(0.0, 0.0, t) - y;
                     let sin = to.normalize().cross(Vec3::Z).length();
-                    let eta = mis.eta(Merge::BeamBeam1d, 1.0, sin);
+                    let eta = mis.eta(Merge::BeamBeam1d, 1.0, sin, 1.0);
                     n as f64 / (4.0 * std::f64::consts::PI) * eta / to.length_squared() as f64
                         * (width / steps as f32) as f64
                 })

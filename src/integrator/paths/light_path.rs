@@ -146,6 +146,8 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
         throughput: es.le * (es.cos / emission),
         len: 1,
         q,
+        pending: 0.0,
+        tr: 1.0,
         specular: true,
         medium: None,
     };
@@ -221,7 +223,9 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         }
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
-        walk.q = pass.mis.on_hit(walk.q, d2 / tr, v.d_in());
+        let q = pass.mis.settle(walk.q, walk.pending, tr);
+        walk.q = pass.mis.on_hit(q, d2 / tr, v.d_in());
+        (walk.pending, walk.tr) = (0.0, tr);
         if !v.skips_connections() {
             lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
         }
@@ -266,6 +270,7 @@ fn flight<'a, 's, M: Media>(
         start: FlightStart {
             len: walk.len,
             q: walk.q,
+            pending: walk.pending,
             from: walk.origin,
             area,
         },
@@ -410,19 +415,20 @@ fn connect_to_camera<M: Media>(
     let (ray, medium) = v.ray_to(pass, walk.medium, lens, Vec3::ZERO, Vec3::ZERO);
     let layer = pass.layers.connection(walk.len + 1, 1);
     let link = (camera_pdf, dist2);
-    // Seen from the lens, the vertex would be the first camera vertex.
-    let vm = v.merges(pass, dir, Some(1));
+    // Seen from the lens, the vertex would be the first camera vertex, with the
+    // connection as its camera-side segment.
+    let vm = |tc| v.merges(pass, dir, Some(1), tc);
     if !M::ON {
         return Some(LensShadow {
             ray,
             raster,
-            value: lens_value(pass, walk, (&e, vm), v.cont(), link, Rgb::ONE, 1.0),
+            value: lens_value(pass, walk, (&e, vm(1.0)), v.cont(), link, Rgb::ONE, 1.0),
             layer,
         });
     }
     let rays = &mut chunk.stats.shadow_rays;
     let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
-    let value = lens_value(pass, walk, (&e, vm), v.cont(), link, tr, tr_mis);
+    let value = lens_value(pass, walk, (&e, vm(tr_mis)), v.cont(), link, tr, tr_mis);
     push_splat(chunk, raster, value, layer);
     None
 }

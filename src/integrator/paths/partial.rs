@@ -141,6 +141,8 @@ pub struct Mis {
     /// Merging at the first camera vertex is a technique; when false it is removed
     /// from every denominator as well as from the estimator.
     pub merge_first: bool,
+    /// Camera (query) beams are long and weighted as such: see [`Mis::beam_scale`].
+    pub long_query: bool,
 }
 
 /// Optical depth beyond which the MIS transmittance of a segment stops falling.
@@ -173,6 +175,7 @@ impl Mis {
             vc: if vc { 1.0 } else { 0.0 },
             light_paths: light_paths as f64,
             merge_first: true,
+            long_query: false,
         };
         m.merge = merges.eta.map(|eta| eta.map_or(0.0, |eta| m.f(eta)));
         m
@@ -188,11 +191,21 @@ impl Mis {
         }
     }
 
-    /// Mis(eta_k(x)) of estimator `k` at a vertex x whose MIS factor D is `sigma` and
-    /// whose two path segments meet at sine `sin` (see the notes above; 0 where `k` is
-    /// not used or cannot sit).
+    /// Mis(eta_k(x)) of estimator `k` at a vertex x whose MIS factor D is `sigma`,
+    /// whose two path segments meet at sine `sin`, and whose camera-side segment has
+    /// MIS transmittance `tc` (see the notes above and [`Mis::beam_scale`]; 0 where `k`
+    /// is not used or cannot sit).
     #[inline]
-    pub fn eta(&self, k: Merge, sigma: f32, sin: f32) -> f64 {
+    pub fn eta(&self, k: Merge, sigma: f32, sin: f32, tc: f32) -> f64 {
+        match k {
+            Merge::Surface | Merge::Point3d => self.merge[k as usize],
+            _ => self.eta_short(k, sigma, sin) * self.beam_scale(tc),
+        }
+    }
+
+    /// Mis(eta_k(x)) as a short query beam has it.
+    #[inline]
+    fn eta_short(&self, k: Merge, sigma: f32, sin: f32) -> f64 {
         let m = self.merge[k as usize];
         match k {
             Merge::Surface | Merge::Point3d => m,
@@ -201,6 +214,23 @@ impl Mis {
                 m * self.f(sin) / self.f(sigma as f64 * sigma as f64)
             }
             Merge::BeamBeam1d => 0.0,
+        }
+    }
+
+    /// The factor a query beam's estimators (point x beam, beam x beam) take in the
+    /// density of a point x whose camera-side segment has MIS transmittance `tc`:
+    /// Mis(P_cover / T), where P_cover is the probability that the camera beam covers
+    /// x given that it starts. A short beam covers x when the camera's free flight
+    /// passes it (P_cover = T: factor 1, the densities above); a long one always does
+    /// (P_cover = 1: factor Mis(1 / T)), so deep along a dense segment it is far
+    /// likelier to find x than the camera's own vertex sampling is, and the balance
+    /// heuristic gives it that weight ([UPBP]; SmallUPBP's `PathWeight.hxx`).
+    #[inline]
+    pub fn beam_scale(&self, tc: f32) -> f64 {
+        if self.long_query {
+            1.0 / self.f(tc)
+        } else {
+            1.0
         }
     }
 
@@ -219,17 +249,69 @@ impl Mis {
     /// at `site` (as [`Mis::eta`]), `camera_len` segments from the camera on camera
     /// subpaths (0 where merging there is no technique).
     #[inline]
-    pub fn merges(&self, site: Site, sigma: f32, sin: f32, camera_len: Option<u32>) -> f64 {
+    pub fn merges(
+        &self,
+        site: Site,
+        sigma: f32,
+        sin: f32,
+        camera_len: Option<u32>,
+        tc: f32,
+    ) -> f64 {
+        let (points, beams) = self.merge_parts(site, sigma, sin, camera_len);
+        points + beams * self.beam_scale(tc)
+    }
+
+    /// M(x) in two parts: the point estimators', and the query beams' before their
+    /// [`Mis::beam_scale`]. A light subpath's vertex needs the split: its camera-side
+    /// segment is the one it leaves along, whose T is known only at the next hit (see
+    /// [`Mis::settle`]).
+    #[inline]
+    pub fn merge_parts(
+        &self,
+        site: Site,
+        sigma: f32,
+        sin: f32,
+        camera_len: Option<u32>,
+    ) -> (f64, f64) {
         if camera_len == Some(1) && !self.merge_first {
-            return 0.0;
+            return (0.0, 0.0);
         }
         match site {
-            Site::Surface => self.merge[Merge::Surface as usize],
-            Site::Medium => {
-                self.eta(Merge::Point3d, sigma, sin)
-                    + self.eta(Merge::PointBeam2d, sigma, sin)
-                    + self.eta(Merge::BeamBeam1d, sigma, sin)
-            }
+            Site::Surface => (self.merge[Merge::Surface as usize], 0.0),
+            Site::Medium => (
+                self.merge[Merge::Point3d as usize],
+                self.eta_short(Merge::PointBeam2d, sigma, sin)
+                    + self.eta_short(Merge::BeamBeam1d, sigma, sin),
+            ),
+        }
+    }
+
+    /// On a light subpath with long query beams: scattering at a medium vertex adds
+    /// the point part of its M(x) to `on_scatter` and keeps the beam part, `beams` of
+    /// [`Mis::merge_parts`], as `pending` (returned here, with on_scatter's factor of
+    /// the sampled direction), until the segment it leaves along ends; 0 otherwise.
+    #[inline]
+    pub fn defer(&self, beams: f64, cos_out: f32, pdf_dir: f32) -> f64 {
+        if self.long_query {
+            self.f(cos_out as f64 / pdf_dir as f64) * beams
+        } else {
+            0.0
+        }
+    }
+
+    /// The light subpath's beam part `pending` of its last vertex's M(x) (from
+    /// [`Mis::defer`]), completed by the segment's MIS transmittance `tr` where it
+    /// ends (a vertex, or the point a beam estimate stands for): call before `on_hit`.
+    #[inline]
+    pub fn settle(&self, q: Partial, pending: f64, tr: f32) -> Partial {
+        if pending == 0.0 {
+            return q;
+        }
+        let add = pending * self.beam_scale(tr);
+        Partial {
+            dvcm: q.dvcm,
+            dvc: q.dvc + add,
+            dvm: q.dvm + add,
         }
     }
 

@@ -35,6 +35,10 @@ pub(crate) struct LightSegment {
     /// light: with dvcm still to be completed at the point, see `area`), that vertex,
     /// and the MIS optical depth from it to `o` (null boundaries crossed on the way).
     pub q: Partial,
+    /// The beam part of that vertex's M(x) still to be settled ([`Walk::pending`]).
+    ///
+    /// [`Walk::pending`]: super::walk::Walk::pending
+    pub pending: f64,
     pub from: Vec3,
     pub depth0: f32,
     /// On a light subpath's first segment from an area light: the light and its
@@ -51,6 +55,7 @@ pub(crate) const NO_AREA: (u32, Vec3) = (u32::MAX, Vec3::ZERO);
 pub(crate) struct FlightStart {
     pub len: u32,
     pub q: Partial,
+    pub pending: f64,
     pub from: Vec3,
     pub area: (u32, Vec3),
 }
@@ -67,6 +72,7 @@ impl LightSegment {
             beta: seg.beta,
             len: start.len,
             q: start.q,
+            pending: start.pending,
             from: start.from,
             depth0,
             area: start.area,

@@ -106,12 +106,14 @@ impl<'a> MediumPoint<'a> {
 }
 
 impl MediumPoint<'_> {
-    /// M(x) of this point with `other` the direction of its other path segment (see
+    /// M(x) of this point with `other` the direction of its other path segment and
+    /// `tc` the MIS transmittance of its camera-side segment (see
     /// [`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
         let sin = pass.mis.sine(self.wo, other);
-        pass.mis.merges(Site::Medium, self.sigma, sin, camera_len)
+        pass.mis
+            .merges(Site::Medium, self.sigma, sin, camera_len, tc)
     }
 }
 
@@ -150,12 +152,13 @@ impl<M: Media> Scatterer<'_, M> {
         }
     }
 
-    /// M(x) of the vertex with `other` the direction of its other path segment.
+    /// M(x) of the vertex with `other` the direction of its other path segment and
+    /// `tc` the MIS transmittance of its camera-side segment.
     #[inline(always)]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
         match self {
-            Scatterer::Surface(_) => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len),
-            Scatterer::Medium(m) => M::get(m).merges(pass, other, camera_len),
+            Scatterer::Surface(_) => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
+            Scatterer::Medium(m) => M::get(m).merges(pass, other, camera_len, tc),
         }
     }
 }
@@ -247,13 +250,14 @@ impl<'a, M: Media> Vertex<'a, M> {
         }
     }
 
-    /// M(x) of the vertex with `other` the direction of its other path segment
+    /// M(x) of the vertex with `other` the direction of its other path segment and
+    /// `tc` the MIS transmittance of its camera-side segment
     /// ([`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline(always)]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>) -> f64 {
+    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
         match self {
-            Vertex::Surface { .. } => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len),
-            Vertex::Medium { m, .. } => M::get(m).merges(pass, other, camera_len),
+            Vertex::Surface { .. } => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
+            Vertex::Medium { m, .. } => M::get(m).merges(pass, other, camera_len, tc),
         }
     }
 
@@ -346,7 +350,18 @@ fn scatter_medium(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    let vm = m.merges(pass, wi, camera_len);
+    // A camera vertex's camera-side segment is the one it was reached by; a light
+    // vertex's is the one it leaves along, whose T is settled at its end.
+    let sin = pass.mis.sine(m.wo, wi);
+    let (points, beams) = pass.mis.merge_parts(Site::Medium, m.sigma, sin, camera_len);
+    let vm = match camera_len {
+        Some(_) => points + beams * pass.mis.beam_scale(walk.tr),
+        None if pass.mis.long_query => {
+            walk.pending = pass.mis.defer(beams, m.sigma, pdf_dir);
+            points
+        }
+        None => points + beams,
+    };
     walk.q = pass
         .mis
         .on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);

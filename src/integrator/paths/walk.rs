@@ -77,6 +77,14 @@ pub(crate) struct Walk {
     /// Segments traced so far, including the one being traced.
     pub len: u32,
     pub q: Partial,
+    /// On a light subpath, the beam part of the last vertex's M(x) awaiting the
+    /// transmittance of the segment being traced ([`Mis::defer`]); else 0.
+    ///
+    /// [`Mis::defer`]: super::partial::Mis::defer
+    pub pending: f64,
+    /// The MIS transmittance of the segment that reached the current vertex: on a
+    /// camera subpath, the camera-side T of merges there.
+    pub tr: f32,
     /// Every scattering event so far was specular.
     pub specular: bool,
     /// The medium the path travels in (always None in scenes without media).
@@ -114,7 +122,7 @@ pub(crate) fn scatter(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    let vm = pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len);
+    let vm = pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     walk.q = pass
         .mis
         .on_scatter(walk.q, vm, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta);

@@ -37,6 +37,8 @@ struct Path {
     e_pos: f32,
     e_dir: f32,
     camera: f32,
+    /// Query beams are long, weighted as such ([`Mis::beam_scale`]).
+    long: bool,
 }
 
 fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
@@ -61,6 +63,7 @@ fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
         e_pos: r(0.5, 4.0),
         e_dir: r(0.05, 1.0),
         camera: r(0.5, 3.0),
+        long: false,
     };
     if media {
         for i in 1..n {
@@ -123,26 +126,35 @@ impl Path {
     }
 
     /// eta_k(x_j) from its definition ([UPBP], the notes on `Mis`): 0 where the
-    /// estimator is not used or cannot sit at x_j.
+    /// estimator is not used or cannot sit at x_j. A long query beam covers x_j with
+    /// probability 1 rather than the T of the camera-side segment (x_j, x_{j+1}).
     fn eta(&self, j: usize, k: Merge, merges: &Merges) -> f64 {
         let Some(eta) = merges.eta[k as usize] else {
             return 0.0;
         };
         let sigma = self.sigma(j) as f64;
+        let cover = if self.long { self.tr[j] as f64 } else { 1.0 };
         match (self.site[j], k) {
             (Site::Surface, Merge::Surface) => eta,
             (Site::Medium, Merge::Point3d) => eta,
-            (Site::Medium, Merge::PointBeam2d) => eta / sigma,
+            (Site::Medium, Merge::PointBeam2d) => eta / (sigma * cover),
             (Site::Medium, Merge::BeamBeam1d) if self.sin[j] >= MIN_BEAM_SIN => {
-                eta * self.sin[j] as f64 / (sigma * sigma)
+                eta * self.sin[j] as f64 / (sigma * sigma * cover)
             }
             _ => 0.0,
         }
     }
 
-    /// M(x_i) as the recursion takes it.
+    /// M(x_i) as the recursion takes it: whichever subpath x_i is on, its camera-side
+    /// segment is (x_i, x_{i+1}).
     fn vm(&self, m: &Mis, i: usize, camera_len: Option<u32>) -> f64 {
-        m.merges(self.site[i], self.sigma(i), self.sin[i], camera_len)
+        m.merges(
+            self.site[i],
+            self.sigma(i),
+            self.sin[i],
+            camera_len,
+            self.tr[i],
+        )
     }
 
     /// The technique's density times its sample count.
@@ -181,8 +193,16 @@ impl Path {
         let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
         q = m.on_hit(q, self.seg(0), self.cb[1]);
         for i in 1..k {
-            let vm = self.vm(m, i, None);
+            // As the light subpath does: the query beams' part of M(x_i) waits for
+            // the T of the segment x_i leaves along.
+            let (points, beams) = m.merge_parts(self.site[i], self.sigma(i), self.sin[i], None);
+            let (vm, pending) = if m.long_query {
+                (points, m.defer(beams, self.cf[i], self.pl[i]))
+            } else {
+                (points + beams, 0.0)
+            };
             q = m.on_scatter(q, vm, self.cf[i], self.pl[i], self.pc[i], false);
+            q = m.settle(q, pending, self.tr[i]);
             q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
         }
         q
@@ -261,7 +281,7 @@ impl Path {
             Tech::Vm(j, k) => {
                 let ql = self.light_q(m, j);
                 let (qc, _) = self.camera_q(m, j);
-                let own = m.eta(k, self.sigma(j), self.sin[j]);
+                let own = m.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
                 let all = self.vm(m, j, None);
                 m.weight_merge(ql, qc, (own, all), self.pc[j], self.pl[j])
             }
@@ -295,15 +315,39 @@ fn upbp(mask: u32) -> Merges {
         })
 }
 
+/// How the weights of one `check` are set up beyond the estimators.
+#[derive(Clone, Copy, Debug, Default)]
+struct Setup {
+    merge_first: bool,
+    media: bool,
+    long: bool,
+}
+
 fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, media: bool) {
+    for long in [false, true] {
+        let setup = Setup {
+            merge_first,
+            media,
+            long,
+        };
+        check_setup(heuristic, vc, merges, setup);
+    }
+}
+
+fn check_setup(heuristic: Heuristic, vc: bool, merges: Merges, setup: Setup) {
+    let Setup {
+        merge_first, media, ..
+    } = setup;
     let mut rng = Rng::new(3, 1, 4);
     let light_paths = 1000.0f32;
     let mut m = Mis::new(heuristic, light_paths, vc, merges);
     m.merge_first = merge_first;
+    m.long_query = setup.long;
     for n in 2..7 {
         for k in 0..40 {
             let infinite = k % 2 == 1;
-            let path = random_path(&mut rng, n, media, infinite);
+            let mut path = random_path(&mut rng, n, media, infinite);
+            path.long = setup.long;
             let mut techs = Vec::new();
             if vc {
                 techs.extend((0..=n).map(Tech::Vc));
@@ -326,7 +370,7 @@ fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, medi
                 let got = path.recursive_weight(&m, t);
                 assert!(
                     (got - expect).abs() <= 1e-4 * expect.max(1e-3),
-                    "{heuristic:?} vc={vc} {merges:?} merge_first={merge_first} media={media} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
+                    "{heuristic:?} vc={vc} {merges:?} {setup:?} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
                 );
                 sum += got;
             }
