@@ -15,9 +15,11 @@
 #   [SEEDS=4] deploy/scripts/bench-upbp.sh [OUT] [SECONDS] [REFERENCE] [SCENE...]
 #
 # UPBP is appended to every upbp entry (e.g. UPBP=:light_paths=0.25); ALGS replaces
-# the list of algorithms; REFS=DIR uses DIR/<scene>/reference.exr where it exists. A
-# reference already in OUT/<scene>/ is reused, so a second run with another SECONDS
-# into the same OUT renders no new reference (the seed runs are overwritten).
+# the list of algorithms; REFS=DIR uses DIR/<scene>/reference.exr where it exists (a
+# reference already in OUT/<scene>/ is reused too). The issue's two budgets share
+# their references that way:
+#
+#   deploy/scripts/bench-upbp.sh OUT60 60 600 && REFS=OUT60 deploy/scripts/bench-upbp.sh OUT240 240
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-bench-upbp}
