@@ -108,8 +108,9 @@ impl BeamStore {
 
 /// A subpath's partial weights completed at the point x, `u` along segment `s` from its
 /// start, where a vertex with MIS factor D = `sigma` would be (as `on_hit` at a vertex
-/// reached along the segment's flight), and the MIS transmittance from the segment's
-/// vertex to x.
+/// reached along the segment's flight), without the merges in media of the light's
+/// earlier vertices under `merge_depth: first` (x is on their camera side), and the
+/// MIS transmittance from the segment's vertex to x.
 fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Partial, f32) {
     let scene = pass.scene;
     let dist2 = (x - s.from).length_squared();
@@ -128,8 +129,9 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Pa
         let cos0 = n0.dot(s.d).abs() as f64;
         q.dvcm = pass.mis.f(pick * pdf_w * cos0 / (dist2 as f64 * emission));
     }
-    let q = pass.mis.settle(q, s.pending, tr);
-    (pass.mis.on_hit(q, dist2 / tr, sigma), tr)
+    let mis = &pass.mis;
+    let (q, vol) = mis.light_hit(q, s.vol, s.pending, dist2 / tr, tr, sigma);
+    (if mis.first_medium { mis.cut(q, vol) } else { q }, tr)
 }
 
 /// The camera's query beam along camera segment `c`, and the medium it is in.
@@ -208,7 +210,7 @@ fn point_beam(
 ) -> Rgb {
     let b = &q.beam;
     let phase = q.m.phase();
-    let max_depth = pass.s.max_depth;
+    let (max_depth, mis) = (pass.s.max_depth, &pass.mis);
     let mut sum = Rgb::ZERO;
     let r = pass.radii[Merge::PointBeam2d as usize];
     store
@@ -222,7 +224,12 @@ fn point_beam(
                 return;
             }
             let x = b.o + b.d * t;
-            let w = q.weight(pass, Merge::PointBeam2d, x, t, y.q, y.cont, y.wo, ph);
+            let yq = if mis.first_medium {
+                mis.cut(y.q, y.vol())
+            } else {
+                y.q
+            };
+            let w = q.weight(pass, Merge::PointBeam2d, x, t, yq, y.cont, y.wo, ph);
             stats.merges += 1;
             sum += y.throughput * b.weight_at(q.m, t, rng) * (ph * w);
         });

@@ -7,7 +7,7 @@ use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event, Owner};
-use crate::integrator::paths::partial::{Merge, Site};
+use crate::integrator::paths::partial::{Merge, Partial, Site};
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
 use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
@@ -86,6 +86,8 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
                 len: 1,
                 q: self.pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
                 pending: 0.0,
+                vol: 0.0,
+                medium_seen: false,
                 tr: 1.0,
                 specular: true,
                 medium: if M::ON { scene.camera_medium } else { None },
@@ -252,6 +254,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
                 len: walk.len,
                 q: walk.q,
                 pending: 0.0,
+                vol: 0.0,
                 from: walk.origin,
                 area: NO_AREA,
             },
@@ -270,6 +273,9 @@ impl<'a, M: Media> CameraPass<'a, M> {
         stats: &mut RenderStats,
     ) {
         let (pass, l, len) = (self.pass, &mut p.l, p.walk.len);
+        if pass.mis.cuts(p.walk.medium_seen) {
+            return;
+        }
         beams::gather(pass, &self.ws.beams, &p.pieces, len, rng, stats, |k, v| {
             add(l, layers, pass.layers.merge(k, len), v);
         });
@@ -380,6 +386,46 @@ impl<'a, M: Media> CameraPass<'a, M> {
             add(&mut p.l, layers, pass.layers.merge(k, walk.len), e);
         }
     }
+}
+
+/// M(x) of camera vertex `v` with `other` the direction of its other segment: 0 at a
+/// medium vertex that `merge_depth: first` takes out (a medium vertex before it).
+#[inline(always)]
+fn camera_merges<M: Media>(pass: &Pass, walk: &Walk, v: &Vertex<M>, other: Vec3) -> f64 {
+    if matches!(v, Vertex::Medium { .. }) && pass.mis.cuts(walk.medium_seen) {
+        return 0.0;
+    }
+    v.merges(pass, other, Some(walk.len), walk.tr)
+}
+
+/// Light vertex `y`'s partial weights and M(y) (`merges`, evaluated only if needed)
+/// in a connection whose camera side holds a medium vertex when `camera_medium`, as
+/// `merge_depth: first` has them ([`Mis::cuts`]): y too is on the camera side of
+/// the light's earlier vertices.
+///
+/// [`Mis::cuts`]: crate::integrator::paths::partial::Mis::cuts
+#[inline(always)]
+fn light_side(
+    pass: &Pass,
+    y: &LightVertex,
+    camera_medium: bool,
+    merges: impl FnOnce() -> f64,
+) -> (Partial, f64) {
+    let mis = &pass.mis;
+    let medium = y.site() == Site::Medium;
+    let q = if mis.cuts(camera_medium || medium) {
+        mis.cut(y.q, y.vol())
+    } else {
+        y.q
+    };
+    (
+        q,
+        if medium && mis.cuts(camera_medium) {
+            0.0
+        } else {
+            merges()
+        },
+    )
 }
 
 /// Records `v` in its layer and adds it to the path's radiance `l`.
@@ -517,7 +563,7 @@ fn light_sample<M: Media>(
     };
     let w = pass.mis.weight_light_sample(
         walk.q,
-        v.merges(pass, ls.wi(), Some(walk.len), walk.tr),
+        camera_merges(pass, walk, v, ls.wi()),
         pick,
         direct / tr_mis,
         pos * dir,
@@ -544,6 +590,8 @@ fn connect<M: Media>(
     let scene = pass.scene;
     let cont = v.cont();
     let mut l = Rgb::ZERO;
+    // The camera side of every light vertex holds this one and those before it.
+    let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
     for y in light {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
@@ -573,8 +621,8 @@ fn connect<M: Media>(
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
         let w = pass.mis.weight_connection(
-            (y.q, ys.merges(pass, dir, None, tr_mis)),
-            (walk.q, v.merges(pass, dir, Some(walk.len), walk.tr)),
+            light_side(pass, y, cut, || ys.merges(pass, dir, None, tr_mis)),
+            (walk.q, camera_merges(pass, walk, v, dir)),
             ec.pdf_dir * cont * el.cos / seg,
             el.pdf_dir * y_cont * ec.cos / seg,
             el.pdf_rev * y_cont,
@@ -605,6 +653,7 @@ fn merge(
     let mut merges = 0u64;
     let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
     let surface_merge = (eta, eta);
+    let cut = pass.mis.cuts(walk.medium_seen);
     ws.surface.grid.query_sorted_in(
         it.p,
         &ws.surface.merge,
@@ -620,7 +669,8 @@ fn merge(
                 return;
             }
             let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
-            let w = pass.mis.weight_merge(y.q, walk.q, surface_merge, dir, rev);
+            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
+            let w = pass.mis.weight_merge(yq, walk.q, surface_merge, dir, rev);
             merges += 1;
             // The photon's flux already holds the cosine at its surface: f without it.
             sum += y.throughput * e.f * (w / e.cos);
@@ -648,6 +698,9 @@ fn merge_medium(
     let Some(medium) = walk.medium.filter(|_| pass.uses(Merge::Point3d)) else {
         return Rgb::ZERO;
     };
+    if pass.mis.cuts(walk.medium_seen) {
+        return Rgb::ZERO;
+    }
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
     let beta = Rgb::select(
         sigma_s.cmpgt(Rgb::ZERO),
@@ -675,7 +728,13 @@ fn merge_medium(
             let sin = pass.mis.sine(m.wo, y.wo);
             let own = pass.mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
             let all = pass.mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
-            let w = pass.mis.weight_merge(y.q, walk.q, (own, all), dir, rev);
+            // A merge in a medium is on the camera side of the light's earlier vertices.
+            let yq = if pass.mis.first_medium {
+                pass.mis.cut(y.q, y.vol())
+            } else {
+                y.q
+            };
+            let w = pass.mis.weight_merge(yq, walk.q, (own, all), dir, rev);
             merges += 1;
             sum += y.throughput * (ph * w);
         },

@@ -29,6 +29,18 @@ pub(crate) struct MergeVertex {
     /// As `LightVertex::medium` (a medium vertex merges only in its own medium).
     pub medium: u32,
     pub q: Partial,
+    /// As `LightVertex::vol`.
+    pub vol: f32,
+}
+
+const _: () = assert!(std::mem::size_of::<MergeVertex>() == 64);
+
+impl MergeVertex {
+    /// The part of `q`'s dvc and dvm that merges in media contribute.
+    #[inline(always)]
+    pub fn vol(&self) -> f64 {
+        self.vol as f64 * self.q.dvc
+    }
 }
 
 impl From<&LightVertex> for MergeVertex {
@@ -41,6 +53,7 @@ impl From<&LightVertex> for MergeVertex {
             cont: v.cont,
             medium: v.medium,
             q: v.q,
+            vol: v.vol,
         }
     }
 }

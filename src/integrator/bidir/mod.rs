@@ -47,7 +47,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 mod settings;
-pub use settings::{BidirSettings, Estimators, Technique, UpbpTechnique, MAX_STRATEGY_LENGTH};
+pub use settings::{
+    BidirSettings, Estimators, MergeDepth, Technique, UpbpTechnique, MAX_STRATEGY_LENGTH,
+};
 
 /// An iteration's constants: the subpaths' ([`crate::integrator::paths::Pass`], which
 /// this derefs to) and the family's own settings and technique.
@@ -146,6 +148,7 @@ impl Bidir {
         let mut mis = Mis::new(self.s.heuristic, n, t.connects(), merges);
         mis.merge_first = self.s.merge_first;
         mis.long_query = self.s.query_beams == BeamForm::Long && self.s.long_beam_weights;
+        mis.first_medium = self.s.merge_depth == MergeDepth::First;
         let core = crate::integrator::paths::Pass {
             scene,
             tracing: t.tracing(),

@@ -159,6 +159,7 @@ impl Estimators {
 /// | `beam_paths` | 0.1 | `upbp`: the fraction of light subpaths whose segments through media become photon beams (SmallUPBP's `-pbc`) |
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
+/// | `merge_depth` | `all` | merges in media (`pp3d`, `pb2d`, `bb1d`; also `vcm`'s in media) at every camera segment and vertex (`all`), or only up to the camera's first scattering in a medium (`first`: where the path has no medium vertex between the merge and the camera, as a `vpm`-like first-segment estimate; those techniques also leave the MIS, so every path keeps the others) |
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
@@ -188,6 +189,7 @@ pub struct BidirSettings {
     #[serde(deserialize_with = "de_techniques")]
     pub techniques: Vec<UpbpTechnique>,
     pub merge_first: bool,
+    pub merge_depth: MergeDepth,
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
     pub max_vertex_mib: f32,
@@ -218,6 +220,7 @@ impl Default for BidirSettings {
             beam_paths: 0.1,
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
+            merge_depth: MergeDepth::All,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
             max_vertex_mib: 2048.0,
@@ -226,6 +229,16 @@ impl Default for BidirSettings {
             strategy_images: 0,
         }
     }
+}
+
+/// Where along the camera subpath merges in media are techniques (`merge_depth`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MergeDepth {
+    #[default]
+    All,
+    /// Up to the camera's first scattering in a medium.
+    First,
 }
 
 /// `techniques`: a list of names, or one string, `all` or names joined by `+` (for

@@ -4,6 +4,7 @@
 
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
+use super::partial::Partial;
 use super::segments::{FlightStart, SegmentSink, NO_AREA};
 use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
 use super::vertex::{Media, NoMedia, Vertex, WithMedia};
@@ -147,6 +148,8 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
         len: 1,
         q,
         pending: 0.0,
+        vol: 0.0,
+        medium_seen: false,
         tr: 1.0,
         specular: true,
         medium: None,
@@ -223,8 +226,8 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         }
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
-        let q = pass.mis.settle(walk.q, walk.pending, tr);
-        walk.q = pass.mis.on_hit(q, d2 / tr, v.d_in());
+        let mis = &pass.mis;
+        (walk.q, walk.vol) = mis.light_hit(walk.q, walk.vol, walk.pending, d2 / tr, tr, v.d_in());
         (walk.pending, walk.tr) = (0.0, tr);
         if !v.skips_connections() {
             lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
@@ -271,6 +274,7 @@ fn flight<'a, 's, M: Media>(
             len: walk.len,
             q: walk.q,
             pending: walk.pending,
+            vol: walk.vol,
             from: walk.origin,
             area,
         },
@@ -388,6 +392,11 @@ fn stored<M: Media>(
         cont: v.cont(),
         len: walk.len,
         q: walk.q,
+        vol: if walk.q.dvc > 0.0 {
+            (walk.vol / walk.q.dvc) as f32
+        } else {
+            0.0
+        },
     }
 }
 
@@ -422,13 +431,26 @@ fn connect_to_camera<M: Media>(
         return Some(LensShadow {
             ray,
             raster,
-            value: lens_value(pass, walk, (&e, vm(1.0)), v.cont(), link, Rgb::ONE, 1.0),
+            value: lens_value(
+                pass,
+                walk,
+                (&e, walk.q, vm(1.0)),
+                v.cont(),
+                link,
+                Rgb::ONE,
+                1.0,
+            ),
             layer,
         });
     }
     let rays = &mut chunk.stats.shadow_rays;
     let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
-    let value = lens_value(pass, walk, (&e, vm(tr_mis)), v.cont(), link, tr, tr_mis);
+    // A medium vertex is on the camera side of the light's earlier vertices.
+    let q = match v {
+        Vertex::Medium { .. } if pass.mis.first_medium => pass.mis.cut(walk.q, walk.vol),
+        _ => walk.q,
+    };
+    let value = lens_value(pass, walk, (&e, q, vm(tr_mis)), v.cont(), link, tr, tr_mis);
     push_splat(chunk, raster, value, layer);
     None
 }
@@ -440,7 +462,7 @@ fn connect_to_camera<M: Media>(
 fn lens_value(
     pass: &Pass,
     walk: &Walk,
-    (e, vm): (&Eval, f64),
+    (e, q, vm): (&Eval, Partial, f64),
     cont: f32,
     (camera_pdf, dist2): (f32, f32),
     tr: Rgb,
@@ -451,7 +473,7 @@ fn lens_value(
         1.0
     } else {
         pass.mis
-            .weight_camera_connection((walk.q, vm), camera_a, e.pdf_rev * cont)
+            .weight_camera_connection((q, vm), camera_a, e.pdf_rev * cont)
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.

@@ -8,6 +8,9 @@ use super::Pass;
 use crate::material::textured::MaterialRef;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 
+// Connections stream over these: `vol` lives in what was padding.
+const _: () = assert!(std::mem::size_of::<LightVertex>() == 128);
+
 /// `LightVertex::material` of a scattering point in a medium.
 pub(crate) const MEDIUM_VERTEX: u32 = u32::MAX;
 
@@ -41,9 +44,20 @@ pub(crate) struct LightVertex {
     /// Segments from the light to this vertex.
     pub len: u32,
     pub q: Partial,
+    /// The share of `q.dvc` that merges in media contribute ([`Walk::vol`] / dvc):
+    /// a ratio in [0, 1], so f32 keeps it, in what was padding.
+    ///
+    /// [`Walk::vol`]: super::walk::Walk::vol
+    pub vol: f32,
 }
 
 impl LightVertex {
+    /// The part of `q`'s dvc and dvm that merges in media contribute.
+    #[inline(always)]
+    pub fn vol(&self) -> f64 {
+        self.vol as f64 * self.q.dvc
+    }
+
     /// The medium of a medium vertex (None at a surface).
     #[inline]
     pub fn scattering_medium(&self) -> Option<u32> {

@@ -143,6 +143,10 @@ pub struct Mis {
     pub merge_first: bool,
     /// Camera (query) beams are long and weighted as such: see [`Mis::beam_scale`].
     pub long_query: bool,
+    /// `merge_depth: first`: a merge at a medium point is a technique only where the
+    /// path has no medium vertex between that point and the camera (see
+    /// [`Mis::cuts`]).
+    pub first_medium: bool,
 }
 
 /// Optical depth beyond which the MIS transmittance of a segment stops falling.
@@ -176,6 +180,7 @@ impl Mis {
             light_paths: light_paths as f64,
             merge_first: true,
             long_query: false,
+            first_medium: false,
         };
         m.merge = merges.eta.map(|eta| eta.map_or(0.0, |eta| m.f(eta)));
         m
@@ -299,20 +304,61 @@ impl Mis {
         }
     }
 
-    /// The light subpath's beam part `pending` of its last vertex's M(x) (from
-    /// [`Mis::defer`]), completed by the segment's MIS transmittance `tr` where it
-    /// ends (a vertex, or the point a beam estimate stands for): call before `on_hit`.
+    /// A light subpath's segment ends at a vertex (or the point a beam estimate stands
+    /// for) with MIS factor `cos`, `seg` = d^2 / T, T = `tr`: `on_hit`, after the
+    /// beam part `pending` of the last vertex's M(x) (from [`Mis::defer`]) is
+    /// completed by T. `vol` is the part of dvc and dvm that merges in media
+    /// contribute (see [`Mis::cuts`]); it follows them.
     #[inline]
-    pub fn settle(&self, q: Partial, pending: f64, tr: f32) -> Partial {
-        if pending == 0.0 {
-            return q;
+    pub fn light_hit(
+        &self,
+        q: Partial,
+        vol: f64,
+        pending: f64,
+        seg: f32,
+        tr: f32,
+        cos: f32,
+    ) -> (Partial, f64) {
+        let (mut q, mut vol) = (q, vol);
+        if pending != 0.0 {
+            let add = pending * self.beam_scale(tr);
+            q.dvc += add;
+            q.dvm += add;
+            vol += add;
         }
-        let add = pending * self.beam_scale(tr);
+        (self.on_hit(q, seg, cos), vol / self.f(cos))
+    }
+
+    /// Whether `merge_depth: first` takes the merges in media out of a path whose
+    /// camera side (the vertices from the merge point to the camera) holds a medium
+    /// vertex, `medium_seen` telling whether it does. A light subpath's partial
+    /// weights then lose the part `vol` those merges contribute ([`Mis::cut`]), and
+    /// a medium vertex's M(x) is 0. Which techniques exist is a function of the path
+    /// alone, the same from every technique, so the weights still sum to one.
+    #[inline(always)]
+    pub fn cuts(&self, medium_seen: bool) -> bool {
+        self.first_medium && medium_seen
+    }
+
+    /// A light subpath's partial weights without the merges in media, whose part of
+    /// dvc and dvm is `vol` ([`Mis::cuts`]).
+    #[inline]
+    pub fn cut(&self, q: Partial, vol: f64) -> Partial {
         Partial {
             dvcm: q.dvcm,
-            dvc: q.dvc + add,
-            dvm: q.dvm + add,
+            dvc: (q.dvc - vol).max(0.0),
+            dvm: (q.dvm - vol).max(0.0),
         }
+    }
+
+    /// `vol` through scattering at a surface, as `on_scatter` carries dvc and dvm
+    /// (merges at surfaces add nothing to it).
+    #[inline]
+    pub fn carry(&self, vol: f64, cos_out: f32, pdf_dir: f32, pdf_rev: f32) -> f64 {
+        if vol == 0.0 {
+            return 0.0;
+        }
+        vol * self.f(cos_out as f64 / pdf_dir as f64) * self.f(pdf_rev)
     }
 
     /// A light subpath leaving its emitter ([TR] eqs. 31-33, delta lights 48-50).

@@ -39,6 +39,9 @@ pub(crate) struct LightSegment {
     ///
     /// [`Walk::pending`]: super::walk::Walk::pending
     pub pending: f64,
+    /// And the part of its dvc and dvm that merges in media contribute
+    /// ([`Walk::vol`](super::walk::Walk::vol)).
+    pub vol: f64,
     pub from: Vec3,
     pub depth0: f32,
     /// On a light subpath's first segment from an area light: the light and its
@@ -56,6 +59,7 @@ pub(crate) struct FlightStart {
     pub len: u32,
     pub q: Partial,
     pub pending: f64,
+    pub vol: f64,
     pub from: Vec3,
     pub area: (u32, Vec3),
 }
@@ -73,6 +77,7 @@ impl LightSegment {
             len: start.len,
             q: start.q,
             pending: start.pending,
+            vol: start.vol,
             from: start.from,
             depth0,
             area: start.area,

@@ -352,19 +352,26 @@ fn scatter_medium(
     }
     // A camera vertex's camera-side segment is the one it was reached by; a light
     // vertex's is the one it leaves along, whose T is settled at its end.
-    let sin = pass.mis.sine(m.wo, wi);
-    let (points, beams) = pass.mis.merge_parts(Site::Medium, m.sigma, sin, camera_len);
+    let mis = &pass.mis;
+    let sin = mis.sine(m.wo, wi);
+    let (points, beams) = mis.merge_parts(Site::Medium, m.sigma, sin, camera_len);
     let vm = match camera_len {
-        Some(_) => points + beams * pass.mis.beam_scale(walk.tr),
-        None if pass.mis.long_query => {
-            walk.pending = pass.mis.defer(beams, m.sigma, pdf_dir);
-            points
+        Some(_) if mis.cuts(walk.medium_seen) => 0.0,
+        Some(_) => points + beams * mis.beam_scale(walk.tr),
+        None => {
+            if mis.first_medium {
+                // This vertex is on the camera side of every earlier one.
+                walk.q = mis.cut(walk.q, walk.vol);
+            }
+            walk.pending = mis.defer(beams, m.sigma, pdf_dir);
+            points + if mis.long_query { 0.0 } else { beams }
         }
-        None => points + beams,
     };
-    walk.q = pass
-        .mis
-        .on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);
+    walk.q = mis.on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);
+    if camera_len.is_none() && mis.first_medium {
+        walk.vol = mis.carry(vm, m.sigma, pdf_dir, 1.0);
+    }
+    walk.medium_seen = true;
     walk.specular = false;
     walk.throughput /= m.cont;
     walk.origin = p;

@@ -82,6 +82,13 @@ pub(crate) struct Walk {
     ///
     /// [`Mis::defer`]: super::partial::Mis::defer
     pub pending: f64,
+    /// On a light subpath, the part of dvc and dvm that merges in media contribute
+    /// ([`Mis::cuts`]), with `merge_depth: first`; else 0.
+    ///
+    /// [`Mis::cuts`]: super::partial::Mis::cuts
+    pub vol: f64,
+    /// On a camera subpath, whether a vertex before the current one was in a medium.
+    pub medium_seen: bool,
     /// The MIS transmittance of the segment that reached the current vertex: on a
     /// camera subpath, the camera-side T of merges there.
     pub tr: f32,
@@ -126,6 +133,7 @@ pub(crate) fn scatter(
     walk.q = pass
         .mis
         .on_scatter(walk.q, vm, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta);
+    walk.vol = pass.mis.carry(walk.vol, s.wi.z.abs(), pdf_dir, pdf_rev);
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
     if mode == Mode::Importance {

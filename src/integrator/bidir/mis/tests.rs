@@ -187,36 +187,57 @@ impl Path {
         self.pick * self.e_pos * self.e_dir
     }
 
-    /// The light subpath's partial weights at vertex `k` (after the hit).
-    fn light_q(&self, m: &Mis, k: usize) -> Partial {
+    /// The light subpath's partial weights at vertex `k` (after the hit), and the
+    /// part of them that merges in media contribute.
+    fn light_q(&self, m: &Mis, k: usize) -> (Partial, f64) {
         let direct = self.pick * self.a_direct;
         let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
         q = m.on_hit(q, self.seg(0), self.cb[1]);
+        let mut vol = 0.0;
         for i in 1..k {
             // As the light subpath does: the query beams' part of M(x_i) waits for
-            // the T of the segment x_i leaves along.
+            // the T of the segment x_i leaves along; a medium vertex is on the camera
+            // side of the merges in media before it.
+            let medium = self.site[i] == Site::Medium;
             let (points, beams) = m.merge_parts(self.site[i], self.sigma(i), self.sin[i], None);
             let (vm, pending) = if m.long_query {
                 (points, m.defer(beams, self.cf[i], self.pl[i]))
             } else {
                 (points + beams, 0.0)
             };
+            if medium && m.first_medium {
+                q = m.cut(q, vol);
+            }
             q = m.on_scatter(q, vm, self.cf[i], self.pl[i], self.pc[i], false);
-            q = m.settle(q, pending, self.tr[i]);
-            q = m.on_hit(q, self.seg(i), self.cb[i + 1]);
+            vol = match (m.first_medium, medium) {
+                (false, _) => 0.0,
+                (true, true) => m.carry(vm, self.cf[i], self.pl[i], 1.0),
+                (true, false) => m.carry(vol, self.cf[i], self.pl[i], self.pc[i]),
+            };
+            (q, vol) = m.light_hit(q, vol, pending, self.seg(i), self.tr[i], self.cb[i + 1]);
         }
-        q
+        (q, vol)
+    }
+
+    /// M(x_i) of a camera vertex, whose camera side has a medium vertex if `seen`.
+    fn camera_vm(&self, m: &Mis, i: usize, len: u32, seen: bool) -> f64 {
+        if self.site[i] == Site::Medium && m.cuts(seen) {
+            0.0
+        } else {
+            self.vm(m, i, Some(len))
+        }
     }
 
     /// The camera subpath's partial weights at vertex `k` (after the hit), with
-    /// its length in segments.
-    fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32) {
+    /// its length in segments and whether a vertex before x_k is in a medium.
+    fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32, bool) {
         let n = self.n;
         let mut q = m.camera_start(self.camera);
         q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
-        let mut len = 1;
+        let (mut len, mut seen) = (1, false);
         for i in (k + 1..n).rev() {
-            let (vm, cos) = (self.vm(m, i, Some(len)), self.cb[i]);
+            let (vm, cos) = (self.camera_vm(m, i, len, seen), self.cb[i]);
+            seen |= self.site[i] == Site::Medium;
             q = m.on_scatter(q, vm, cos, self.pc[i], self.pl[i], false);
             // An escaping ray: no cosine at infinity, only the 1 / T of its
             // segment (as the camera subpath applies on escape).
@@ -228,7 +249,7 @@ impl Path {
             q = m.on_hit(q, self.seg(i - 1), cos);
             len += 1;
         }
-        (q, len)
+        (q, len, seen)
     }
 
     /// The weight the recursive quantities give technique `t`.
@@ -236,11 +257,11 @@ impl Path {
         let n = self.n;
         match t {
             Tech::Vc(0) => {
-                let (q, _) = self.camera_q(m, 0);
+                let (q, _, _) = self.camera_q(m, 0);
                 m.weight_emitter_hit(q, self.pick * self.a_direct, self.emission())
             }
             Tech::Vc(1) => {
-                let (q, len) = self.camera_q(m, 1);
+                let (q, len, seen) = self.camera_q(m, 1);
                 // Light sampling's solid-angle density, with the segment's T.
                 let (direct_w, cos_light) = if self.infinite {
                     (self.a_direct, 1.0)
@@ -249,7 +270,7 @@ impl Path {
                 };
                 m.weight_light_sample(
                     q,
-                    self.vm(m, 1, Some(len)),
+                    self.camera_vm(m, 1, len, seen),
                     self.pick,
                     direct_w / self.tr[0],
                     self.e_pos * self.e_dir,
@@ -260,18 +281,36 @@ impl Path {
                 )
             }
             Tech::Vc(s) if s == n => {
-                let q = self.light_q(m, n - 1);
+                let (q, vol) = self.light_q(m, n - 1);
+                // x_{n-1} is on the camera side of the light's earlier vertices.
+                let medium = self.site[n - 1] == Site::Medium;
+                let q = if m.cuts(medium) { m.cut(q, vol) } else { q };
                 let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
                 let vm = self.vm(m, n - 1, Some(1));
                 m.weight_camera_connection((q, vm), camera_a, self.pc[n - 1])
             }
             Tech::Vc(s) => {
-                let ql = self.light_q(m, s - 1);
-                let (qc, len) = self.camera_q(m, s);
+                let (ql, vol) = self.light_q(m, s - 1);
+                let (qc, len, seen) = self.camera_q(m, s);
                 let seg = self.seg(s - 1);
+                // x_{s-1}, x_s and the camera vertices before it are the camera
+                // side of the light's earlier vertices; x_s and those of x_{s-1}.
+                let camera_medium = seen || self.site[s] == Site::Medium;
+                let y_medium = self.site[s - 1] == Site::Medium;
+                let ql = if m.cuts(camera_medium || y_medium) {
+                    m.cut(ql, vol)
+                } else {
+                    ql
+                };
+                let vm = if y_medium && m.cuts(camera_medium) {
+                    0.0
+                } else {
+                    self.vm(m, s - 1, None)
+                };
+                let light = (ql, vm);
                 m.weight_connection(
-                    (ql, self.vm(m, s - 1, None)),
-                    (qc, self.vm(m, s, Some(len))),
+                    light,
+                    (qc, self.camera_vm(m, s, len, seen)),
                     self.pc[s] * self.cf[s - 1] / seg,
                     self.pl[s - 1] * self.cb[s] / seg,
                     self.pc[s - 1],
@@ -279,8 +318,13 @@ impl Path {
                 )
             }
             Tech::Vm(j, k) => {
-                let ql = self.light_q(m, j);
-                let (qc, _) = self.camera_q(m, j);
+                let (ql, vol) = self.light_q(m, j);
+                let (qc, _, seen) = self.camera_q(m, j);
+                // A merge in a medium is on the camera side of the light's vertices.
+                let medium = self.site[j] == Site::Medium;
+                assert!(!(medium && m.cuts(seen)), "{t:?} is no technique");
+                let cut = if medium { m.first_medium } else { m.cuts(seen) };
+                let ql = if cut { m.cut(ql, vol) } else { ql };
                 let own = m.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
                 let all = self.vm(m, j, None);
                 m.weight_merge(ql, qc, (own, all), self.pc[j], self.pl[j])
@@ -321,14 +365,17 @@ struct Setup {
     merge_first: bool,
     media: bool,
     long: bool,
+    /// `merge_depth: first`.
+    first: bool,
 }
 
 fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, media: bool) {
-    for long in [false, true] {
+    for (long, first) in [(false, false), (true, false), (false, true), (true, true)] {
         let setup = Setup {
             merge_first,
             media,
             long,
+            first,
         };
         check_setup(heuristic, vc, merges, setup);
     }
@@ -343,6 +390,7 @@ fn check_setup(heuristic: Heuristic, vc: bool, merges: Merges, setup: Setup) {
     let mut m = Mis::new(heuristic, light_paths, vc, merges);
     m.merge_first = merge_first;
     m.long_query = setup.long;
+    m.first_medium = setup.first;
     for n in 2..7 {
         for k in 0..40 {
             let infinite = k % 2 == 1;
@@ -354,9 +402,13 @@ fn check_setup(heuristic: Heuristic, vc: bool, merges: Merges, setup: Setup) {
             }
             let last = if merge_first { n } else { n - 1 };
             for j in 1..last {
+                // With `merge_depth: first`, no merge in a medium with a medium vertex
+                // between it and the camera.
+                let camera_side_medium = (j + 1..n).any(|i| path.site[i] == Site::Medium);
+                let cut = setup.first && path.site[j] == Site::Medium && camera_side_medium;
                 let can = ALL_MERGES
                     .into_iter()
-                    .filter(|&k| path.eta(j, k, &merges) > 0.0);
+                    .filter(|&k| !cut && path.eta(j, k, &merges) > 0.0);
                 techs.extend(can.map(|k| Tech::Vm(j, k)));
             }
             let p = |t: Tech| m.f(path.density(t, &merges, light_paths));
