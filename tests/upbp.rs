@@ -104,14 +104,15 @@ fn long_query_beams_agree_with_volpath_in_a_spot_light_shaft() {
     );
 }
 
-/// `merge_depth: first`: merges in media only up to the camera's first scattering in
-/// a medium, the other techniques taking the paths they leave.
+/// The default `merge_depth: first` (merges in media only up to the camera's first
+/// scattering in a medium, the other techniques taking the paths they leave) is what
+/// the tests above render; `all` merges at every camera segment and vertex.
 #[test]
-fn first_medium_merges_agree_with_volpath() {
-    let first = json!({ "merge_depth": "first" });
+fn merges_at_every_camera_depth_agree_with_volpath() {
+    let all = json!({ "merge_depth": "all" });
     let sets: &[&[&str]] = &[ALL, &["surf", "pp3d"]];
-    agree_with(&shipped("fog-cornell"), sets, 150, first);
-    let long = json!({ "merge_depth": "first", "query_beams": "long" });
+    agree_with(&shipped("fog-cornell"), sets, 150, all);
+    let long = json!({ "merge_depth": "all", "query_beams": "long" });
     agree_with(&shipped("spot-shaft"), &[ALL, &["surf", "bb1d"]], 150, long);
 }
 

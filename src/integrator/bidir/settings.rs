@@ -159,7 +159,7 @@ impl Estimators {
 /// | `beam_paths` | 0.1 | `upbp`: the fraction of light subpaths whose segments through media become photon beams (SmallUPBP's `-pbc`) |
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
-/// | `merge_depth` | `all` | merges in media (`pp3d`, `pb2d`, `bb1d`; also `vcm`'s in media) at every camera segment and vertex (`all`), or only up to the camera's first scattering in a medium (`first`: where the path has no medium vertex between the merge and the camera, as a `vpm`-like first-segment estimate; those techniques also leave the MIS, so every path keeps the others) |
+/// | `merge_depth` | `first` | merges in media (`pp3d`, `pb2d`, `bb1d`; also `vcm`'s in media) at every camera segment and vertex (`all`), or only up to the camera's first scattering in a medium (`first`: where the path has no medium vertex between the merge and the camera, as a `vpm`-like first-segment estimate; those techniques also leave the MIS, so every path keeps the others) |
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
@@ -220,7 +220,7 @@ impl Default for BidirSettings {
             beam_paths: 0.1,
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
-            merge_depth: MergeDepth::All,
+            merge_depth: MergeDepth::First,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
             max_vertex_mib: 2048.0,
@@ -235,9 +235,9 @@ impl Default for BidirSettings {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MergeDepth {
-    #[default]
     All,
     /// Up to the camera's first scattering in a medium.
+    #[default]
     First,
 }
 
