@@ -180,6 +180,48 @@ fn tracking_matches_quadrature_in_a_varying_grid() {
     );
 }
 
+/// The MIS's optical depth of a heterogeneous piece (a deterministic proxy, not an
+/// estimate of the image): the same from either end and for any split of the piece
+/// at its midpoint samples, exact for a constant density, within 20% of the fine
+/// quadrature for a smooth one, and 0 outside the field's box.
+#[test]
+fn mis_depth_of_heterogeneous_media_is_symmetric_and_close() {
+    let sigma = Rgb::new(0.5, 1.0, 2.0);
+    let grey = sigma.element_sum() / 3.0;
+    let flat = grid_medium([4, 4, 4], sigma, |_| 0.7);
+    let (o, d) = (
+        Vec3::new(-1.5, -1.0, -0.5),
+        Vec3::new(1.0, 0.35, 0.6).normalize(),
+    );
+    let depth = flat.mis_depth(o, d, 0.0, 2.0);
+    assert!(
+        (depth - 0.7 * grey * 2.0).abs() < 1e-5,
+        "constant density: {depth}"
+    );
+    let field = |p: Vec3| 0.2 + 2.0 * p.x * p.x + (6.0 * p.y).sin().abs() * p.z;
+    let g = grid_medium([12, 10, 8], sigma, field);
+    let len = 3.0;
+    let forward = g.mis_depth(o, d, 0.0, len);
+    let back = g.mis_depth(o + d * len, -d, 0.0, len);
+    assert!(
+        (forward - back).abs() <= 1e-5 * forward,
+        "{forward} vs {back}"
+    );
+    let steps = 100_000;
+    let fine: f64 = (0..steps)
+        .map(|i| {
+            let t = (i as f32 + 0.5) / steps as f32 * len;
+            (g.mis_sigma_at(o + d * t) * len / steps as f32) as f64
+        })
+        .sum();
+    let rel = (forward as f64 - fine).abs() / fine;
+    assert!(rel < 0.2, "quadrature {forward} vs fine {fine}");
+    let outside = Vec3::new(5.0, 5.0, 5.0);
+    assert_eq!(g.mis_depth(outside, Vec3::X, 0.0, 10.0), 0.0);
+    assert_eq!(g.mis_sigma_at(outside), 0.0);
+    assert_eq!(g.mis_depth(o, d, 1.0, 1.0), 0.0);
+}
+
 #[test]
 fn free_flight_collision_density_matches_sigma_t_times_transmittance() {
     // For a homogeneous chromatic medium the weighted scatter events estimate

@@ -124,6 +124,9 @@ fn upbp_agrees_with_volpath_in_a_spot_light_shaft() {
 #[test]
 fn upbp_agrees_with_volpath_in_heterogeneous_smoke() {
     agree(&shipped("smoke-room"), &[ALL, &["surf", "pb2d"]], 150);
+    // D = sigma_t(x) and T by quadrature in the MIS: another partition of unity.
+    let local = json!({ "local_media_mis": true, "query_beams": "long" });
+    agree_with(&shipped("smoke-room"), &[ALL], 150, local);
 }
 
 /// Without surface photons or connections the volume techniques render only light

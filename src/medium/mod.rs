@@ -89,13 +89,47 @@ impl Medium {
 
     /// The grey extinction coefficient bidirectional MIS assumes for distance sampling
     /// in this medium: the channel mean of sigma_t when homogeneous (exact for grey
-    /// media), None when heterogeneous (no closed form; MIS leaves the medium's
-    /// densities out, see `integrator::bidir::mis`).
+    /// media), None when heterogeneous (see [`Medium::mis_sigma_at`]).
     #[inline(always)]
     pub fn mis_sigma_t(&self) -> Option<f32> {
         match self {
             Medium::Homogeneous(m) => Some(m.sigma_t.element_sum() / 3.0),
             Medium::Heterogeneous(_) => None,
+        }
+    }
+
+    /// The grey sigma_t the MIS takes at `p` (its factor D of a vertex there): the
+    /// channel mean, at `p` in a heterogeneous medium when `local` (0 where it has no
+    /// density), else 0 there (no proxy: the caller's D = 1).
+    #[inline]
+    pub fn mis_sigma_at(&self, p: Vec3, local: bool) -> f32 {
+        match self {
+            Medium::Homogeneous(m) => m.sigma_t.element_sum() / 3.0,
+            Medium::Heterogeneous(m) if local => m.mis_sigma_at(p),
+            Medium::Heterogeneous(_) => 0.0,
+        }
+    }
+
+    /// The grey optical depth the MIS takes along o + t d (unit d), t in [t0, t1]:
+    /// [`Medium::mis_sigma_t`] times the length when homogeneous; when heterogeneous a
+    /// deterministic quadrature of [`Medium::mis_sigma_at`] (a random estimate in a
+    /// weight would bias it), the same from either end of the piece, so every
+    /// technique finds the same transmittance for the same path; 0 (T = 1) there
+    /// unless `local`.
+    #[inline]
+    pub fn mis_depth(&self, o: Vec3, d: Vec3, t0: f32, t1: f32, local: bool) -> f32 {
+        match self {
+            Medium::Homogeneous(m) => {
+                let sigma = m.sigma_t.element_sum() / 3.0;
+                // No 0 x inf for a clear medium along a ray that leaves the scene.
+                if sigma > 0.0 {
+                    sigma * (t1 - t0)
+                } else {
+                    0.0
+                }
+            }
+            Medium::Heterogeneous(m) if local => m.mis_depth(o, d, t0, t1),
+            Medium::Heterogeneous(_) => 0.0,
         }
     }
 

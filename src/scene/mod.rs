@@ -428,13 +428,13 @@ impl Scene {
         rng: &mut Rng,
         rays: &mut u64,
     ) -> Rgb {
-        self.transmittance_mis(ray, medium, rng, rays).0
+        self.transmittance_mis(ray, medium, rng, rays, false).0
     }
 
     /// [`Scene::transmittance`], and the grey optical depth that bidirectional MIS
-    /// assigns the segment: the sum of `Medium::mis_sigma_t` times the length over the
-    /// media it crosses (heterogeneous media count zero). A deterministic function of
-    /// the segment, unlike the estimate; only meaningful when the estimate is not zero.
+    /// assigns the segment: the sum of `Medium::mis_depth` over the media it crosses
+    /// (heterogeneous ones only when `local`). A deterministic function of the segment,
+    /// unlike the estimate; only meaningful when the estimate is not zero.
     #[inline(always)]
     pub fn transmittance_mis(
         &self,
@@ -442,6 +442,7 @@ impl Scene {
         mut medium: Option<u32>,
         rng: &mut Rng,
         rays: &mut u64,
+        local: bool,
     ) -> (Rgb, f32) {
         if !self.has_media {
             let tr = if self.visible(ray) {
@@ -457,7 +458,7 @@ impl Scene {
             Blocker::Opaque => return (Rgb::ZERO, 0.0),
             Blocker::Nothing => {
                 if let Some(m) = medium {
-                    self.attenuate(ray, ray.tmax, m, rng, &mut tr, &mut depth);
+                    self.attenuate(ray, (ray.tmax, local), m, rng, &mut tr, &mut depth);
                 }
                 return (tr, depth);
             }
@@ -469,7 +470,7 @@ impl Scene {
             let hit = self.hit(&r);
             if let Some(m) = medium {
                 let t_end = hit.as_ref().map_or(r.tmax, |h| h.t);
-                self.attenuate(&r, t_end, m, rng, &mut tr, &mut depth);
+                self.attenuate(&r, (t_end, local), m, rng, &mut tr, &mut depth);
                 if tr == Rgb::ZERO {
                     return (tr, depth);
                 }
@@ -491,13 +492,23 @@ impl Scene {
     /// Multiplies `tr` by medium `m`'s transmittance along `r` up to parameter `t_end`,
     /// and adds the segment's optical depth for MIS to `depth`.
     #[inline(always)]
-    fn attenuate(&self, r: &Ray, t_end: f32, m: u32, rng: &mut Rng, tr: &mut Rgb, depth: &mut f32) {
+    fn attenuate(
+        &self,
+        r: &Ray,
+        (t_end, local): (f32, bool),
+        m: u32,
+        rng: &mut Rng,
+        tr: &mut Rgb,
+        depth: &mut f32,
+    ) {
         let len = r.d.length();
         let med = &self.media[m as usize];
         *tr *= med.transmittance(r.o, r.d / len, t_end * len, rng);
-        if let Some(s) = med.mis_sigma_t().filter(|&s| s > 0.0) {
-            *depth += s * t_end * len;
-        }
+        *depth += match med.mis_sigma_t() {
+            Some(s) if s > 0.0 => s * t_end * len,
+            Some(_) => 0.0,
+            None => med.mis_depth(r.o, r.d / len, 0.0, t_end * len, local),
+        };
     }
 
     /// Solid-angle density with which next-event estimation picks an escaping

@@ -21,7 +21,7 @@
 //! a valid partition, since MIS weights only have to sum to one over the techniques
 //! for each path. Heterogeneous media have no closed-form P: there both kinds are long
 //! (to the surface, weight T by ratio tracking), still an unbiased estimate of the same
-//! MIS-weighted integral, whose MIS proxy T is 1 there.
+//! MIS-weighted integral, whose MIS proxy T is the quadrature of `Medium::mis_depth`.
 //!
 //! [`Mis::beam_scale`]: crate::integrator::paths::partial::Mis::beam_scale
 
@@ -114,8 +114,8 @@ impl BeamStore {
 fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Partial, f32) {
     let scene = pass.scene;
     let dist2 = (x - s.from).length_squared();
-    let grey = scene.media[s.medium as usize].mis_sigma_t().unwrap_or(0.0);
-    let tr = mis::transmittance(s.depth0 + grey * u);
+    let piece = scene.media[s.medium as usize].mis_depth(s.o, s.d, 0.0, u, pass.mis.local_media);
+    let tr = mis::transmittance(s.depth0 + piece);
     let mut q = s.q;
     if s.area != NO_AREA {
         // The first segment from an area light: its light-sampling density at x
@@ -142,7 +142,8 @@ fn query_beam<'a>(pass: &'a Pass, c: &LightSegment, rng: &mut Rng) -> Option<(Be
 }
 
 /// What both beam estimators read of the camera side: its segment, query beam, the
-/// MIS factor D of its medium, and the camera subpath's length.
+/// MIS factor D of its medium (homogeneous; see [`Query::sigma_at`]), and the camera
+/// subpath's length.
 struct Query<'a> {
     c: &'a LightSegment,
     beam: Beam,
@@ -155,25 +156,35 @@ struct Query<'a> {
 }
 
 impl Query<'_> {
+    /// The MIS factor D of the merged vertex at `x`: the medium's, or in a
+    /// heterogeneous one the grey sigma_t at `x`.
+    #[inline(always)]
+    fn sigma_at(&self, pass: &Pass, x: Vec3) -> f32 {
+        match self.uniform {
+            Some(_) => self.sigma,
+            None => mis_sigma(pass, self.c.medium, x),
+        }
+    }
+
     /// The MIS weight of estimator `k` for the path through the camera point `xc`
-    /// (`tc` along the query beam) and the light point with partial weights `ql`,
-    /// continuation `cont_l` and incoming direction `wl` (towards its predecessor).
+    /// (`tc` along the query beam), whose vertex has MIS factor `sigma`, and the light
+    /// point with partial weights `ql`, continuation `cont_l` and incoming direction
+    /// `wl` (towards its predecessor).
     #[allow(clippy::too_many_arguments)]
     fn weight(
         &self,
         pass: &Pass,
         k: Merge,
-        xc: Vec3,
-        tc: f32,
+        (xc, tc, sigma): (Vec3, f32, f32),
         ql: Partial,
         cont_l: f32,
         wl: Vec3,
         ph: f32,
     ) -> f32 {
         let sin = pass.mis.sine(self.beam.d, wl);
-        let (qc, tr) = partial_at(pass, self.c, xc, tc, self.sigma);
-        let own = pass.mis.eta(k, self.sigma, sin, tr);
-        let all = pass.mis.merges(Site::Medium, self.sigma, sin, None, tr);
+        let (qc, tr) = partial_at(pass, self.c, xc, tc, sigma);
+        let own = pass.mis.eta(k, sigma, sin, tr);
+        let all = pass.mis.merges(Site::Medium, sigma, sin, None, tr);
         let cont_c = self.continuation(pass, xc);
         pass.mis
             .weight_merge(ql, qc, (own, all), ph * cont_c, ph * cont_l)
@@ -229,7 +240,8 @@ fn point_beam(
             } else {
                 y.q
             };
-            let w = q.weight(pass, Merge::PointBeam2d, x, t, yq, y.cont, y.wo, ph);
+            let at = (x, t, q.sigma_at(pass, x));
+            let w = q.weight(pass, Merge::PointBeam2d, at, yq, y.cont, y.wo, ph);
             stats.merges += 1;
             sum += y.throughput * b.weight_at(q.m, t, rng) * (ph * w);
         });
@@ -264,9 +276,18 @@ fn beam_beam(
         }
         let s = &store.segments[b.seg as usize];
         let (xc, xl) = (c.o + c.d * tc, b.o + b.d * tb);
-        let (ql, _) = partial_at(pass, s, xl, b.start + tb, q.sigma);
+        let sigma = q.sigma_at(pass, xc);
+        let (ql, _) = partial_at(pass, s, xl, b.start + tb, sigma);
         let cont_l = q.continuation(pass, xl);
-        let w = q.weight(pass, Merge::BeamBeam1d, xc, tc, ql, cont_l, -b.d, ph);
+        let w = q.weight(
+            pass,
+            Merge::BeamBeam1d,
+            (xc, tc, sigma),
+            ql,
+            cont_l,
+            -b.d,
+            ph,
+        );
         stats.merges += 1;
         let wc = c.weight_at(q.m, tc, rng);
         let sigma_s = q.sigma_s(xc);
@@ -295,7 +316,8 @@ pub(super) fn gather(
         let Some((beam, m)) = query_beam(pass, c, rng) else {
             continue;
         };
-        let sigma = mis_sigma(pass, c.medium);
+        // Homogeneous: the same D everywhere; else `sigma_at` reads it per merge.
+        let sigma = m.mis_sigma_t().filter(|&s| s > 0.0).unwrap_or(1.0);
         let uniform = m.as_homogeneous().map(|h| {
             let cont = pass.medium_continuation(h.albedo());
             (cont, h.sigma_s)

@@ -209,7 +209,8 @@ impl<'a, M: Media> CameraPass<'a, M> {
             return r;
         }
         let scene = self.pass.scene;
-        next_event::<M>(scene, &mut p.ray, &mut p.walk, rng, stats, None, owner)
+        let at = (scene, self.pass.mis.local_media);
+        next_event::<M>(at, &mut p.ray, &mut p.walk, rng, stats, None, owner)
     }
 
     /// Without media: the flight and the pending shadow ray are traced together (the
@@ -260,7 +261,8 @@ impl<'a, M: Media> CameraPass<'a, M> {
             },
         };
         let scene = self.pass.scene;
-        next_event::<M>(scene, &mut p.ray, walk, rng, stats, Some(&mut sink), owner)
+        let at = (scene, self.pass.mis.local_media);
+        next_event::<M>(at, &mut p.ray, walk, rng, stats, Some(&mut sink), owner)
     }
 
     /// The beam estimators along the medium segments the flight kept.
@@ -540,7 +542,8 @@ fn light_sample<M: Media>(
     };
     let (tr, tr_mis, untraced) = if M::ON {
         let rays = &mut stats.shadow_rays;
-        let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
+        let at = (scene, pass.mis.local_media);
+        let Some((tr, tr_mis)) = shadow::<M>(at, &ray, medium, rng, rays) else {
             return none;
         };
         (tr, tr_mis, None)
@@ -615,7 +618,8 @@ fn connect<M: Media>(
         stats.shadow_rays += 1;
         let (ray, medium) = v.ray_to(pass, walk.medium, y.p, y.p_err, y.ng);
         let rays = &mut stats.shadow_rays;
-        let Some((tr, tr_mis)) = shadow::<M>(scene, &ray, medium, rng, rays) else {
+        let at = (scene, pass.mis.local_media);
+        let Some((tr, tr_mis)) = shadow::<M>(at, &ray, medium, rng, rays) else {
             continue;
         };
         let seg = dist2 / tr_mis;

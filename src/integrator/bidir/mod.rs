@@ -149,6 +149,7 @@ impl Bidir {
         mis.merge_first = self.s.merge_first;
         mis.long_query = self.s.query_beams == BeamForm::Long && self.s.long_beam_weights;
         mis.first_medium = self.s.merge_depth == MergeDepth::First;
+        mis.local_media = self.s.local_media_mis;
         let core = crate::integrator::paths::Pass {
             scene,
             tracing: t.tracing(),

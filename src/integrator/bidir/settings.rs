@@ -160,6 +160,7 @@ impl Estimators {
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
 /// | `merge_depth` | `first` | merges in media (`pp3d`, `pb2d`, `bb1d`; also `vcm`'s in media) at every camera segment and vertex (`all`), or only up to the camera's first scattering in a medium (`first`: where the path has no medium vertex between the merge and the camera, as a `vpm`-like first-segment estimate; those techniques also leave the MIS, so every path keeps the others) |
+/// | `local_media_mis` | false | in heterogeneous media, MIS takes D = the grey sigma_t at each vertex and T from a 4-point quadrature of each segment's optical depth (deterministic, so unbiased), instead of 1 for both |
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
@@ -190,6 +191,7 @@ pub struct BidirSettings {
     pub techniques: Vec<UpbpTechnique>,
     pub merge_first: bool,
     pub merge_depth: MergeDepth,
+    pub local_media_mis: bool,
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
     pub max_vertex_mib: f32,
@@ -221,6 +223,7 @@ impl Default for BidirSettings {
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
             merge_depth: MergeDepth::First,
+            local_media_mis: false,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
             max_vertex_mib: 2048.0,

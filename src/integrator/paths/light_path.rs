@@ -280,7 +280,8 @@ fn flight<'a, 's, M: Media>(
         },
     };
     let keep = pass.keep_segments.then_some(&mut sink);
-    next_event::<M>(pass.scene, ray, walk, rng, stats, keep, owner)
+    let at = (pass.scene, pass.mis.local_media);
+    next_event::<M>(at, ray, walk, rng, stats, keep, owner)
 }
 
 /// Without media: the walk to the next surface, traced together with the pending lens
@@ -444,7 +445,8 @@ fn connect_to_camera<M: Media>(
         });
     }
     let rays = &mut chunk.stats.shadow_rays;
-    let (tr, tr_mis) = shadow::<M>(pass.scene, &ray, medium, rng, rays)?;
+    let at = (pass.scene, pass.mis.local_media);
+    let (tr, tr_mis) = shadow::<M>(at, &ray, medium, rng, rays)?;
     // A medium vertex is on the camera side of the light's earlier vertices.
     let q = match v {
         Vertex::Medium { .. } if pass.mis.first_medium => pass.mis.cut(walk.q, walk.vol),
@@ -550,7 +552,7 @@ fn splat_emitter<M: Media>(
     let scene = pass.scene;
     let medium = scene.camera_medium;
     let rays = &mut chunk.stats.shadow_rays;
-    if let Some((tr, _)) = shadow::<M>(scene, &ray, medium, rng, rays) {
+    if let Some((tr, _)) = shadow::<M>((scene, false), &ray, medium, rng, rays) {
         push_splat(chunk, raster, v * tr, pass.layers.connection(1, 1));
     }
 }

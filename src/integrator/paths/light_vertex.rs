@@ -95,7 +95,7 @@ impl LightVertex {
             let m: MediumPoint<'a> = MediumPoint {
                 phase: medium.phase(),
                 wo: self.wo,
-                sigma: mis_sigma(pass, self.medium),
+                sigma: mis_sigma(pass, self.medium, self.p),
                 cont: self.cont,
             };
             if let Some(m) = M::wrap(m) {

@@ -53,7 +53,7 @@ impl<'s> Owner<'s> {
 /// (for an escaping ray, of its part inside the scene). Extra rays count in `stats`.
 #[inline(always)]
 pub(crate) fn next_event<'a, 's, M: Media>(
-    scene: &'s Scene,
+    (scene, local): (&'s Scene, bool),
     ray: &mut Ray,
     walk: &mut Walk,
     rng: &mut Rng,
@@ -75,6 +75,7 @@ pub(crate) fn next_event<'a, 's, M: Media>(
     };
     let mut depth = MisDepth {
         scene,
+        local,
         depth: 0.0,
         keep,
     };
@@ -88,8 +89,9 @@ pub(crate) fn next_event<'a, 's, M: Media>(
             if walk.throughput == Rgb::ZERO {
                 return (Event::End, 1.0);
             }
-            let sigma = mis_sigma(scene, seg.medium);
-            let tr = mis::transmittance(depth.depth + sigma * t);
+            let med = &scene.media[seg.medium as usize];
+            let piece = med.mis_depth(seg.ray.o, seg.ray.d, 0.0, t, depth.local);
+            let tr = mis::transmittance(depth.depth + piece);
             (Event::Medium(seg.ray.at(t), seg.medium), tr)
         }
         Step::Surface(it, m) => {
@@ -101,18 +103,14 @@ pub(crate) fn next_event<'a, 's, M: Media>(
     }
 }
 
-/// The grey optical depth MIS assigns the segments a walk passed (`Medium::mis_sigma_t`
-/// times their length; heterogeneous media count zero), and where a light subpath
-/// keeps its segments.
+/// The grey optical depth MIS assigns the segments a walk passed (`Medium::mis_depth`),
+/// and where a light subpath keeps its segments.
 struct MisDepth<'a, 'k, 's> {
     scene: &'a Scene,
+    /// `Mis::local_media`.
+    local: bool,
     depth: f32,
     keep: Option<&'k mut SegmentSink<'s>>,
-}
-
-#[inline(always)]
-fn mis_sigma(scene: &Scene, medium: u32) -> f32 {
-    scene.media[medium as usize].mis_sigma_t().unwrap_or(0.0)
 }
 
 impl Segments for MisDepth<'_, '_, '_> {
@@ -121,10 +119,8 @@ impl Segments for MisDepth<'_, '_, '_> {
         if let Some(keep) = self.keep.as_deref_mut() {
             keep.push(seg, seg.tmax, self.depth);
         }
-        let sigma = mis_sigma(self.scene, seg.medium);
-        if sigma > 0.0 {
-            self.depth += sigma * seg.tmax;
-        }
+        let med = &self.scene.media[seg.medium as usize];
+        self.depth += med.mis_depth(seg.ray.o, seg.ray.d, 0.0, seg.tmax, self.local);
     }
 }
 
@@ -152,7 +148,7 @@ pub(crate) fn next_event_with<'a, 's>(
 /// transmittance, None when nothing gets through. `rays` counts rays beyond the first.
 #[inline(always)]
 pub(crate) fn shadow<M: Media>(
-    scene: &Scene,
+    (scene, local): (&Scene, bool),
     ray: &Ray,
     medium: Option<u32>,
     rng: &mut Rng,
@@ -162,6 +158,6 @@ pub(crate) fn shadow<M: Media>(
         // Constants the compiler folds into the callers' products.
         return scene.visible(ray).then_some((Rgb::ONE, 1.0));
     }
-    let (tr, depth) = scene.transmittance_mis(ray, medium, rng, rays);
+    let (tr, depth) = scene.transmittance_mis(ray, medium, rng, rays, local);
     (tr != Rgb::ZERO).then(|| (tr, mis::transmittance(depth)))
 }

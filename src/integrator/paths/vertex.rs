@@ -1,7 +1,8 @@
 //! A subpath vertex as both subpath tracers and the connections see it: a surface with
 //! its BSDF, or a scattering point in a medium with its phase function. A medium
 //! vertex has no cosine anywhere: its contributions use the phase function alone, and
-//! its MIS factor D is the medium's grey sigma_t from both sides (see [`super::partial`]).
+//! its MIS factor D is the medium's grey sigma_t there, from both sides (see
+//! [`super::partial`]).
 //!
 //! The subpath loops are compiled twice, chosen once per path: for [`WithMedia`] and
 //! for [`NoMedia`], whose medium vertices are of an uninhabited type. Without media
@@ -70,7 +71,7 @@ pub(crate) struct MediumPoint<'a> {
     pub phase: &'a Phase,
     /// Towards the previous vertex, world space.
     pub wo: Vec3,
-    /// The MIS factor D: the medium's grey sigma_t, or 1 when it has none.
+    /// The MIS factor D: the medium's grey sigma_t here, or 1 where it is 0.
     pub sigma: f32,
     /// Russian-roulette continuation probability.
     pub cont: f32,
@@ -84,7 +85,7 @@ impl<'a> MediumPoint<'a> {
         MediumPoint {
             phase: med.phase(),
             wo,
-            sigma: mis_sigma(pass, medium),
+            sigma: mis_sigma(pass, medium, p),
             cont: pass.medium_continuation(med.albedo_at(p)),
         }
     }
@@ -117,14 +118,17 @@ impl MediumPoint<'_> {
     }
 }
 
-/// The MIS factor D of a vertex in `medium` (mis.rs: sigma_t, left out as 1 for
-/// heterogeneous media).
+/// The MIS factor D of a vertex at `p` in `medium` (partial.rs: the grey sigma_t
+/// there; 1 where it is 0, which no scattering vertex can be, so that D never divides
+/// by 0).
 #[inline]
-pub(crate) fn mis_sigma(pass: &Pass, medium: u32) -> f32 {
-    pass.scene.media[medium as usize]
-        .mis_sigma_t()
-        .filter(|&s| s > 0.0)
-        .unwrap_or(1.0)
+pub(crate) fn mis_sigma(pass: &Pass, medium: u32, p: Vec3) -> f32 {
+    let s = pass.scene.media[medium as usize].mis_sigma_at(p, pass.mis.local_media);
+    if s > 0.0 {
+        s
+    } else {
+        1.0
+    }
 }
 
 /// What scatters at a vertex.
