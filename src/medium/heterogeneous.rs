@@ -123,7 +123,8 @@ impl Heterogeneous {
     /// ratio tracking.
     pub fn mis_depth(&self, o: Vec3, d: Vec3, t0: f32, t1: f32) -> f32 {
         const MIS_STEPS: usize = 4;
-        if !(t1 > t0) {
+        // Also NaN bounds: no piece.
+        if t1.partial_cmp(&t0) != Some(std::cmp::Ordering::Greater) {
             return 0.0;
         }
         let Some(r) = self.clip(o + d * t0, d, t1 - t0) else {
