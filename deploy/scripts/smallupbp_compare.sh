@@ -23,7 +23,9 @@
 # PBC=1, every path, is SmallUPBP's default and what issue 21's pass 2 measured).
 # The radii are SmallUPBP's defaults on these scenes (both have scene radius 2.2171):
 # surface 0.0015 x the scene radius with alpha 0.75; point x point, point x beam and
-# beam x beam 0.001 x the scene radius, not reduced (alpha 1).
+# beam x beam 0.001 x the scene radius, not reduced (alpha 1). Merges in media at
+# every camera segment and vertex, as SmallUPBP does by default (caustic's
+# merge_depth=all; its own default, first, is the "at its own defaults" run).
 #
 # SmallUPBP is not part of this repository. Build it outside it from its public
 # sources (github.com/PetrVevoda/smallupbp): its bundled Embree 2.0 (CMake, built with
@@ -59,7 +61,8 @@ p=(--param radius=0.003326 --param alpha=0.75
    --param medium_radius=0.002217 --param medium_alpha=1
    --param pb2d_radius=0.002217 --param pb2d_alpha=1
    --param bb1d_radius=0.002217 --param bb1d_alpha=1
-   --param beam_paths="$pbc" --param query_beams=long --param max_depth=10)
+   --param beam_paths="$pbc" --param query_beams=long --param max_depth=10
+   --param merge_depth=all)
 s=(-s "$scene_id" -r 256x256 -th 2 -l 10 -qbt L -pbt S -pbc "-$pbc")
 measure() { # command... -> "wall_s,cpu_s" (cpu = user + sys)
     /usr/bin/time -f "%e %U %S" -o time.txt "$@" > /dev/null 2>&1
