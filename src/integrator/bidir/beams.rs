@@ -130,8 +130,12 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Pa
         q.dvcm = pass.mis.f(pick * pdf_w * cos0 / (dist2 as f64 * emission));
     }
     let mis = &pass.mis;
-    let (q, vol) = mis.light_hit(q, s.vol, s.pending, dist2 / tr, tr, sigma);
-    (if mis.first_medium { mis.cut(q, vol) } else { q }, tr)
+    let q = mis.light_hit(q, s.pending, dist2 / tr, tr, sigma);
+    if !mis.first_medium {
+        return (q, tr);
+    }
+    // The pending terms are the query beams', all in media.
+    (mis.cut(q, mis.hit_share(s.vol, s.pending, tr, sigma)), tr)
 }
 
 /// The camera's query beam along camera segment `c`, and the medium it is in.

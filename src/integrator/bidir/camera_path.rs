@@ -8,6 +8,7 @@ use crate::integrator::drive::pixels::PathKernel;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event, Owner};
 use crate::integrator::paths::partial::{Merge, Partial, Site};
+use crate::integrator::paths::parts::Parts;
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
 use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
@@ -85,8 +86,8 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
                 throughput: Rgb::ONE,
                 len: 1,
                 q: self.pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
-                pending: 0.0,
-                vol: 0.0,
+                pending: Parts::default(),
+                parts: Parts::default(),
                 medium_seen: false,
                 tr: 1.0,
                 specular: true,

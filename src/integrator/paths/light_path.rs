@@ -5,6 +5,7 @@
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::partial::Partial;
+use super::parts::Parts;
 use super::segments::{FlightStart, SegmentSink, NO_AREA};
 use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
 use super::vertex::{Media, NoMedia, Vertex, WithMedia};
@@ -147,8 +148,8 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
         throughput: es.le * (es.cos / emission),
         len: 1,
         q,
-        pending: 0.0,
-        vol: 0.0,
+        pending: Parts::default(),
+        parts: Parts::default(),
         medium_seen: false,
         tr: 1.0,
         specular: true,
@@ -227,8 +228,9 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         // A ray from a light at infinity has no distance ([TR] sec. 5.1), only T.
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         let mis = &pass.mis;
-        (walk.q, walk.vol) = mis.light_hit(walk.q, walk.vol, walk.pending, d2 / tr, tr, v.d_in());
-        (walk.pending, walk.tr) = (0.0, tr);
+        walk.q = mis.light_hit(walk.q, walk.pending.sum(), d2 / tr, tr, v.d_in());
+        walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
+        (walk.pending, walk.tr) = (Parts::default(), tr);
         if !v.skips_connections() {
             lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
         }
@@ -273,8 +275,8 @@ fn flight<'a, 's, M: Media>(
         start: FlightStart {
             len: walk.len,
             q: walk.q,
-            pending: walk.pending,
-            vol: walk.vol,
+            pending: walk.pending.sum(),
+            vol: walk.parts.media(),
             from: walk.origin,
             area,
         },
@@ -394,7 +396,7 @@ fn stored<M: Media>(
         len: walk.len,
         q: walk.q,
         vol: if walk.q.dvc > 0.0 {
-            (walk.vol / walk.q.dvc) as f32
+            (walk.parts.media() / walk.q.dvc) as f32
         } else {
             0.0
         },
@@ -449,7 +451,7 @@ fn connect_to_camera<M: Media>(
     let (tr, tr_mis) = shadow::<M>(at, &ray, medium, rng, rays)?;
     // A medium vertex is on the camera side of the light's earlier vertices.
     let q = match v {
-        Vertex::Medium { .. } if pass.mis.first_medium => pass.mis.cut(walk.q, walk.vol),
+        Vertex::Medium { .. } if pass.mis.first_medium => pass.mis.cut(walk.q, walk.parts.media()),
         _ => walk.q,
     };
     let value = lens_value(pass, walk, (&e, q, vm(tr_mis)), v.cont(), link, tr, tr_mis);

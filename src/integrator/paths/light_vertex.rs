@@ -44,10 +44,11 @@ pub(crate) struct LightVertex {
     /// Segments from the light to this vertex.
     pub len: u32,
     pub q: Partial,
-    /// The share of `q.dvc` that merges in media contribute ([`Walk::vol`] / dvc):
-    /// a ratio in [0, 1], so f32 keeps it, in what was padding.
+    /// The share of `q.dvc` that merges in media contribute (the media's of
+    /// [`Walk::parts`], over dvc): a ratio in [0, 1], so f32 keeps it, in what was
+    /// padding.
     ///
-    /// [`Walk::vol`]: super::walk::Walk::vol
+    /// [`Walk::parts`]: super::walk::Walk::parts
     pub vol: f32,
 }
 

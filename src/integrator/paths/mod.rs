@@ -19,6 +19,7 @@ pub(crate) mod light_path;
 pub(crate) mod light_vertex;
 pub(crate) mod media;
 pub(crate) mod partial;
+pub(crate) mod parts;
 pub(crate) mod photons;
 pub(crate) mod segments;
 pub(crate) mod store;

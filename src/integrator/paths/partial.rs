@@ -277,7 +277,7 @@ impl Mis {
     /// M(x) in two parts: the point estimators', and the query beams' before their
     /// [`Mis::beam_scale`]. A light subpath's vertex needs the split: its camera-side
     /// segment is the one it leaves along, whose T is known only at the next hit (see
-    /// [`Mis::settle`]).
+    /// [`Mis::light_hit`]).
     #[inline]
     pub fn merge_parts(
         &self,
@@ -299,42 +299,31 @@ impl Mis {
         }
     }
 
-    /// On a light subpath with long query beams: scattering at a medium vertex adds
-    /// the point part of its M(x) to `on_scatter` and keeps the beam part, `beams` of
-    /// [`Mis::merge_parts`], as `pending` (returned here, with on_scatter's factor of
-    /// the sampled direction), until the segment it leaves along ends; 0 otherwise.
-    #[inline]
-    pub fn defer(&self, beams: f64, cos_out: f32, pdf_dir: f32) -> f64 {
-        if self.long_query {
-            self.f(cos_out as f64 / pdf_dir as f64) * beams
-        } else {
-            0.0
-        }
-    }
-
     /// A light subpath's segment ends at a vertex (or the point a beam estimate stands
     /// for) with MIS factor `cos`, `seg` = d^2 / T, T = `tr`: `on_hit`, after the
-    /// beam part `pending` of the last vertex's M(x) (from [`Mis::defer`]) is
-    /// completed by T. `vol` is the part of dvc and dvm that merges in media
-    /// contribute (see [`Mis::cuts`]); it follows them.
+    /// query beams' terms `pending` of the last vertex's M(x) (held back by
+    /// [`Mis::defer_terms`], summed) are completed by T.
     #[inline]
-    pub fn light_hit(
-        &self,
-        q: Partial,
-        vol: f64,
-        pending: f64,
-        seg: f32,
-        tr: f32,
-        cos: f32,
-    ) -> (Partial, f64) {
-        let (mut q, mut vol) = (q, vol);
+    pub fn light_hit(&self, q: Partial, pending: f64, seg: f32, tr: f32, cos: f32) -> Partial {
+        let mut q = q;
         if pending != 0.0 {
             let add = pending * self.beam_scale(tr);
             q.dvc += add;
             q.dvm += add;
-            vol += add;
         }
-        (self.on_hit(q, seg, cos), vol / self.f(cos))
+        self.on_hit(q, seg, cos)
+    }
+
+    /// A share of dvc and dvm (an estimator's part, or the media's) through the same
+    /// end of a segment as [`Mis::light_hit`], its own pending terms `pending`.
+    #[inline]
+    pub fn hit_share(&self, share: f64, pending: f64, tr: f32, cos: f32) -> f64 {
+        let share = if pending != 0.0 {
+            share + pending * self.beam_scale(tr)
+        } else {
+            share
+        };
+        share / self.f(cos)
     }
 
     /// Whether `merge_depth: first` takes the merges in media out of a path whose
@@ -357,16 +346,6 @@ impl Mis {
             dvc: (q.dvc - vol).max(0.0),
             dvm: (q.dvm - vol).max(0.0),
         }
-    }
-
-    /// `vol` through scattering at a surface, as `on_scatter` carries dvc and dvm
-    /// (merges at surfaces add nothing to it).
-    #[inline]
-    pub fn carry(&self, vol: f64, cos_out: f32, pdf_dir: f32, pdf_rev: f32) -> f64 {
-        if vol == 0.0 {
-            return 0.0;
-        }
-        vol * self.f(cos_out as f64 / pdf_dir as f64) * self.f(pdf_rev)
     }
 
     /// A light subpath leaving its emitter ([TR] eqs. 31-33, delta lights 48-50).

@@ -35,12 +35,13 @@ pub(crate) struct LightSegment {
     /// light: with dvcm still to be completed at the point, see `area`), that vertex,
     /// and the MIS optical depth from it to `o` (null boundaries crossed on the way).
     pub q: Partial,
-    /// The beam part of that vertex's M(x) still to be settled ([`Walk::pending`]).
+    /// The query beams' terms of that vertex's M(x) still to be settled, summed
+    /// ([`Walk::pending`]).
     ///
     /// [`Walk::pending`]: super::walk::Walk::pending
     pub pending: f64,
-    /// And the part of its dvc and dvm that merges in media contribute
-    /// ([`Walk::vol`](super::walk::Walk::vol)).
+    /// And the part of its dvc and dvm that merges in media contribute (the media's
+    /// of [`Walk::parts`](super::walk::Walk::parts)).
     pub vol: f64,
     pub from: Vec3,
     pub depth0: f32,

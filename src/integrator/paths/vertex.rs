@@ -365,16 +365,17 @@ fn scatter_medium(
         None => {
             if mis.first_medium {
                 // This vertex is on the camera side of every earlier one.
-                walk.q = mis.cut(walk.q, walk.vol);
+                walk.q = mis.cut(walk.q, walk.parts.media());
+                walk.parts = walk.parts.without_media();
             }
-            walk.pending = mis.defer(beams, m.sigma, pdf_dir);
+            let terms = mis.unsettled_terms(Site::Medium, m.sigma, sin, None);
+            let (now, later) = mis.defer_terms(terms, m.sigma, pdf_dir);
+            walk.parts = mis.scatter_parts(walk.parts, now, m.sigma, pdf_dir, pdf_dir, false);
+            walk.pending = later;
             points + if mis.long_query { 0.0 } else { beams }
         }
     };
     walk.q = mis.on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);
-    if camera_len.is_none() && mis.first_medium {
-        walk.vol = mis.carry(vm, m.sigma, pdf_dir, 1.0);
-    }
     walk.medium_seen = true;
     walk.specular = false;
     walk.throughput /= m.cont;

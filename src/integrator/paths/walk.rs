@@ -1,7 +1,8 @@
 //! The state a subpath carries between vertices and the scattering move both subpaths
 //! make at surfaces: what the light and camera walks of the bidirectional core share.
 
-use super::partial::{Partial, Site};
+use super::partial::{Merge, Partial, Site};
+use super::parts::Parts;
 use super::Pass;
 use crate::geometry::{spawn_ray, Interaction, Ray};
 use crate::integrator::transport::adjoint::adjoint_correction;
@@ -77,16 +78,16 @@ pub(crate) struct Walk {
     /// Segments traced so far, including the one being traced.
     pub len: u32,
     pub q: Partial,
-    /// On a light subpath, the beam part of the last vertex's M(x) awaiting the
-    /// transmittance of the segment being traced ([`Mis::defer`]); else 0.
+    /// On a light subpath, the query beams' terms of the last vertex's M(x) awaiting
+    /// the transmittance of the segment being traced ([`Mis::defer_terms`]); else 0.
     ///
-    /// [`Mis::defer`]: super::partial::Mis::defer
-    pub pending: f64,
-    /// On a light subpath, the part of dvc and dvm that merges in media contribute
-    /// ([`Mis::cuts`]), with `merge_depth: first`; else 0.
+    /// [`Mis::defer_terms`]: super::partial::Mis::defer_terms
+    pub pending: Parts,
+    /// On a light subpath, each merge estimator's part of dvc and dvm
+    /// ([`super::parts`]): `merge_depth: first` cuts the media's ([`Mis::cuts`]).
     ///
     /// [`Mis::cuts`]: super::partial::Mis::cuts
-    pub vol: f64,
+    pub parts: Parts,
     /// On a camera subpath, whether a vertex before the current one was in a medium.
     pub medium_seen: bool,
     /// The MIS transmittance of the segment that reached the current vertex: on a
@@ -129,11 +130,14 @@ pub(crate) fn scatter(
     if pdf_dir.is_nan() || pdf_dir <= 0.0 {
         return None;
     }
-    let vm = pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
-    walk.q = pass
-        .mis
-        .on_scatter(walk.q, vm, s.wi.z.abs(), pdf_dir, pdf_rev, s.delta);
-    walk.vol = pass.mis.carry(walk.vol, s.wi.z.abs(), pdf_dir, pdf_rev);
+    let mis = &pass.mis;
+    let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
+    let cos_out = s.wi.z.abs();
+    walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
+    if camera_len.is_none() {
+        let terms = Parts::one(Merge::Surface, vm);
+        walk.parts = mis.scatter_parts(walk.parts, terms, cos_out, pdf_dir, pdf_rev, s.delta);
+    }
     walk.specular &= s.delta;
     walk.throughput *= Rgb::from(s.weight) / cont;
     if mode == Mode::Importance {

@@ -7,6 +7,7 @@
 use crate::integrator::paths::partial::{
     transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH, MIN_BEAM_SIN,
 };
+use crate::integrator::paths::parts::{Parts, Scale};
 use crate::integrator::transport::Heuristic;
 use crate::math::Rng;
 
@@ -187,36 +188,32 @@ impl Path {
         self.pick * self.e_pos * self.e_dir
     }
 
-    /// The light subpath's partial weights at vertex `k` (after the hit), and the
-    /// part of them that merges in media contribute.
-    fn light_q(&self, m: &Mis, k: usize) -> (Partial, f64) {
+    /// The light subpath's partial weights at vertex `k` (after the hit), the part
+    /// of them that merges in media contribute, and every estimator's part.
+    fn light_q(&self, m: &Mis, k: usize) -> (Partial, f64, Parts) {
         let direct = self.pick * self.a_direct;
         let mut q = m.light_start(direct, self.emission(), self.cf[0], false, !self.infinite);
         q = m.on_hit(q, self.seg(0), self.cb[1]);
-        let mut vol = 0.0;
+        let mut parts = Parts::default();
         for i in 1..k {
             // As the light subpath does: the query beams' part of M(x_i) waits for
             // the T of the segment x_i leaves along; a medium vertex is on the camera
             // side of the merges in media before it.
-            let medium = self.site[i] == Site::Medium;
             let (points, beams) = m.merge_parts(self.site[i], self.sigma(i), self.sin[i], None);
-            let (vm, pending) = if m.long_query {
-                (points, m.defer(beams, self.cf[i], self.pl[i]))
-            } else {
-                (points + beams, 0.0)
-            };
-            if medium && m.first_medium {
-                q = m.cut(q, vol);
+            let terms = m.unsettled_terms(self.site[i], self.sigma(i), self.sin[i], None);
+            let (now, later) = m.defer_terms(terms, self.cf[i], self.pl[i]);
+            let vm = if m.long_query { points } else { points + beams };
+            if self.site[i] == Site::Medium && m.first_medium {
+                q = m.cut(q, parts.media());
+                parts = parts.without_media();
             }
             q = m.on_scatter(q, vm, self.cf[i], self.pl[i], self.pc[i], false);
-            vol = match (m.first_medium, medium) {
-                (false, _) => 0.0,
-                (true, true) => m.carry(vm, self.cf[i], self.pl[i], 1.0),
-                (true, false) => m.carry(vol, self.cf[i], self.pl[i], self.pc[i]),
-            };
-            (q, vol) = m.light_hit(q, vol, pending, self.seg(i), self.tr[i], self.cb[i + 1]);
+            parts = m.scatter_parts(parts, now, self.cf[i], self.pl[i], self.pc[i], false);
+            let (tr, cos) = (self.tr[i], self.cb[i + 1]);
+            q = m.light_hit(q, later.sum(), self.seg(i), tr, cos);
+            parts = m.hit_parts(parts, later, tr, cos);
         }
-        (q, vol)
+        (q, parts.media(), parts)
     }
 
     /// M(x_i) of a camera vertex, whose camera side has a medium vertex if `seen`.
@@ -228,17 +225,35 @@ impl Path {
         }
     }
 
+    /// Its terms, each estimator's ([`Mis::merge_terms`]).
+    fn camera_terms(&self, m: &Mis, i: usize, len: u32, seen: bool) -> Parts {
+        if self.site[i] == Site::Medium && m.cuts(seen) {
+            Parts::default()
+        } else {
+            self.terms(m, i, Some(len))
+        }
+    }
+
+    /// The terms of M(x_i) as [`Path::vm`] sums them.
+    fn terms(&self, m: &Mis, i: usize, camera_len: Option<u32>) -> Parts {
+        let (site, sigma, sin) = (self.site[i], self.sigma(i), self.sin[i]);
+        m.merge_terms(site, sigma, sin, camera_len, self.tr[i])
+    }
+
     /// The camera subpath's partial weights at vertex `k` (after the hit), with
-    /// its length in segments and whether a vertex before x_k is in a medium.
-    fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32, bool) {
+    /// its length in segments, whether a vertex before x_k is in a medium, and every
+    /// estimator's part of them.
+    fn camera_q(&self, m: &Mis, k: usize) -> (Partial, u32, bool, Parts) {
         let n = self.n;
         let mut q = m.camera_start(self.camera);
         q = m.on_hit(q, self.seg(n - 1), self.cf[n - 1]);
-        let (mut len, mut seen) = (1, false);
+        let (mut len, mut seen, mut parts) = (1, false, Parts::default());
         for i in (k + 1..n).rev() {
             let (vm, cos) = (self.camera_vm(m, i, len, seen), self.cb[i]);
+            let terms = self.camera_terms(m, i, len, seen);
             seen |= self.site[i] == Site::Medium;
             q = m.on_scatter(q, vm, cos, self.pc[i], self.pl[i], false);
+            parts = m.scatter_parts(parts, terms, cos, self.pc[i], self.pl[i], false);
             // An escaping ray: no cosine at infinity, only the 1 / T of its
             // segment (as the camera subpath applies on escape).
             let cos = if i == 1 && self.infinite {
@@ -247,30 +262,48 @@ impl Path {
                 self.cf[i - 1]
             };
             q = m.on_hit(q, self.seg(i - 1), cos);
+            parts = m.hit_parts(parts, Parts::default(), 1.0, cos);
             len += 1;
         }
-        (q, len, seen)
+        (q, len, seen, parts)
     }
 
-    /// The weight the recursive quantities give technique `t`.
-    fn recursive_weight(&self, m: &Mis, t: Tech) -> f32 {
+    /// The weight the recursive quantities give technique `t`; with `scale`, the
+    /// weight under every estimator's Mis(eta_k) scaled so, from the same unscaled
+    /// subpaths and their [`Parts`].
+    fn recursive_weight(&self, m: &Mis, t: Tech, scale: Option<&Scale>) -> f32 {
         let n = self.n;
+        // A subpath's partial weights and a vertex's M(x) as `scale` has them.
+        let q = |q: Partial, parts: Parts| scale.map_or(q, |s| m.rescale(q, &parts, s));
+        let vm = |plain: f64, terms: Parts| scale.map_or(plain, |s| terms.dot(s));
+        // The light side cut by `merge_depth: first` ([`Mis::cut`]).
+        let cut = |(ql, vol, parts): (Partial, f64, Parts), cut: bool| {
+            if cut {
+                (m.cut(ql, vol), parts.without_media())
+            } else {
+                (ql, parts)
+            }
+        };
         match t {
             Tech::Vc(0) => {
-                let (q, _, _) = self.camera_q(m, 0);
-                m.weight_emitter_hit(q, self.pick * self.a_direct, self.emission())
+                let (qc, _, _, parts) = self.camera_q(m, 0);
+                m.weight_emitter_hit(q(qc, parts), self.pick * self.a_direct, self.emission())
             }
             Tech::Vc(1) => {
-                let (q, len, seen) = self.camera_q(m, 1);
+                let (qc, len, seen, parts) = self.camera_q(m, 1);
                 // Light sampling's solid-angle density, with the segment's T.
                 let (direct_w, cos_light) = if self.infinite {
                     (self.a_direct, 1.0)
                 } else {
                     (self.a_direct * self.d2[0] / self.cf[0], self.cf[0])
                 };
-                m.weight_light_sample(
-                    q,
+                let vm1 = vm(
                     self.camera_vm(m, 1, len, seen),
+                    self.camera_terms(m, 1, len, seen),
+                );
+                m.weight_light_sample(
+                    q(qc, parts),
+                    vm1,
                     self.pick,
                     direct_w / self.tr[0],
                     self.e_pos * self.e_dir,
@@ -281,36 +314,33 @@ impl Path {
                 )
             }
             Tech::Vc(s) if s == n => {
-                let (q, vol) = self.light_q(m, n - 1);
                 // x_{n-1} is on the camera side of the light's earlier vertices.
                 let medium = self.site[n - 1] == Site::Medium;
-                let q = if m.cuts(medium) { m.cut(q, vol) } else { q };
+                let (ql, parts) = cut(self.light_q(m, n - 1), m.cuts(medium));
                 let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
-                let vm = self.vm(m, n - 1, Some(1));
-                m.weight_camera_connection((q, vm), camera_a, self.pc[n - 1])
+                let vm1 = vm(self.vm(m, n - 1, Some(1)), self.terms(m, n - 1, Some(1)));
+                m.weight_camera_connection((q(ql, parts), vm1), camera_a, self.pc[n - 1])
             }
             Tech::Vc(s) => {
-                let (ql, vol) = self.light_q(m, s - 1);
-                let (qc, len, seen) = self.camera_q(m, s);
+                let (qc, len, seen, cparts) = self.camera_q(m, s);
                 let seg = self.seg(s - 1);
                 // x_{s-1}, x_s and the camera vertices before it are the camera
                 // side of the light's earlier vertices; x_s and those of x_{s-1}.
                 let camera_medium = seen || self.site[s] == Site::Medium;
                 let y_medium = self.site[s - 1] == Site::Medium;
-                let ql = if m.cuts(camera_medium || y_medium) {
-                    m.cut(ql, vol)
-                } else {
-                    ql
-                };
-                let vm = if y_medium && m.cuts(camera_medium) {
+                let (ql, lparts) = cut(self.light_q(m, s - 1), m.cuts(camera_medium || y_medium));
+                let vm_y = if y_medium && m.cuts(camera_medium) {
                     0.0
                 } else {
-                    self.vm(m, s - 1, None)
+                    vm(self.vm(m, s - 1, None), self.terms(m, s - 1, None))
                 };
-                let light = (ql, vm);
+                let vm_x = vm(
+                    self.camera_vm(m, s, len, seen),
+                    self.camera_terms(m, s, len, seen),
+                );
                 m.weight_connection(
-                    light,
-                    (qc, self.camera_vm(m, s, len, seen)),
+                    (q(ql, lparts), vm_y),
+                    (q(qc, cparts), vm_x),
                     self.pc[s] * self.cf[s - 1] / seg,
                     self.pl[s - 1] * self.cb[s] / seg,
                     self.pc[s - 1],
@@ -318,16 +348,22 @@ impl Path {
                 )
             }
             Tech::Vm(j, k) => {
-                let (ql, vol) = self.light_q(m, j);
-                let (qc, _, seen) = self.camera_q(m, j);
+                let (qc, _, seen, cparts) = self.camera_q(m, j);
                 // A merge in a medium is on the camera side of the light's vertices.
                 let medium = self.site[j] == Site::Medium;
                 assert!(!(medium && m.cuts(seen)), "{t:?} is no technique");
-                let cut = if medium { m.first_medium } else { m.cuts(seen) };
-                let ql = if cut { m.cut(ql, vol) } else { ql };
+                let cuts = if medium { m.first_medium } else { m.cuts(seen) };
+                let (ql, lparts) = cut(self.light_q(m, j), cuts);
                 let own = m.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
-                let all = self.vm(m, j, None);
-                m.weight_merge(ql, qc, (own, all), self.pc[j], self.pl[j])
+                let own = own * scale.map_or(1.0, |s| s.of(k));
+                let all = vm(self.vm(m, j, None), self.terms(m, j, None));
+                m.weight_merge(
+                    q(ql, lparts),
+                    q(qc, cparts),
+                    (own, all),
+                    self.pc[j],
+                    self.pl[j],
+                )
             }
         }
     }
@@ -381,54 +417,117 @@ fn check(heuristic: Heuristic, vc: bool, merges: Merges, merge_first: bool, medi
     }
 }
 
+/// Radius factors per estimator that the checks also weigh the paths with (0 turns
+/// an estimator off): the unscaled subpaths' [`Parts`] must give the weights a job
+/// with those radii would.
+const RADIUS_FACTORS: [[f32; Merge::COUNT]; 4] = [
+    [1.0; Merge::COUNT],
+    [0.5, 2.0, 0.25, 3.0],
+    [0.0, 1.5, 0.0, 0.5],
+    [2.0, 0.0, 1.0, 0.0],
+];
+
+/// `merges` with each estimator's radius scaled by its factor in `s` (eta grows
+/// with the kernel's support; 0 removes the estimator).
+fn scaled_merges(merges: &Merges, s: [f32; Merge::COUNT]) -> Merges {
+    let mut out = *merges;
+    for (k, eta) in out.eta.iter_mut().enumerate() {
+        let dim = [2, 3, 2, 1][k];
+        *eta = eta
+            .map(|e| e * (s[k] as f64).powi(dim))
+            .filter(|&e| e > 0.0);
+    }
+    out
+}
+
 fn check_setup(heuristic: Heuristic, vc: bool, merges: Merges, setup: Setup) {
-    let Setup {
-        merge_first, media, ..
-    } = setup;
     let mut rng = Rng::new(3, 1, 4);
     let light_paths = 1000.0f32;
-    let mut m = Mis::new(heuristic, light_paths, vc, merges);
-    m.merge_first = merge_first;
-    m.long_query = setup.long;
-    m.first_medium = setup.first;
+    let mis = |merges: Merges| {
+        let mut m = Mis::new(heuristic, light_paths, vc, merges);
+        m.merge_first = setup.merge_first;
+        m.long_query = setup.long;
+        m.first_medium = setup.first;
+        m
+    };
+    let m = mis(merges);
     for n in 2..7 {
         for k in 0..40 {
             let infinite = k % 2 == 1;
-            let mut path = random_path(&mut rng, n, media, infinite);
+            let mut path = random_path(&mut rng, n, setup.media, infinite);
             path.long = setup.long;
-            let mut techs = Vec::new();
-            if vc {
-                techs.extend((0..=n).map(Tech::Vc));
+            for factors in RADIUS_FACTORS {
+                let scaled = scaled_merges(&merges, factors);
+                let scale = Scale::radii(&m, factors);
+                // The same as a job with those radii would build it.
+                let separate = mis(scaled);
+                for (a, b) in m.scaled(&scale).merge.iter().zip(separate.merge) {
+                    assert!((a - b).abs() <= 1e-9 * b, "scaled Mis(eta) {a}, own {b}");
+                }
+                let weight = |t: Tech| {
+                    let from_parts = path.recursive_weight(&m, t, Some(&scale));
+                    let own = path.recursive_weight(&separate, t, None);
+                    let close = (from_parts - own).abs() <= 1e-5 * own.max(1e-3);
+                    assert!(
+                        close,
+                        "{t:?} {factors:?}: from parts {from_parts}, own {own}"
+                    );
+                    if factors == [1.0; Merge::COUNT] {
+                        assert_eq!(path.recursive_weight(&m, t, None), own);
+                    }
+                    own
+                };
+                let label = format!("{heuristic:?} vc={vc} {setup:?} radii x{factors:?}");
+                check_path(&path, &scaled, setup, vc, &m, &weight, &label);
             }
-            let last = if merge_first { n } else { n - 1 };
-            for j in 1..last {
-                // With `merge_depth: first`, no merge in a medium with a medium vertex
-                // between it and the camera.
-                let camera_side_medium = (j + 1..n).any(|i| path.site[i] == Site::Medium);
-                let cut = setup.first && path.site[j] == Site::Medium && camera_side_medium;
-                let can = ALL_MERGES
-                    .into_iter()
-                    .filter(|&k| !cut && path.eta(j, k, &merges) > 0.0);
-                techs.extend(can.map(|k| Tech::Vm(j, k)));
-            }
-            let p = |t: Tech| m.f(path.density(t, &merges, light_paths));
-            if techs.is_empty() {
-                continue; // merging alone, where no estimator can sit on this path
-            }
-            let total: f64 = techs.iter().map(|&t| p(t)).sum();
-            let mut sum = 0.0;
-            for &t in &techs {
-                let expect = (p(t) / total) as f32;
-                let got = path.recursive_weight(&m, t);
-                assert!(
-                    (got - expect).abs() <= 1e-4 * expect.max(1e-3),
-                    "{heuristic:?} vc={vc} {merges:?} {setup:?} infinite={infinite} n={n} {t:?}: recursive {got}, explicit {expect}"
-                );
-                sum += got;
-            }
-            assert!((sum - 1.0).abs() < 1e-4, "weights sum to {sum}");
         }
     }
+}
+
+/// The weights `weight` gives every technique on `path` against the explicit
+/// heuristic over the estimators `merges`, and their sum.
+fn check_path(
+    path: &Path,
+    merges: &Merges,
+    setup: Setup,
+    vc: bool,
+    m: &Mis,
+    weight: &dyn Fn(Tech) -> f32,
+    label: &str,
+) {
+    let n = path.n;
+    let mut techs = Vec::new();
+    if vc {
+        techs.extend((0..=n).map(Tech::Vc));
+    }
+    let last = if setup.merge_first { n } else { n - 1 };
+    for j in 1..last {
+        // With `merge_depth: first`, no merge in a medium with a medium vertex
+        // between it and the camera.
+        let camera_side_medium = (j + 1..n).any(|i| path.site[i] == Site::Medium);
+        let cut = setup.first && path.site[j] == Site::Medium && camera_side_medium;
+        let can = ALL_MERGES
+            .into_iter()
+            .filter(|&k| !cut && path.eta(j, k, merges) > 0.0);
+        techs.extend(can.map(|k| Tech::Vm(j, k)));
+    }
+    if techs.is_empty() {
+        return; // merging alone, where no estimator can sit on this path
+    }
+    let p = |t: Tech| m.f(path.density(t, merges, m.light_paths as f32));
+    let total: f64 = techs.iter().map(|&t| p(t)).sum();
+    let mut sum = 0.0;
+    for &t in &techs {
+        let expect = (p(t) / total) as f32;
+        let got = weight(t);
+        assert!(
+            (got - expect).abs() <= 1e-4 * expect.max(1e-3),
+            "{label} {merges:?} infinite={} n={n} {t:?}: recursive {got}, explicit {expect}",
+            path.infinite
+        );
+        sum += got;
+    }
+    assert!((sum - 1.0).abs() < 1e-4, "{label}: weights sum to {sum}");
 }
 
 #[test]

@@ -1,0 +1,266 @@
+//! The partial weights split by merge estimator, so that one set of subpaths can be
+//! weighted as if each estimator's kernel had another support, or were switched off.
+//!
+//! dvc and dvm ([`Partial`]) are sums over the techniques of a subpath's vertices.
+//! Merges enter both recursions alike: each scattering vertex x adds M(x), the sum of
+//! Mis(eta_k(x)) over the estimators k, which every later step multiplies by factors
+//! that do not depend on eta ([TR] eqs. 34-36 and the media notes of [`Mis`]). So
+//! dvc = base_c + sum_k S_k and dvm = base_m + sum_k S_k, with S_k the part that
+//! estimator k's merges contribute, proportional to its constant Mis(eta_k), and the
+//! bases free of merging. Scaling Mis(eta_k) by lambda_k (another radius: lambda_k =
+//! Mis(s^dim_k) for a radius scaled by s; an estimator turned off: 0) scales S_k by
+//! lambda_k and leaves the rest, so the weights of every technique under the scaled
+//! constants follow from the unscaled subpaths in O(Merge::COUNT) per weight
+//! (Georgiev's technical report allows per-vertex radii; the VCM thesis, sec. 5.5,
+//! renders several radii in one run on the same observation).
+//!
+//! `merge_depth: first` already keeps the sum of the media estimators' parts (`vol`);
+//! [`Parts`] keeps each estimator's on its own.
+//!
+//! [TR]: super::partial
+
+#[cfg(test)]
+use super::partial::Partial;
+use super::partial::{Merge, Mis, Site};
+
+/// Per merge estimator, a quantity of the MIS: a vertex's terms Mis(eta_k(x)) of
+/// M(x), or the parts S_k of a subpath's dvc and dvm (the module notes).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Parts(pub [f64; Merge::COUNT]);
+
+#[cfg(test)] // until the radii layers use it
+/// A factor per merge estimator on its Mis(eta_k): 1 each renders as the subpaths
+/// were traced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scale(pub [f64; Merge::COUNT]);
+
+#[cfg(test)] // until the radii layers use it
+/// Every estimator, in index order.
+pub const ALL: [Merge; Merge::COUNT] = [
+    Merge::Surface,
+    Merge::Point3d,
+    Merge::PointBeam2d,
+    Merge::BeamBeam1d,
+];
+
+/// The estimators that sit in media: `merge_depth: first` cuts their parts.
+const MEDIA: [Merge; 3] = [Merge::Point3d, Merge::PointBeam2d, Merge::BeamBeam1d];
+
+/// The query beams' estimators, whose terms take [`Mis::beam_scale`].
+const BEAMS: [Merge; 2] = [Merge::PointBeam2d, Merge::BeamBeam1d];
+
+impl Parts {
+    #[inline]
+    pub fn sum(&self) -> f64 {
+        self.0.iter().sum()
+    }
+
+    /// Estimator `k`'s part `x`, the others 0.
+    #[inline]
+    pub fn one(k: Merge, x: f64) -> Parts {
+        let mut out = Parts::default();
+        out.0[k as usize] = x;
+        out
+    }
+
+    #[cfg(test)] // until the radii layers use it
+    /// The sum with each part scaled.
+    #[inline]
+    pub fn dot(&self, scale: &Scale) -> f64 {
+        self.0.iter().zip(scale.0).map(|(p, s)| p * s).sum()
+    }
+
+    /// Every part times `x`.
+    #[inline]
+    pub fn times(self, x: f64) -> Parts {
+        Parts(self.0.map(|p| p * x))
+    }
+
+    /// `self + other`, part by part.
+    #[inline]
+    pub fn plus(self, other: Parts) -> Parts {
+        let mut out = self;
+        for (o, b) in out.0.iter_mut().zip(other.0) {
+            *o += b;
+        }
+        out
+    }
+
+    /// The media estimators' parts summed (what `merge_depth: first` calls `vol`).
+    #[inline]
+    pub fn media(&self) -> f64 {
+        MEDIA.iter().map(|&k| self.0[k as usize]).sum()
+    }
+
+    /// The parts without the media estimators' (a cut, [`Mis::cuts`]).
+    #[inline]
+    pub fn without_media(self) -> Parts {
+        let mut out = self;
+        for k in MEDIA {
+            out.0[k as usize] = 0.0;
+        }
+        out
+    }
+
+    /// The query beams' terms only.
+    #[inline]
+    pub fn beams(self) -> Parts {
+        let mut out = Parts::default();
+        for k in BEAMS {
+            out.0[k as usize] = self.0[k as usize];
+        }
+        out
+    }
+
+    /// The point estimators' terms only.
+    #[inline]
+    pub fn points(self) -> Parts {
+        let mut out = self;
+        for k in BEAMS {
+            out.0[k as usize] = 0.0;
+        }
+        out
+    }
+}
+
+#[cfg(test)] // until the radii layers use it
+impl Scale {
+    pub const ONE: Scale = Scale([1.0; Merge::COUNT]);
+
+    /// Every estimator's radius scaled by its own factor in `s` (0 turns it off):
+    /// eta_k grows with the kernel's support, r^2 (surface; point x beam), r^3 (point x
+    /// point) or r (beam x beam), and Mis takes its heuristic's power of that.
+    pub fn radii(mis: &Mis, s: [f32; Merge::COUNT]) -> Scale {
+        let dim = |k: Merge| match k {
+            Merge::Surface | Merge::PointBeam2d => 2,
+            Merge::Point3d => 3,
+            Merge::BeamBeam1d => 1,
+        };
+        let mut out = Scale::ONE;
+        for k in ALL {
+            out.0[k as usize] = mis.f((s[k as usize] as f64).powi(dim(k)));
+        }
+        out
+    }
+
+    /// Estimator `k`'s factor.
+    #[inline]
+    pub fn of(&self, k: Merge) -> f64 {
+        self.0[k as usize]
+    }
+}
+
+impl Mis {
+    #[cfg(test)] // until the radii layers use it
+    /// Each estimator's term Mis(eta_k(x)) of M(x) ([`Mis::merges`], which is their
+    /// sum up to rounding), with the same arguments.
+    #[inline]
+    pub fn merge_terms(
+        &self,
+        site: Site,
+        sigma: f32,
+        sin: f32,
+        camera_len: Option<u32>,
+        tc: f32,
+    ) -> Parts {
+        let mut t = self.unsettled_terms(site, sigma, sin, camera_len);
+        for k in BEAMS {
+            t.0[k as usize] *= self.beam_scale(tc);
+        }
+        t
+    }
+
+    /// The terms as [`Mis::merge_parts`] splits them: the query beams' before their
+    /// [`Mis::beam_scale`].
+    #[inline]
+    pub fn unsettled_terms(
+        &self,
+        site: Site,
+        sigma: f32,
+        sin: f32,
+        camera_len: Option<u32>,
+    ) -> Parts {
+        let mut t = Parts::default();
+        if camera_len == Some(1) && !self.merge_first {
+            return t;
+        }
+        let ks: &[Merge] = match site {
+            Site::Surface => &[Merge::Surface],
+            Site::Medium => &MEDIA,
+        };
+        // At T = 1 a long beam's factor is 1: these are the short beams' terms.
+        for &k in ks {
+            t.0[k as usize] = self.eta(k, sigma, sin, 1.0);
+        }
+        t
+    }
+
+    /// A light subpath's scattering vertex's terms split in two: those it adds now,
+    /// and with long query beams the beams' terms it leaves pending (times
+    /// on_scatter's factor of the sampled direction) until the segment it leaves along
+    /// ends, whose T their [`Mis::beam_scale`] needs ([`Mis::light_hit`]).
+    #[inline]
+    pub fn defer_terms(&self, terms: Parts, cos_out: f32, pdf_dir: f32) -> (Parts, Parts) {
+        if self.long_query {
+            let g = self.f(cos_out as f64 / pdf_dir as f64);
+            (terms.points(), terms.beams().times(g))
+        } else {
+            (terms, Parts::default())
+        }
+    }
+
+    /// Scattering's update of the parts (as [`Mis::on_scatter`] updates dvc and dvm),
+    /// with the vertex's `terms` (0 for the terms it defers, [`Mis::defer`]).
+    #[inline]
+    pub fn scatter_parts(
+        &self,
+        parts: Parts,
+        terms: Parts,
+        cos_out: f32,
+        pdf_dir: f32,
+        pdf_rev: f32,
+        delta: bool,
+    ) -> Parts {
+        let g = self.f(cos_out as f64 / pdf_dir as f64);
+        let r = self.f(pdf_rev);
+        if delta {
+            return parts.times(g * r);
+        }
+        parts.times(r).plus(terms).times(g)
+    }
+
+    /// The end of a light subpath's segment (as [`Mis::light_hit`]): the deferred
+    /// beam terms `pending` (with on_scatter's factor) completed by the segment's T
+    /// `tr`, then the hit's 1 / Mis(D).
+    #[inline]
+    pub fn hit_parts(&self, parts: Parts, pending: Parts, tr: f32, cos: f32) -> Parts {
+        let mut out = parts;
+        for (o, p) in out.0.iter_mut().zip(pending.0) {
+            *o = self.hit_share(*o, p, tr, cos);
+        }
+        out
+    }
+
+    #[cfg(test)] // until the radii layers use it
+    /// The partial weights as they would be with every estimator's Mis(eta_k) scaled
+    /// by `scale`, from their unscaled value `q` and its `parts`.
+    #[inline]
+    pub fn rescale(&self, q: Partial, parts: &Parts, scale: &Scale) -> Partial {
+        let (sum, scaled) = (parts.sum(), parts.dot(scale));
+        Partial {
+            dvcm: q.dvcm,
+            dvc: (q.dvc - sum).max(0.0) + scaled,
+            dvm: (q.dvm - sum).max(0.0) + scaled,
+        }
+    }
+
+    #[cfg(test)] // until the radii layers use it
+    /// The same MIS with every estimator's Mis(eta_k) scaled by `scale`.
+    pub fn scaled(&self, scale: &Scale) -> Mis {
+        let mut m = *self;
+        for (c, s) in m.merge.iter_mut().zip(scale.0) {
+            *c *= s;
+        }
+        m
+    }
+}
