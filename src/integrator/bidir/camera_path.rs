@@ -2,13 +2,16 @@
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
 use super::beams;
+use super::merge::{MergeSet, MergeVertex};
+use super::settings::MAX_RADII;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, shadow, Event, Owner};
+use crate::integrator::paths::partial::Mis;
 use crate::integrator::paths::partial::{Merge, Partial, Site};
-use crate::integrator::paths::parts::Parts;
+use crate::integrator::paths::parts::{Parts, RadiusLayer};
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
 use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
@@ -54,8 +57,10 @@ impl<'a, M> CameraPass<'a, M> {
 /// A camera subpath in flight.
 pub(super) struct CameraPath<'a> {
     pixel: usize,
-    /// The stored vertices of the light subpath paired with this pixel.
+    /// The stored vertices of the light subpath paired with this pixel, and with
+    /// radius layers their [`Parts`].
     light: &'a [LightVertex],
+    light_parts: &'a [Parts],
     ray: Ray,
     walk: Walk,
     l: Rgb,
@@ -64,6 +69,8 @@ pub(super) struct CameraPath<'a> {
     pending: Option<(Ray, Rgb)>,
     /// The medium segments of the current flight, for the beam estimators.
     pieces: Vec<LightSegment>,
+    /// The last light sample's values in the radius layers (empty without them).
+    pending_radii: Vec<Rgb>,
 }
 
 impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
@@ -81,6 +88,11 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             } else {
                 ws.store.light_path(pixel % ws.store.paths)
             },
+            light_parts: if ws.store.paths == 0 {
+                &[]
+            } else {
+                ws.store.light_path_parts(pixel % ws.store.paths)
+            },
             walk: Walk {
                 origin: ray.o,
                 throughput: Rgb::ONE,
@@ -97,6 +109,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             l: Rgb::ZERO,
             pending: None,
             pieces: Vec::new(),
+            pending_radii: Vec::new(),
         }
     }
 
@@ -115,6 +128,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             if self.pass.scene.visible(&shadow) {
                 let layer = self.light_layer(p.walk.len);
                 add(&mut p.l, self.slots(p.pixel), layer, e);
+                self.record_pending_radii(&p.pending_radii, self.slots(p.pixel));
             }
         }
         Some(p.l)
@@ -135,6 +149,14 @@ impl<'a, M: Media> CameraPass<'a, M> {
         }
         let n = 3 * self.layers;
         &self.side[pixel * n..(pixel + 1) * n]
+    }
+
+    /// A light sample's values in the radius layers.
+    #[inline(always)]
+    fn record_pending_radii(&self, values: &[Rgb], slots: &[AtomicU32]) {
+        for (l, &v) in self.pass.radius_layers.iter().zip(values) {
+            record(slots, Some(l.layer), v);
+        }
     }
 
     /// The layer of a light sample taken at the camera subpath's vertex `len`.
@@ -230,6 +252,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
         // Read in place, then cleared: `take` copied the whole pending sample.
         if let Some(&(_, e)) = p.pending.as_ref().filter(|_| visible) {
             add(&mut p.l, layers, self.light_layer(p.walk.len - 1), e);
+            self.record_pending_radii(&p.pending_radii, layers);
         }
         p.pending = None;
         event
@@ -306,6 +329,8 @@ impl<'a, M: Media> CameraPass<'a, M> {
         };
         if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
             let v = *throughput * seen_emission(scene, first, *medium, rng, stats);
+            // Weight 1: no other technique finds it, under any radius.
+            record_radii(self.pass, layers, v, |_| 1.0);
             add(
                 &mut p.l,
                 layers,
@@ -326,7 +351,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
             p.walk.q = pass.mis.on_hit(p.walk.q, 1.0 / tr, 1.0);
         }
         if !seen {
-            let v = p.walk.throughput * escaped(pass, &p.walk, p.ray.d);
+            let v = p.walk.throughput * escaped(pass, &p.walk, p.ray.d, layers);
             add(
                 &mut p.l,
                 layers,
@@ -344,9 +369,13 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let walk = &mut p.walk;
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
+        if !pass.radius_layers.is_empty() {
+            let none = Parts::default();
+            walk.parts = pass.mis.hit_parts(walk.parts, none, 1.0, v.d_in());
+        }
         walk.tr = tr;
         if let (Vertex::Surface { it, .. }, false) = (v, seen) {
-            let e = walk.throughput * emitter_hit(pass, walk, it, p.ray.d, dist2);
+            let e = walk.throughput * emitter_hit(pass, walk, it, (p.ray.d, dist2), layers);
             add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
         }
     }
@@ -367,22 +396,25 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let (pass, ws) = (self.pass, self.ws);
         let walk = &p.walk;
         if pass.technique.connects() {
-            let (e, shadow) = light_sample(pass, walk, v, rng, stats);
+            let (e, shadow) = light_sample(pass, walk, v, rng, stats, &mut p.pending_radii);
             let e = walk.throughput * e;
             match shadow {
                 Some(ray) => p.pending = Some((ray, e)),
-                None => add(&mut p.l, layers, self.light_layer(walk.len), e),
+                None => {
+                    add(&mut p.l, layers, self.light_layer(walk.len), e);
+                    self.record_pending_radii(&p.pending_radii, layers);
+                }
             }
-            p.l += connect(pass, p.light, walk, v, rng, stats, layers);
+            p.l += connect(pass, (p.light, p.light_parts), walk, v, rng, stats, layers);
         }
         if walk.len > 1 || pass.s.merge_first {
             let (k, e) = match v {
                 Vertex::Surface { it, s: surface, .. } => {
-                    let e = merge(pass, ws, walk, it, surface, stats);
+                    let e = merge(pass, ws, walk, (it, surface), stats, layers);
                     (Merge::Surface, walk.throughput * e)
                 }
                 Vertex::Medium { p: x, m } => {
-                    let e = merge_medium(pass, ws, walk, *x, M::get(m), stats);
+                    let e = merge_medium(pass, ws, walk, (*x, M::get(m)), stats, layers);
                     (Merge::Point3d, e)
                 }
             };
@@ -394,11 +426,33 @@ impl<'a, M: Media> CameraPass<'a, M> {
 /// M(x) of camera vertex `v` with `other` the direction of its other segment: 0 at a
 /// medium vertex that `merge_depth: first` takes out (a medium vertex before it).
 #[inline(always)]
-fn camera_merges<M: Media>(pass: &Pass, walk: &Walk, v: &Vertex<M>, other: Vec3) -> f64 {
-    if matches!(v, Vertex::Medium { .. }) && pass.mis.cuts(walk.medium_seen) {
+fn camera_merges<M: Media>(mis: &Mis, walk: &Walk, v: &Vertex<M>, other: Vec3) -> f64 {
+    if matches!(v, Vertex::Medium { .. }) && mis.cuts(walk.medium_seen) {
         return 0.0;
     }
-    v.merges(pass, other, Some(walk.len), walk.tr)
+    v.merges(mis, other, Some(walk.len), walk.tr)
+}
+
+/// The camera subpath's partial weights in radius layer `l`.
+#[inline(always)]
+fn camera_q(pass: &Pass, walk: &Walk, l: &RadiusLayer) -> Partial {
+    pass.mis.rescale(walk.q, &walk.parts, &l.scale)
+}
+
+/// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) in
+/// radius layer `l`, from its `parts`.
+#[inline(always)]
+fn light_q(
+    pass: &Pass,
+    (q, vol, parts): (Partial, f64, &Parts),
+    cut: bool,
+    l: &RadiusLayer,
+) -> Partial {
+    let mis = &pass.mis;
+    match cut {
+        true => mis.rescale(mis.cut(q, vol), &parts.without_media(), &l.scale),
+        false => mis.rescale(q, parts, &l.scale),
+    }
 }
 
 /// Light vertex `y`'s partial weights and M(y) (`merges`, evaluated only if needed)
@@ -412,21 +466,23 @@ fn light_side(
     pass: &Pass,
     y: &LightVertex,
     camera_medium: bool,
-    merges: impl FnOnce() -> f64,
+    merges: impl FnOnce(&Mis) -> f64,
+    layer: Option<(&Parts, &RadiusLayer)>,
 ) -> (Partial, f64) {
     let mis = &pass.mis;
     let medium = y.site() == Site::Medium;
-    let q = if mis.cuts(camera_medium || medium) {
-        mis.cut(y.q, y.vol())
-    } else {
-        y.q
+    let cut = mis.cuts(camera_medium || medium);
+    let (q, own) = match layer {
+        None if cut => (mis.cut(y.q, y.vol()), mis),
+        None => (y.q, mis),
+        Some((parts, l)) => (light_q(pass, (y.q, y.vol(), parts), cut, l), &l.mis),
     };
     (
         q,
         if medium && mis.cuts(camera_medium) {
             0.0
         } else {
-            merges()
+            merges(own)
         },
     )
 }
@@ -453,7 +509,12 @@ fn record(layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
 /// seen directly; photon mapping alone counts it only after purely specular paths
 /// (merging covers the rest).
 #[inline(always)]
-fn own_weight(pass: &Pass, walk: &Walk, direct: impl FnOnce() -> (f32, f32)) -> f32 {
+fn own_weight(
+    pass: &Pass,
+    (mis, q): (&Mis, Partial),
+    walk: &Walk,
+    direct: impl Fn() -> (f32, f32),
+) -> f32 {
     if walk.len == 1 {
         return 1.0;
     }
@@ -461,7 +522,16 @@ fn own_weight(pass: &Pass, walk: &Walk, direct: impl FnOnce() -> (f32, f32)) -> 
         return if walk.specular { 1.0 } else { 0.0 };
     }
     let (direct, emission) = direct();
-    pass.mis.weight_emitter_hit(walk.q, direct, emission)
+    mis.weight_emitter_hit(q, direct, emission)
+}
+
+/// Records in every radius layer a sample of value `c` times its weight there,
+/// `weight(l)`.
+#[inline(always)]
+fn record_radii(pass: &Pass, slots: &[AtomicU32], c: Rgb, weight: impl Fn(&RadiusLayer) -> f32) {
+    for l in &pass.radius_layers {
+        record(slots, Some(l.layer), c * weight(l));
+    }
 }
 
 /// An area light reached by the camera subpath ([TR] eqs. 42-43).
@@ -470,8 +540,8 @@ fn emitter_hit(
     pass: &Pass,
     walk: &Walk,
     it: &crate::geometry::Interaction,
-    d: Vec3,
-    dist2: f32,
+    (d, dist2): (Vec3, f32),
+    slots: &[AtomicU32],
 ) -> Rgb {
     let scene = pass.scene;
     let Some((li, area)) = scene.area_light(it) else {
@@ -481,19 +551,22 @@ fn emitter_hit(
     if le == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let w = own_weight(pass, walk, || {
+    let direct = || {
         let pick = scene.light_sampler.pmf(li);
         let cos = it.ng.dot(d).abs();
         let direct = pick * area.pdf_li(walk.origin, it.p, it.ng) * cos / dist2;
         let (pos, dir) = area.pdf_le(it.ng, -d);
         (direct, pick * pos * dir)
+    };
+    record_radii(pass, slots, walk.throughput * le, |l| {
+        own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
     });
-    le * w
+    le * own_weight(pass, (&pass.mis, walk.q), walk, direct)
 }
 
 /// Environment lights seen by a ray that leaves the scene.
 #[inline(always)]
-fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
+fn escaped(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
     let scene = pass.scene;
     let mut l = Rgb::ZERO;
     for &li in &scene.env_lights {
@@ -502,13 +575,16 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3) -> Rgb {
         if le == Rgb::ZERO {
             continue;
         }
-        let w = own_weight(pass, walk, || {
+        let direct = || {
             let pick = scene.light_sampler.pmf(li as usize);
             let direct = pick * light.pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO);
             let (pos, dir) = light.pdf_le(&scene.sphere, Vec3::ZERO, -d);
             (direct, pick * pos * dir)
+        };
+        record_radii(pass, slots, walk.throughput * le, |l| {
+            own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
         });
-        l += le * w;
+        l += le * own_weight(pass, (&pass.mis, walk.q), walk, direct);
     }
     l
 }
@@ -524,9 +600,11 @@ fn light_sample<M: Media>(
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    radii: &mut Vec<Rgb>,
 ) -> (Rgb, Option<Ray>) {
     let scene = pass.scene;
     let none = (Rgb::ZERO, None);
+    radii.clear();
     let Some((li, pick, ls)) = pick_light(scene, v.p(), rng) else {
         return none;
     };
@@ -565,18 +643,26 @@ fn light_sample<M: Media>(
     } else {
         e.pdf_dir * cont
     };
-    let w = pass.mis.weight_light_sample(
-        walk.q,
-        camera_merges(pass, walk, v, ls.wi()),
-        pick,
-        direct / tr_mis,
-        pos * dir,
-        cos_light,
-        e.cos,
-        bsdf_dir,
-        e.pdf_rev * cont,
-    );
-    (e.f * ls.li() * tr * (w / (pick * ls.pdf)), untraced)
+    let weight = |mis: &Mis, q| {
+        mis.weight_light_sample(
+            q,
+            camera_merges(mis, walk, v, ls.wi()),
+            pick,
+            direct / tr_mis,
+            pos * dir,
+            cos_light,
+            e.cos,
+            bsdf_dir,
+            e.pdf_rev * cont,
+        )
+    };
+    let c = e.f * ls.li() * tr;
+    for l in &pass.radius_layers {
+        let w = weight(&l.mis, camera_q(pass, walk, l));
+        radii.push(walk.throughput * (c * (w / (pick * ls.pdf))));
+    }
+    let w = weight(&pass.mis, walk.q);
+    (c * (w / (pick * ls.pdf)), untraced)
 }
 
 /// Connections to the vertices of the light subpath paired with this pixel, through
@@ -584,7 +670,7 @@ fn light_sample<M: Media>(
 #[inline(always)]
 fn connect<M: Media>(
     pass: &Pass,
-    light: &[LightVertex],
+    (light, light_parts): (&[LightVertex], &[Parts]),
     walk: &Walk,
     v: &Vertex<M>,
     rng: &mut Rng,
@@ -596,7 +682,7 @@ fn connect<M: Media>(
     let mut l = Rgb::ZERO;
     // The camera side of every light vertex holds this one and those before it.
     let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
-    for y in light {
+    for (i, y) in light.iter().enumerate() {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
             break;
@@ -625,15 +711,23 @@ fn connect<M: Media>(
         };
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
-        let w = pass.mis.weight_connection(
-            light_side(pass, y, cut, || ys.merges(pass, dir, None, tr_mis)),
-            (walk.q, camera_merges(pass, walk, v, dir)),
-            ec.pdf_dir * cont * el.cos / seg,
-            el.pdf_dir * y_cont * ec.cos / seg,
-            el.pdf_rev * y_cont,
-            ec.pdf_rev * cont,
-        );
-        let c = walk.throughput * y.throughput * ec.f * el.f * tr * (w / dist2);
+        let weight = |mis: &Mis, layer: Option<&RadiusLayer>| {
+            let q = layer.map_or(walk.q, |l| camera_q(pass, walk, l));
+            let layer = layer.map(|l| (&light_parts[i], l));
+            mis.weight_connection(
+                light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), layer),
+                (q, camera_merges(mis, walk, v, dir)),
+                ec.pdf_dir * cont * el.cos / seg,
+                el.pdf_dir * y_cont * ec.cos / seg,
+                el.pdf_rev * y_cont,
+                ec.pdf_rev * cont,
+            )
+        };
+        let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;
+        record_radii(pass, layers, unweighted, |l| {
+            weight(&l.mis, Some(l)) / dist2
+        });
+        let c = unweighted * (weight(&pass.mis, None) / dist2);
         record(layers, pass.layers.connection(y.len + 1, walk.len + 1), c);
         l += c;
     }
@@ -647,9 +741,9 @@ fn merge(
     pass: &Pass,
     ws: &Workspace,
     walk: &Walk,
-    it: &crate::geometry::Interaction,
-    surface: &Surface,
+    (it, surface): (&crate::geometry::Interaction, &Surface),
     stats: &mut RenderStats,
+    slots: &[AtomicU32],
 ) -> Rgb {
     if !pass.uses(Merge::Surface) {
         return Rgb::ZERO;
@@ -659,11 +753,14 @@ fn merge(
     let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
     let surface_merge = (eta, eta);
     let cut = pass.mis.cuts(walk.medium_seen);
-    ws.surface.grid.query_sorted_in(
+    let set = &ws.surface;
+    let mut radii = RadiusSums::new(pass, walk, Merge::Surface);
+    let r2 = pass.radii[Merge::Surface as usize].powi(2);
+    set.grid.query_sorted_in(
         it.p,
-        &ws.surface.merge,
+        &set.merge,
         #[inline(always)]
-        |y, _| {
+        |y, d2| {
             if y.len + walk.len > pass.s.max_depth {
                 return;
             }
@@ -674,15 +771,81 @@ fn merge(
                 return;
             }
             let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
+            // The photon's flux already holds the cosine at its surface: f without it.
+            let c = y.throughput * e.f;
+            radii.add(set, y, d2, cut, |mis, yq, q| {
+                let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
+                c * (mis.weight_merge(yq, q, (eta, eta), dir, rev) / e.cos)
+            });
+            if d2 > r2 {
+                return; // within a radius layer's radius only
+            }
             let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
             let w = pass.mis.weight_merge(yq, walk.q, surface_merge, dir, rev);
             merges += 1;
-            // The photon's flux already holds the cosine at its surface: f without it.
-            sum += y.throughput * e.f * (w / e.cos);
+            sum += c * (w / e.cos);
         },
     );
     stats.merges += merges;
+    radii.record(walk.throughput, slots);
     sum * pass.norms[Merge::Surface as usize]
+}
+
+/// The sums of a merge in the radius layers: each light vertex within a layer's
+/// radius, weighted under the layer's MIS, and the layer's kernel normalisation.
+struct RadiusSums<'p> {
+    pass: &'p Pass<'p>,
+    walk: &'p Walk,
+    k: Merge,
+    sums: [Rgb; MAX_RADII],
+}
+
+impl<'p> RadiusSums<'p> {
+    #[inline(always)]
+    fn new(pass: &'p Pass<'p>, walk: &'p Walk, k: Merge) -> Self {
+        RadiusSums {
+            pass,
+            walk,
+            k,
+            sums: [Rgb::ZERO; MAX_RADII],
+        }
+    }
+
+    /// Light vertex `y` of `set` at squared distance `d2`, its partial weights cut if
+    /// `cut`, whose weighted value under a MIS and both sides' partial weights is
+    /// `value`.
+    #[inline(always)]
+    fn add(
+        &mut self,
+        set: &MergeSet,
+        y: &MergeVertex,
+        d2: f32,
+        cut: bool,
+        value: impl Fn(&Mis, Partial, Partial) -> Rgb,
+    ) {
+        let pass = self.pass;
+        if pass.radius_layers.is_empty() {
+            return;
+        }
+        // The grid's storage order indexes the merging copies and their parts alike.
+        let i = (y as *const MergeVertex as usize - set.merge.as_ptr() as usize)
+            / std::mem::size_of::<MergeVertex>();
+        let parts = &set.parts[i];
+        for (l, sum) in pass.radius_layers.iter().zip(&mut self.sums) {
+            if d2 <= l.radii[self.k as usize].powi(2) {
+                let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
+                *sum += value(&l.mis, yq, camera_q(pass, self.walk, l));
+            }
+        }
+    }
+
+    /// Records the sums, times `beta` and each layer's kernel normalisation.
+    #[inline(always)]
+    fn record(&self, beta: Rgb, slots: &[AtomicU32]) {
+        for (l, &sum) in self.pass.radius_layers.iter().zip(&self.sums) {
+            record(slots, Some(l.layer), beta * sum * l.norms[self.k as usize]);
+        }
+    }
 }
 
 /// Merging at a medium vertex x with the stored light vertices of the same medium
@@ -696,9 +859,9 @@ fn merge_medium(
     pass: &Pass,
     ws: &Workspace,
     walk: &Walk,
-    x: Vec3,
-    m: &MediumPoint,
+    (x, m): (Vec3, &MediumPoint),
     stats: &mut RenderStats,
+    slots: &[AtomicU32],
 ) -> Rgb {
     let Some(medium) = walk.medium.filter(|_| pass.uses(Merge::Point3d)) else {
         return Rgb::ZERO;
@@ -717,11 +880,16 @@ fn merge_medium(
     }
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    ws.medium.grid.query_sorted_in(
+    let set = &ws.medium;
+    let mut radii = RadiusSums::new(pass, walk, Merge::Point3d);
+    let r2 = pass.radii[Merge::Point3d as usize].powi(2);
+    // A merge in a medium is on the camera side of the light's earlier vertices.
+    let cut = pass.mis.first_medium;
+    set.grid.query_sorted_in(
         x,
-        &ws.medium.merge,
+        &set.merge,
         #[inline(always)]
-        |y, _| {
+        |y, d2| {
             if y.medium != medium || y.len + walk.len > pass.s.max_depth {
                 return;
             }
@@ -731,19 +899,24 @@ fn merge_medium(
             }
             let (dir, rev) = (ph * m.cont, ph * y.cont);
             let sin = pass.mis.sine(m.wo, y.wo);
-            let own = pass.mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
-            let all = pass.mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
-            // A merge in a medium is on the camera side of the light's earlier vertices.
-            let yq = if pass.mis.first_medium {
-                pass.mis.cut(y.q, y.vol())
-            } else {
-                y.q
+            let weight = |mis: &Mis, yq, q| {
+                let own = mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
+                let all = mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
+                mis.weight_merge(yq, q, (own, all), dir, rev)
             };
-            let w = pass.mis.weight_merge(yq, walk.q, (own, all), dir, rev);
+            radii.add(set, y, d2, cut, |mis, yq, q| {
+                y.throughput * (ph * weight(mis, yq, q))
+            });
+            if d2 > r2 {
+                return; // within a radius layer's radius only
+            }
+            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
+            let w = weight(&pass.mis, yq, walk.q);
             merges += 1;
             sum += y.throughput * (ph * w);
         },
     );
     stats.merges += merges;
+    radii.record(beta, slots);
     beta * sum * pass.norms[Merge::Point3d as usize]
 }

@@ -5,6 +5,7 @@ use super::Workspace;
 use crate::integrator::estimators::{huge, HashGrid};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::partial::{Merge, Partial, Site};
+use crate::integrator::paths::parts::Parts;
 use crate::integrator::paths::Pass;
 use crate::math::{Rgb, Vec3};
 
@@ -16,6 +17,8 @@ pub(super) struct MergeSet {
     pub grid: HashGrid,
     /// What merging needs of each vertex, in the grid's storage order.
     pub merge: Vec<MergeVertex>,
+    /// With `radii` layers, each vertex's [`Parts`] in the same order (else empty).
+    pub parts: Vec<Parts>,
 }
 
 /// The part of a light vertex that merging reads, stored in hash-grid order: a range
@@ -97,6 +100,9 @@ impl Workspace {
         ] {
             let vertices = self.store.chunks.iter().flat_map(|c| c.vertices.iter());
             set.fill(vertices.filter(|v| v.site() == site));
+            let chunks = self.store.chunks.iter();
+            let parts = chunks.flat_map(|c| c.vertices.iter().zip(&c.parts));
+            set.fill_parts(parts.filter(|(v, _)| v.site() == site).map(|(_, p)| p));
         }
     }
 }
@@ -117,6 +123,19 @@ impl MergeSet {
         }
     }
 
+    /// The vertices' [`Parts`] (empty without `radii` layers) in the grid's storage
+    /// order, as [`MergeSet::fill`] orders the vertices.
+    fn fill_parts<'a>(&mut self, parts: impl Iterator<Item = &'a Parts>) {
+        self.parts.clear();
+        let rank = self.grid.rank();
+        for (&at, p) in rank.iter().zip(parts) {
+            if self.parts.is_empty() {
+                self.parts.resize(self.merge.len(), Parts::default());
+            }
+            self.parts[at as usize] = *p;
+        }
+    }
+
     /// Bytes a set over `n` vertices holds once filled (what
     /// [`MergeSet::index_bytes`] then reports).
     pub(super) fn bytes_for(n: f64) -> f64 {
@@ -128,6 +147,7 @@ impl MergeSet {
     pub(super) fn index_bytes(&self) -> usize {
         self.positions.capacity() * std::mem::size_of::<Vec3>()
             + self.merge.capacity() * std::mem::size_of::<MergeVertex>()
+            + self.parts.capacity() * std::mem::size_of::<Parts>()
             + self.grid.bytes()
     }
 }

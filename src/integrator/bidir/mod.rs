@@ -34,6 +34,7 @@ use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::light_path::trace_light_paths;
 use crate::integrator::paths::partial::{Merge, Merges, Mis};
+use crate::integrator::paths::parts::{RadiusLayer, Scale, ALL};
 use crate::integrator::paths::store::Store;
 use crate::integrator::paths::vertex::{NoMedia, WithMedia};
 use crate::integrator::transport::light_paths::light_path_count;
@@ -103,78 +104,117 @@ impl Bidir {
     fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
         let pixels = scene.width() as usize * scene.height() as usize;
         let light_paths = light_path_count(pixels, self.s.light_paths);
-        let r0 = self
-            .s
-            .radius
-            .unwrap_or(self.s.radius_factor * scene.sphere.radius);
+        let s = &self.s;
+        let beam_paths = beam_path_count(light_paths, s.beam_paths);
+        let sized = |radius: Option<f32>, medium: Option<f32>| {
+            let radii = self.radii(scene, iteration, radius, medium);
+            let merges = self.merges(scene, radii, light_paths, beam_paths);
+            (radii, merges, self.mis(light_paths, merges))
+        };
+        let (radii, merges, mis) = sized(s.radius, s.medium_radius);
+        let norms = |m: &Merges| ALL.map(|k| m.norm(k));
+        let radius_layers = (0..s.radii.len())
+            .map(|i| {
+                let medium = s.medium_radii.get(i).copied().or(s.medium_radius);
+                let (radii, merges, own) = sized(Some(s.radii[i]), medium);
+                RadiusLayer {
+                    scale: Scale::between(&mis, &own),
+                    mis: own,
+                    radii,
+                    norms: norms(&merges),
+                    layer: self.layers.radii + i,
+                }
+            })
+            .collect();
+        let core = crate::integrator::paths::Pass {
+            scene,
+            tracing: self.technique.tracing(),
+            max_depth: s.max_depth,
+            russian_roulette: s.russian_roulette,
+            max_vertex_mib: s.max_vertex_mib,
+            mis,
+            radii,
+            norms: norms(&merges),
+            beam_paths,
+            light_paths,
+            layers: &self.layers,
+            keep_segments: self.keep_segments,
+            radius_layers,
+        };
+        Pass {
+            core,
+            s: &self.s,
+            technique: self.technique,
+        }
+    }
+
+    /// Each merge estimator's radius in iteration `iteration`, the surface's from the
+    /// initial `radius` and the medium's from `medium` (the settings' factors where
+    /// None).
+    fn radii(
+        &self,
+        scene: &Scene,
+        iteration: u64,
+        radius: Option<f32>,
+        medium: Option<f32>,
+    ) -> [f32; Merge::COUNT] {
+        let s = &self.s;
+        let r0 = radius.unwrap_or(s.radius_factor * scene.sphere.radius);
         // [TR] eq. 21 with the first iteration numbered 1; the floor only guards the
         // arithmetic after astronomically many iterations.
-        let radius =
-            (r0 / ((iteration + 1) as f32).powf(0.5 * (1.0 - self.s.alpha))).max(1e-7 * r0);
-        let t = self.technique;
-        let n = light_paths as f32;
+        let surface = (r0 / ((iteration + 1) as f32).powf(0.5 * (1.0 - s.alpha))).max(1e-7 * r0);
         // Point x point 3D, point x beam 2D and beam x beam 1D: the schedule of their
         // kernel's dimension, from the iteration index (transport::radius).
         let volume = |r: Option<f32>, factor: f32, alpha: f32, k: u32| {
             let r0 = r.unwrap_or(factor * scene.sphere.radius);
             radius_schedule(r0, alpha, k, iteration)
         };
-        let s = &self.s;
-        let radii = [
-            radius,
-            volume(s.medium_radius, s.medium_radius_factor, s.medium_alpha, 3),
+        [
+            surface,
+            volume(medium, s.medium_radius_factor, s.medium_alpha, 3),
             volume(s.pb2d_radius, s.pb2d_radius_factor, s.pb2d_alpha, 2),
             volume(s.bb1d_radius, s.bb1d_radius_factor, s.bb1d_alpha, 1),
-        ];
-        let beam_paths = beam_path_count(light_paths, s.beam_paths);
+        ]
+    }
+
+    /// The estimators this technique uses in `scene`, with `radii`.
+    fn merges(
+        &self,
+        scene: &Scene,
+        radii: [f32; Merge::COUNT],
+        light_paths: usize,
+        beam_paths: usize,
+    ) -> Merges {
         let mut merges = Merges::default();
-        for k in [
-            Merge::Surface,
-            Merge::Point3d,
-            Merge::PointBeam2d,
-            Merge::BeamBeam1d,
-        ] {
+        for k in ALL {
             let in_scene = k == Merge::Surface || scene.has_media;
-            if t.uses(k) && in_scene {
+            if self.technique.uses(k) && in_scene {
                 // Beams come from the first `beam_paths` light paths only.
                 let count = if k == Merge::BeamBeam1d {
-                    beam_paths as f32
+                    beam_paths
                 } else {
-                    n
+                    light_paths
                 };
-                merges = merges.with(k, radii[k as usize], count);
+                merges = merges.with(k, radii[k as usize], count as f32);
             }
         }
-        let mut mis = Mis::new(self.s.heuristic, n, t.connects(), merges);
-        mis.merge_first = self.s.merge_first;
-        mis.long_query = self.s.query_beams == BeamForm::Long && self.s.long_beam_weights;
-        mis.first_medium = self.s.merge_depth == MergeDepth::First;
-        mis.local_media = self.s.local_media_mis;
-        let core = crate::integrator::paths::Pass {
-            scene,
-            tracing: t.tracing(),
-            max_depth: s.max_depth,
-            russian_roulette: s.russian_roulette,
-            max_vertex_mib: s.max_vertex_mib,
-            mis,
-            radii,
-            norms: [
-                Merge::Surface,
-                Merge::Point3d,
-                Merge::PointBeam2d,
-                Merge::BeamBeam1d,
-            ]
-            .map(|k| merges.norm(k)),
-            beam_paths,
-            light_paths,
-            layers: &self.layers,
-            keep_segments: self.keep_segments,
-        };
-        Pass {
-            core,
-            s: &self.s,
-            technique: t,
-        }
+        merges
+    }
+
+    /// The MIS of an iteration with `merges`.
+    fn mis(&self, light_paths: usize, merges: Merges) -> Mis {
+        let s = &self.s;
+        let mut mis = Mis::new(
+            s.heuristic,
+            light_paths as f32,
+            self.technique.connects(),
+            merges,
+        );
+        mis.merge_first = s.merge_first;
+        mis.long_query = s.query_beams == BeamForm::Long && s.long_beam_weights;
+        mis.first_medium = s.merge_depth == MergeDepth::First;
+        mis.local_media = s.local_media_mis;
+        mis
     }
 }
 
@@ -186,8 +226,17 @@ impl Integrator for Bidir {
         let mut stats = trace_light_paths(&pass, seed, iteration, &mut ws.store);
         ws.gather_positions(&pass);
         if pass.technique.merges() {
-            ws.surface.grid.build(&ws.surface.positions, pass.radii[0]);
-            ws.medium.grid.build(&ws.medium.positions, pass.radii[1]);
+            // Wide enough for every radius layer; each merge keeps its own radius.
+            let widest = |k: Merge| {
+                let layers = pass.radius_layers.iter().map(|l| l.radii[k as usize]);
+                layers.fold(pass.radii[k as usize], f32::max)
+            };
+            ws.surface
+                .grid
+                .build(&ws.surface.positions, widest(Merge::Surface));
+            ws.medium
+                .grid
+                .build(&ws.medium.positions, widest(Merge::Point3d));
             ws.fill_merge();
             stats.merge_radius = pass.radii[0];
         }

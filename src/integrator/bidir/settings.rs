@@ -166,6 +166,8 @@ impl Estimators {
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
 /// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
 /// | `depth_layers` | false | with `technique_layers`: each merge layer split by the camera vertex or segment the merge sits at: `<technique>_c1`, `_c2`, `_c3+` |
+/// | `radii` | none | `bpm`, `vcm`, `upbp` (without `pb2d` and `bb1d`): more initial surface merge radii in scene units, each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
+/// | `medium_radii` | none | with `radii`: the layers' initial medium merge radii (as `medium_radius`), one per radius; absent, every layer keeps the job's own |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -198,6 +200,8 @@ pub struct BidirSettings {
     pub technique_layers: bool,
     pub depth_layers: bool,
     pub strategy_images: u32,
+    pub radii: Vec<f32>,
+    pub medium_radii: Vec<f32>,
 }
 
 impl Default for BidirSettings {
@@ -230,6 +234,8 @@ impl Default for BidirSettings {
             technique_layers: false,
             depth_layers: false,
             strategy_images: 0,
+            radii: Vec::new(),
+            medium_radii: Vec::new(),
         }
     }
 }
@@ -372,6 +378,7 @@ impl BidirSettings {
                 "merge_first: false leaves bpm no technique for light seen after one bounce; use vcm",
             ));
         }
+        self.check_radii(technique)?;
         if upbp {
             self.check_techniques()?;
         } else if self.techniques != UpbpTechnique::ALL {
@@ -379,6 +386,39 @@ impl BidirSettings {
                 "techniques",
                 "techniques chooses upbp's techniques; use upbp",
             ));
+        }
+        Ok(())
+    }
+
+    /// `radii` and `medium_radii`: positive, finite, at most MAX_RADII, with a
+    /// technique that merges where they apply.
+    fn check_radii(&self, technique: Technique) -> Result<(), ParamError> {
+        for (name, list) in [("radii", &self.radii), ("medium_radii", &self.medium_radii)] {
+            if let Some(r) = list.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
+                let message = format!("{name} must be positive and finite, got {r}");
+                return Err(ParamError::new(name, message));
+            }
+        }
+        let n = self.radii.len();
+        if n > MAX_RADII {
+            let message = format!("radii lists at most {MAX_RADII} radii, got {n}");
+            return Err(ParamError::new("radii", message));
+        }
+        if !self.medium_radii.is_empty() && self.medium_radii.len() != n {
+            let m = self.medium_radii.len();
+            let message = format!("medium_radii needs one radius per radii entry ({n}), got {m}");
+            return Err(ParamError::new("medium_radii", message));
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        if !technique.merges() {
+            let message = "radii are merge radii: they need bpm, vcm or upbp";
+            return Err(ParamError::new("radii", message));
+        }
+        if technique.uses(Merge::PointBeam2d) || technique.uses(Merge::BeamBeam1d) {
+            let message = "radii covers surface and point x point merging: leave pb2d and bb1d out of upbp's techniques";
+            return Err(ParamError::new("radii", message));
         }
         Ok(())
     }
@@ -474,6 +514,9 @@ impl BidirSettings {
 /// and 3 or more.
 const DEPTH_BINS: u32 = 3;
 
+/// Most `radii` one job renders.
+pub const MAX_RADII: usize = 16;
+
 /// Longest path with per-strategy images (lengths 1..=8 give 44 layers).
 pub const MAX_STRATEGY_LENGTH: u32 = 8;
 
@@ -516,6 +559,10 @@ impl Layers {
                 layers.names.extend(names);
             }
         }
+        layers.radii = layers.names.len();
+        layers
+            .names
+            .extend((0..s.radii.len()).map(|i| format!("radius{i}")));
         layers
     }
 }

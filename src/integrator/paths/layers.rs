@@ -15,6 +15,9 @@ pub(crate) struct Layers {
     /// Layers per merge estimator, by the camera vertex or segment the merge sits at
     /// (1, 2, ..., `depths` or more); 1 when merges are not split by depth.
     pub(crate) depths: u32,
+    /// The first `radii` layer (each a whole image under its radius), after the
+    /// others.
+    pub(crate) radii: usize,
 }
 
 impl Layers {

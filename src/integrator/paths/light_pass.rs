@@ -86,6 +86,7 @@ impl LightPass {
             beam_paths: 0,
             layers: &self.layers,
             keep_segments: self.keep_segments,
+            radius_layers: Vec::new(),
         };
         let mut store = self.store.lock().unwrap_or_else(|e| e.into_inner());
         let mut stats = trace_light_paths(&pass, seed, iteration, &mut store);

@@ -4,7 +4,7 @@
 
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
-use super::partial::Partial;
+use super::partial::{Mis, Partial};
 use super::parts::Parts;
 use super::segments::{FlightStart, SegmentSink, NO_AREA};
 use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
@@ -81,6 +81,7 @@ impl ChunkTracer for Subpaths<'_, '_> {
             }
         }
         chunk.vertices.clear();
+        chunk.parts.clear();
         chunk.ends.clear();
         chunk.segments.clear();
         chunk.segment_ends.clear();
@@ -245,7 +246,7 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
     // A path that ends at a vertex with a lens connection traces its shadow ray alone.
     if let Some(l) = lens {
         if scene.visible(&l.ray) {
-            push_splat(chunk, l.raster, l.value, l.layer);
+            push_lens(chunk, &l);
         }
     }
 }
@@ -301,7 +302,7 @@ fn flight_and_lens<'a, 's>(
     let rays = &mut chunk.stats.rays;
     let (event, visible) = next_event_with(pass.scene, ray, shadow, rays, owner);
     if let Some(l) = lens.as_ref().filter(|_| visible) {
-        push_splat(chunk, l.raster, l.value, l.layer);
+        push_lens(chunk, l);
     }
     *lens = None;
     event
@@ -337,6 +338,9 @@ fn keep_vertex<M: Media>(
             chunk.over_budget = true;
         } else {
             chunk.vertices.push(stored(v, walk, d, pass.scene));
+            if !pass.radius_layers.is_empty() {
+                chunk.parts.push(walk.parts);
+            }
         }
     }
     if pass.tracing.splats {
@@ -353,6 +357,17 @@ struct LensShadow {
     /// The splat if nothing blocks the ray.
     value: Rgb,
     layer: Option<usize>,
+    /// The splats of the `radii` layers, as (layer, value).
+    radii: Vec<(usize, Rgb)>,
+}
+
+/// Keeps a visible lens connection's splats.
+#[inline(always)]
+fn push_lens(chunk: &mut Chunk, l: &LensShadow) {
+    push_splat(chunk, l.raster, l.value, l.layer);
+    for &(layer, v) in &l.radii {
+        push_splat(chunk, l.raster, v, Some(layer));
+    }
 }
 
 /// The stored form of vertex `v`, reached along `d`.
@@ -429,33 +444,54 @@ fn connect_to_camera<M: Media>(
     let link = (camera_pdf, dist2);
     // Seen from the lens, the vertex would be the first camera vertex, with the
     // connection as its camera-side segment.
-    let vm = |tc| v.merges(pass, dir, Some(1), tc);
-    if !M::ON {
-        return Some(LensShadow {
-            ray,
-            raster,
-            value: lens_value(
-                pass,
-                walk,
-                (&e, walk.q, vm(1.0)),
-                v.cont(),
-                link,
-                Rgb::ONE,
-                1.0,
-            ),
-            layer,
-        });
-    }
-    let rays = &mut chunk.stats.shadow_rays;
-    let at = (pass.scene, pass.mis.local_media);
-    let (tr, tr_mis) = shadow::<M>(at, &ray, medium, rng, rays)?;
-    // A medium vertex is on the camera side of the light's earlier vertices.
-    let q = match v {
-        Vertex::Medium { .. } if pass.mis.first_medium => pass.mis.cut(walk.q, walk.parts.media()),
-        _ => walk.q,
+    let vm = |mis: &Mis, tc| v.merges(mis, dir, Some(1), tc);
+    let (tr, tr_mis) = if M::ON {
+        let rays = &mut chunk.stats.shadow_rays;
+        let at = (pass.scene, pass.mis.local_media);
+        shadow::<M>(at, &ray, medium, rng, rays)?
+    } else {
+        (Rgb::ONE, 1.0)
     };
-    let value = lens_value(pass, walk, (&e, q, vm(tr_mis)), v.cont(), link, tr, tr_mis);
-    push_splat(chunk, raster, value, layer);
+    // A medium vertex is on the camera side of the light's earlier vertices.
+    let cut = matches!(v, Vertex::Medium { .. }) && pass.mis.first_medium;
+    let (q, parts) = match cut {
+        true => (
+            pass.mis.cut(walk.q, walk.parts.media()),
+            walk.parts.without_media(),
+        ),
+        false => (walk.q, walk.parts),
+    };
+    let value = |mis: &Mis, q| {
+        lens_value(
+            (pass, mis),
+            walk,
+            (&e, q, vm(mis, tr_mis)),
+            v.cont(),
+            link,
+            tr,
+            tr_mis,
+        )
+    };
+    let lens = LensShadow {
+        ray,
+        raster,
+        value: value(&pass.mis, q),
+        layer,
+        radii: pass
+            .radius_layers
+            .iter()
+            .map(|l| {
+                (
+                    l.layer,
+                    value(&l.mis, pass.mis.rescale(q, &parts, &l.scale)),
+                )
+            })
+            .collect(),
+    };
+    if !M::ON {
+        return Some(lens);
+    }
+    push_lens(chunk, &lens);
     None
 }
 
@@ -464,7 +500,7 @@ fn connect_to_camera<M: Media>(
 /// distance, `tr` and `tr_mis` the segment's transmittance and MIS transmittance.
 #[inline(always)]
 fn lens_value(
-    pass: &Pass,
+    (pass, mis): (&Pass, &Mis),
     walk: &Walk,
     (e, q, vm): (&Eval, Partial, f64),
     cont: f32,
@@ -476,8 +512,7 @@ fn lens_value(
     let w = if pass.tracing.lt {
         1.0
     } else {
-        pass.mis
-            .weight_camera_connection((q, vm), camera_a, e.pdf_rev * cont)
+        mis.weight_camera_connection((q, vm), camera_a, e.pdf_rev * cont)
     };
     // The pixel integral is over unit pixel area: divide the area density by
     // camera_a's conversion, i.e. multiply by camera_pdf / dist2.

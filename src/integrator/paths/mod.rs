@@ -75,6 +75,8 @@ pub(crate) struct Pass<'a> {
     /// Light subpaths keep their segments through media (`segments`), for the
     /// estimators made of them.
     pub keep_segments: bool,
+    /// The `radii` layers, each weighted from the same subpaths ([`parts`]).
+    pub radius_layers: Vec<parts::RadiusLayer>,
 }
 
 impl Pass<'_> {

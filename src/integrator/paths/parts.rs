@@ -19,22 +19,18 @@
 //!
 //! [TR]: super::partial
 
-#[cfg(test)]
-use super::partial::Partial;
-use super::partial::{Merge, Mis, Site};
+use super::partial::{Merge, Mis, Partial, Site};
 
 /// Per merge estimator, a quantity of the MIS: a vertex's terms Mis(eta_k(x)) of
 /// M(x), or the parts S_k of a subpath's dvc and dvm (the module notes).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Parts(pub [f64; Merge::COUNT]);
 
-#[cfg(test)] // until the radii layers use it
 /// A factor per merge estimator on its Mis(eta_k): 1 each renders as the subpaths
 /// were traced.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scale(pub [f64; Merge::COUNT]);
 
-#[cfg(test)] // until the radii layers use it
 /// Every estimator, in index order.
 pub const ALL: [Merge; Merge::COUNT] = [
     Merge::Surface,
@@ -63,7 +59,6 @@ impl Parts {
         out
     }
 
-    #[cfg(test)] // until the radii layers use it
     /// The sum with each part scaled.
     #[inline]
     pub fn dot(&self, scale: &Scale) -> f64 {
@@ -123,35 +118,32 @@ impl Parts {
     }
 }
 
-#[cfg(test)] // until the radii layers use it
 impl Scale {
-    pub const ONE: Scale = Scale([1.0; Merge::COUNT]);
-
-    /// Every estimator's radius scaled by its own factor in `s` (0 turns it off):
-    /// eta_k grows with the kernel's support, r^2 (surface; point x beam), r^3 (point x
-    /// point) or r (beam x beam), and Mis takes its heuristic's power of that.
-    pub fn radii(mis: &Mis, s: [f32; Merge::COUNT]) -> Scale {
-        let dim = |k: Merge| match k {
-            Merge::Surface | Merge::PointBeam2d => 2,
-            Merge::Point3d => 3,
-            Merge::BeamBeam1d => 1,
-        };
-        let mut out = Scale::ONE;
-        for k in ALL {
-            out.0[k as usize] = mis.f((s[k as usize] as f64).powi(dim(k)));
+    /// The factors that take `base`'s Mis(eta_k) to `other`'s (0 where `base` has
+    /// no estimator k).
+    pub fn between(base: &Mis, other: &Mis) -> Scale {
+        let mut out = Scale([0.0; Merge::COUNT]);
+        for ((o, b), x) in out.0.iter_mut().zip(base.merge).zip(other.merge) {
+            if b > 0.0 {
+                *o = x / b;
+            }
         }
         out
     }
+}
 
-    /// Estimator `k`'s factor.
-    #[inline]
-    pub fn of(&self, k: Merge) -> f64 {
-        self.0[k as usize]
-    }
+/// One `radii` layer of an iteration: its MIS as a job with its radii would build
+/// it, the factors that take the pass's own weights there, each estimator's radius
+/// and kernel normalisation (as `Pass::radii` and `Pass::norms`), and its layer.
+pub(crate) struct RadiusLayer {
+    pub mis: Mis,
+    pub scale: Scale,
+    pub radii: [f32; Merge::COUNT],
+    pub norms: [f32; Merge::COUNT],
+    pub layer: usize,
 }
 
 impl Mis {
-    #[cfg(test)] // until the radii layers use it
     /// Each estimator's term Mis(eta_k(x)) of M(x) ([`Mis::merges`], which is their
     /// sum up to rounding), with the same arguments.
     #[inline]
@@ -241,7 +233,6 @@ impl Mis {
         out
     }
 
-    #[cfg(test)] // until the radii layers use it
     /// The partial weights as they would be with every estimator's Mis(eta_k) scaled
     /// by `scale`, from their unscaled value `q` and its `parts`.
     #[inline]
@@ -254,8 +245,8 @@ impl Mis {
         }
     }
 
-    #[cfg(test)] // until the radii layers use it
     /// The same MIS with every estimator's Mis(eta_k) scaled by `scale`.
+    #[cfg(test)]
     pub fn scaled(&self, scale: &Scale) -> Mis {
         let mut m = *self;
         for (c, s) in m.merge.iter_mut().zip(scale.0) {

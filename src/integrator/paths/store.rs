@@ -4,6 +4,7 @@
 //! what it costs in memory.
 
 use super::light_vertex::LightVertex;
+use super::parts::Parts;
 use super::segments::LightSegment;
 use super::{Splat, Tracing};
 use crate::integrator::drive::light::chunk_share;
@@ -57,6 +58,8 @@ pub(crate) const RESERVED_SPLATS: usize = PATHS_PER_TASK * 2;
 #[derive(Default)]
 pub(crate) struct Chunk {
     pub(crate) vertices: Vec<LightVertex>,
+    /// With `radii` layers, each vertex's [`Parts`] (else empty).
+    pub(crate) parts: Vec<Parts>,
     /// Per light path of the chunk, the end of its vertices within `vertices`.
     pub(crate) ends: Vec<u32>,
     /// Segments through media, when the pass keeps them, and per light path their end.
@@ -98,6 +101,18 @@ impl Store {
         &chunk.vertices[begin as usize..chunk.ends[i] as usize]
     }
 
+    /// Their [`Parts`] (empty without `radii` layers).
+    #[inline(always)]
+    pub(crate) fn light_path_parts(&self, path: usize) -> &[Parts] {
+        let chunk = &self.chunks[path / PATHS_PER_TASK];
+        if chunk.parts.is_empty() {
+            return &[];
+        }
+        let i = path % PATHS_PER_TASK;
+        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
+        &chunk.parts[begin as usize..chunk.ends[i] as usize]
+    }
+
     /// The segments light path `path` kept, in the order it traced them (empty unless
     /// the pass keeps segments).
     #[allow(dead_code)] // read by the tests
@@ -112,6 +127,7 @@ impl Store {
             .iter()
             .map(|c| {
                 c.vertices.capacity() * std::mem::size_of::<LightVertex>()
+                    + c.parts.capacity() * std::mem::size_of::<Parts>()
                     + c.segments.capacity() * std::mem::size_of::<LightSegment>()
             })
             .sum();

@@ -10,7 +10,8 @@
 //! in registers and never tests for, and the surface-only code costs what it did
 //! before media existed.
 
-use super::partial::Site;
+use super::partial::{Mis, Site};
+use super::parts::Parts;
 use super::walk::{scatter, Eval, Surface, Walk, MIN_COS};
 use super::Pass;
 use crate::geometry::{spawn_ray, spawn_ray_to, Interaction, Ray};
@@ -111,10 +112,9 @@ impl MediumPoint<'_> {
     /// `tc` the MIS transmittance of its camera-side segment (see
     /// [`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
-        let sin = pass.mis.sine(self.wo, other);
-        pass.mis
-            .merges(Site::Medium, self.sigma, sin, camera_len, tc)
+    pub fn merges(&self, mis: &Mis, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
+        let sin = mis.sine(self.wo, other);
+        mis.merges(Site::Medium, self.sigma, sin, camera_len, tc)
     }
 }
 
@@ -159,10 +159,10 @@ impl<M: Media> Scatterer<'_, M> {
     /// M(x) of the vertex with `other` the direction of its other path segment and
     /// `tc` the MIS transmittance of its camera-side segment.
     #[inline(always)]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
+    pub fn merges(&self, mis: &Mis, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
         match self {
-            Scatterer::Surface(_) => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
-            Scatterer::Medium(m) => M::get(m).merges(pass, other, camera_len, tc),
+            Scatterer::Surface(_) => mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
+            Scatterer::Medium(m) => M::get(m).merges(mis, other, camera_len, tc),
         }
     }
 }
@@ -258,10 +258,10 @@ impl<'a, M: Media> Vertex<'a, M> {
     /// `tc` the MIS transmittance of its camera-side segment
     /// ([`Mis::merges`](super::partial::Mis::merges)), `camera_len` as there.
     #[inline(always)]
-    pub fn merges(&self, pass: &Pass, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
+    pub fn merges(&self, mis: &Mis, other: Vec3, camera_len: Option<u32>, tc: f32) -> f64 {
         match self {
-            Vertex::Surface { .. } => pass.mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
-            Vertex::Medium { m, .. } => M::get(m).merges(pass, other, camera_len, tc),
+            Vertex::Surface { .. } => mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0),
+            Vertex::Medium { m, .. } => M::get(m).merges(mis, other, camera_len, tc),
         }
     }
 
@@ -360,8 +360,20 @@ fn scatter_medium(
     let sin = mis.sine(m.wo, wi);
     let (points, beams) = mis.merge_parts(Site::Medium, m.sigma, sin, camera_len);
     let vm = match camera_len {
-        Some(_) if mis.cuts(walk.medium_seen) => 0.0,
-        Some(_) => points + beams * mis.beam_scale(walk.tr),
+        Some(_) => {
+            let cut = mis.cuts(walk.medium_seen);
+            if !pass.radius_layers.is_empty() {
+                let terms = match cut {
+                    true => Parts::default(),
+                    false => mis.merge_terms(Site::Medium, m.sigma, sin, camera_len, walk.tr),
+                };
+                walk.parts = mis.scatter_parts(walk.parts, terms, m.sigma, pdf_dir, pdf_dir, false);
+            }
+            match cut {
+                true => 0.0,
+                false => points + beams * mis.beam_scale(walk.tr),
+            }
+        }
         None => {
             if mis.first_medium {
                 // This vertex is on the camera side of every earlier one.

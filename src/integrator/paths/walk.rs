@@ -83,8 +83,9 @@ pub(crate) struct Walk {
     ///
     /// [`Mis::defer_terms`]: super::partial::Mis::defer_terms
     pub pending: Parts,
-    /// On a light subpath, each merge estimator's part of dvc and dvm
-    /// ([`super::parts`]): `merge_depth: first` cuts the media's ([`Mis::cuts`]).
+    /// Each merge estimator's part of dvc and dvm ([`super::parts`]), on a light
+    /// subpath (where `merge_depth: first` cuts the media's, [`Mis::cuts`]) and, with
+    /// `radii` layers, on a camera subpath; else 0.
     ///
     /// [`Mis::cuts`]: super::partial::Mis::cuts
     pub parts: Parts,
@@ -134,7 +135,8 @@ pub(crate) fn scatter(
     let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     let cos_out = s.wi.z.abs();
     walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
-    if camera_len.is_none() {
+    // Camera subpaths need theirs only for the `radii` layers.
+    if camera_len.is_none() || !pass.radius_layers.is_empty() {
         let terms = Parts::one(Merge::Surface, vm);
         walk.parts = mis.scatter_parts(walk.parts, terms, cos_out, pdf_dir, pdf_rev, s.delta);
     }

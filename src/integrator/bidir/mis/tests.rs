@@ -355,7 +355,7 @@ impl Path {
                 let cuts = if medium { m.first_medium } else { m.cuts(seen) };
                 let (ql, lparts) = cut(self.light_q(m, j), cuts);
                 let own = m.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
-                let own = own * scale.map_or(1.0, |s| s.of(k));
+                let own = own * scale.map_or(1.0, |s| s.0[k as usize]);
                 let all = vm(self.vm(m, j, None), self.terms(m, j, None));
                 m.weight_merge(
                     q(ql, lparts),
@@ -458,9 +458,9 @@ fn check_setup(heuristic: Heuristic, vc: bool, merges: Merges, setup: Setup) {
             path.long = setup.long;
             for factors in RADIUS_FACTORS {
                 let scaled = scaled_merges(&merges, factors);
-                let scale = Scale::radii(&m, factors);
-                // The same as a job with those radii would build it.
+                // As a job with those radii builds it, and the factors from ours.
                 let separate = mis(scaled);
+                let scale = Scale::between(&m, &separate);
                 for (a, b) in m.scaled(&scale).merge.iter().zip(separate.merge) {
                     assert!((a - b).abs() <= 1e-9 * b, "scaled Mis(eta) {a}, own {b}");
                 }
