@@ -439,6 +439,16 @@ fn camera_q(pass: &Pass, walk: &Walk, l: &RadiusLayer) -> Partial {
     pass.mis.rescale(walk.q, &walk.parts, &l.scale)
 }
 
+/// The same in every radius layer, for the loops over light vertices.
+#[inline(always)]
+fn camera_qs(pass: &Pass, walk: &Walk) -> [Partial; MAX_RADII] {
+    let mut out = [Partial::default(); MAX_RADII];
+    for (o, l) in out.iter_mut().zip(&pass.radius_layers) {
+        *o = camera_q(pass, walk, l);
+    }
+    out
+}
+
 /// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) in
 /// radius layer `l`, from its `parts`.
 #[inline(always)]
@@ -682,6 +692,10 @@ fn connect<M: Media>(
     let mut l = Rgb::ZERO;
     // The camera side of every light vertex holds this one and those before it.
     let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
+    let camera = match pass.radius_layers.is_empty() || light.is_empty() {
+        true => [Partial::default(); MAX_RADII],
+        false => camera_qs(pass, walk),
+    };
     for (i, y) in light.iter().enumerate() {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
@@ -711,9 +725,9 @@ fn connect<M: Media>(
         };
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
-        let weight = |mis: &Mis, layer: Option<&RadiusLayer>| {
-            let q = layer.map_or(walk.q, |l| camera_q(pass, walk, l));
-            let layer = layer.map(|l| (&light_parts[i], l));
+        let weight = |mis: &Mis, layer: Option<(usize, &RadiusLayer)>| {
+            let q = layer.map_or(walk.q, |(j, _)| camera[j]);
+            let layer = layer.map(|(_, l)| (&light_parts[i], l));
             mis.weight_connection(
                 light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), layer),
                 (q, camera_merges(mis, walk, v, dir)),
@@ -724,9 +738,10 @@ fn connect<M: Media>(
             )
         };
         let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;
-        record_radii(pass, layers, unweighted, |l| {
-            weight(&l.mis, Some(l)) / dist2
-        });
+        for (j, l) in pass.radius_layers.iter().enumerate() {
+            let c = unweighted * (weight(&l.mis, Some((j, l))) / dist2);
+            record(layers, Some(l.layer), c);
+        }
         let c = unweighted * (weight(&pass.mis, None) / dist2);
         record(layers, pass.layers.connection(y.len + 1, walk.len + 1), c);
         l += c;
@@ -795,7 +810,8 @@ fn merge(
 /// radius, weighted under the layer's MIS, and the layer's kernel normalisation.
 struct RadiusSums<'p> {
     pass: &'p Pass<'p>,
-    walk: &'p Walk,
+    /// The camera subpath's partial weights in each layer.
+    camera: [Partial; MAX_RADII],
     k: Merge,
     sums: [Rgb; MAX_RADII],
 }
@@ -803,9 +819,13 @@ struct RadiusSums<'p> {
 impl<'p> RadiusSums<'p> {
     #[inline(always)]
     fn new(pass: &'p Pass<'p>, walk: &'p Walk, k: Merge) -> Self {
+        let camera = match pass.radius_layers.is_empty() {
+            true => [Partial::default(); MAX_RADII],
+            false => camera_qs(pass, walk),
+        };
         RadiusSums {
             pass,
-            walk,
+            camera,
             k,
             sums: [Rgb::ZERO; MAX_RADII],
         }
@@ -831,10 +851,11 @@ impl<'p> RadiusSums<'p> {
         let i = (y as *const MergeVertex as usize - set.merge.as_ptr() as usize)
             / std::mem::size_of::<MergeVertex>();
         let parts = &set.parts[i];
-        for (l, sum) in pass.radius_layers.iter().zip(&mut self.sums) {
+        let layers = pass.radius_layers.iter().zip(&self.camera);
+        for ((l, &q), sum) in layers.zip(&mut self.sums) {
             if d2 <= l.radii[self.k as usize].powi(2) {
                 let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
-                *sum += value(&l.mis, yq, camera_q(pass, self.walk, l));
+                *sum += value(&l.mis, yq, q);
             }
         }
     }

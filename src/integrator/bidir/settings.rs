@@ -8,6 +8,7 @@ use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::memory::{array, paths_driver, Estimate, Facts};
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::partial::Merge;
+use crate::integrator::paths::parts::Parts;
 use crate::integrator::paths::store::{store_memory, StorePlan};
 use crate::integrator::paths::Tracing;
 use crate::integrator::transport::params::{check_max_depth, check_radius, ParamError};
@@ -166,7 +167,7 @@ impl Estimators {
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
 /// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
 /// | `depth_layers` | false | with `technique_layers`: each merge layer split by the camera vertex or segment the merge sits at: `<technique>_c1`, `_c2`, `_c3+` |
-/// | `radii` | none | `bpm`, `vcm`, `upbp` (without `pb2d` and `bb1d`): more initial surface merge radii in scene units, each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
+/// | `radii` | none | `bpm`, `vcm`, `upbp` (without `pb2d` and `bb1d`): more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
 /// | `medium_radii` | none | with `radii`: the layers' initial medium merge radii (as `medium_radius`), one per radius; absent, every layer keeps the job's own |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -200,7 +201,9 @@ pub struct BidirSettings {
     pub technique_layers: bool,
     pub depth_layers: bool,
     pub strategy_images: u32,
+    #[serde(deserialize_with = "de_radii")]
     pub radii: Vec<f32>,
+    #[serde(deserialize_with = "de_radii")]
     pub medium_radii: Vec<f32>,
 }
 
@@ -275,6 +278,31 @@ fn de_techniques<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<UpbpTechn
                     })
             })
             .collect(),
+    }
+}
+
+/// `radii`, `medium_radii`: a list of numbers, one number, or one string of numbers
+/// joined by `+` or spaces (for command lines, where commas separate algorithms, and
+/// URLs, where `+` is a space).
+fn de_radii<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f32>, D::Error> {
+    use serde::de::Error;
+    let number = |t: &str| {
+        t.parse::<f32>()
+            .map_err(|_| D::Error::custom(format!("`{t}` is no radius: expected a number")))
+    };
+    match serde_json::Value::deserialize(d)? {
+        serde_json::Value::Array(v) => v
+            .iter()
+            .map(|x| x.as_f64().map(|x| x as f32))
+            .collect::<Option<Vec<f32>>>()
+            .ok_or_else(|| D::Error::custom("expected a list of numbers")),
+        serde_json::Value::Number(x) => Ok(vec![x.as_f64().unwrap_or(f64::NAN) as f32]),
+        serde_json::Value::String(s) => s
+            .split(|c: char| c == '+' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(number)
+            .collect(),
+        _ => Err(D::Error::custom("expected a list of numbers")),
     }
 }
 
@@ -493,6 +521,12 @@ impl BidirSettings {
             }
             let bytes = BeamStore::bytes_for(points, segments, pieces);
             e.add("photon points and beams", &driver, bytes);
+        }
+        if !self.radii.is_empty() {
+            // Each stored vertex's parts, in the store and again in its merge set.
+            let n = stored.surface + stored.medium;
+            let bytes = 2.0 * n * std::mem::size_of::<Parts>() as f64;
+            e.add("radius-layer parts", &driver, bytes);
         }
         let layers = self.layer_count(technique) as f64;
         let values = array::<AtomicU32>(3.0 * layers * facts.pixels());
