@@ -3,7 +3,6 @@
 
 use super::beams;
 use super::merge::{MergeSet, MergeVertex};
-use super::settings::MAX_RADII;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
@@ -439,14 +438,12 @@ fn camera_q(pass: &Pass, walk: &Walk, l: &RadiusLayer) -> Partial {
     pass.mis.rescale(walk.q, &walk.parts, &l.scale)
 }
 
-/// The same in every radius layer, for the loops over light vertices.
+/// The same in every radius layer, for the loops over light vertices (empty, and
+/// no allocation, without layers).
 #[inline(always)]
-fn camera_qs(pass: &Pass, walk: &Walk) -> [Partial; MAX_RADII] {
-    let mut out = [Partial::default(); MAX_RADII];
-    for (o, l) in out.iter_mut().zip(&pass.radius_layers) {
-        *o = camera_q(pass, walk, l);
-    }
-    out
+fn camera_qs(pass: &Pass, walk: &Walk) -> Vec<Partial> {
+    let layers = pass.radius_layers.iter();
+    layers.map(|l| camera_q(pass, walk, l)).collect()
 }
 
 /// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) in
@@ -539,6 +536,20 @@ fn own_weight(
 /// `weight(l)`.
 #[inline(always)]
 fn record_radii(pass: &Pass, slots: &[AtomicU32], c: Rgb, weight: impl Fn(&RadiusLayer) -> f32) {
+    if !pass.radius_layers.is_empty() {
+        record_radii_cold(pass, slots, c, weight);
+    }
+}
+
+/// Out of line: the usual sample has no radius layers.
+#[cold]
+#[inline(never)]
+fn record_radii_cold(
+    pass: &Pass,
+    slots: &[AtomicU32],
+    c: Rgb,
+    weight: impl Fn(&RadiusLayer) -> f32,
+) {
     for l in &pass.radius_layers {
         record(slots, Some(l.layer), c * weight(l));
     }
@@ -667,12 +678,29 @@ fn light_sample<M: Media>(
         )
     };
     let c = e.f * ls.li() * tr;
-    for l in &pass.radius_layers {
-        let w = weight(&l.mis, camera_q(pass, walk, l));
-        radii.push(walk.throughput * (c * (w / (pick * ls.pdf))));
+    if !pass.radius_layers.is_empty() {
+        light_sample_radii(pass, walk, &weight, (c, pick * ls.pdf), radii);
     }
     let w = weight(&pass.mis, walk.q);
     (c * (w / (pick * ls.pdf)), untraced)
+}
+
+/// A light sample's values in the radius layers, `weight` giving its weight under a
+/// MIS and camera partial weights, `c / pdf` its unweighted value. Out of line: the
+/// usual sample has no layers.
+#[cold]
+#[inline(never)]
+fn light_sample_radii(
+    pass: &Pass,
+    walk: &Walk,
+    weight: &impl Fn(&Mis, Partial) -> f32,
+    (c, pdf): (Rgb, f32),
+    radii: &mut Vec<Rgb>,
+) {
+    for l in &pass.radius_layers {
+        let w = weight(&l.mis, camera_q(pass, walk, l));
+        radii.push(walk.throughput * (c * (w / pdf)));
+    }
 }
 
 /// Connections to the vertices of the light subpath paired with this pixel, through
@@ -692,8 +720,8 @@ fn connect<M: Media>(
     let mut l = Rgb::ZERO;
     // The camera side of every light vertex holds this one and those before it.
     let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
-    let camera = match pass.radius_layers.is_empty() || light.is_empty() {
-        true => [Partial::default(); MAX_RADII],
+    let camera = match light.is_empty() {
+        true => Vec::new(),
         false => camera_qs(pass, walk),
     };
     for (i, y) in light.iter().enumerate() {
@@ -725,28 +753,67 @@ fn connect<M: Media>(
         };
         let seg = dist2 / tr_mis;
         let y_cont = ys.cont();
-        let weight = |mis: &Mis, layer: Option<(usize, &RadiusLayer)>| {
-            let q = layer.map_or(walk.q, |(j, _)| camera[j]);
-            let layer = layer.map(|(_, l)| (&light_parts[i], l));
-            mis.weight_connection(
-                light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), layer),
-                (q, camera_merges(mis, walk, v, dir)),
-                ec.pdf_dir * cont * el.cos / seg,
-                el.pdf_dir * y_cont * ec.cos / seg,
-                el.pdf_rev * y_cont,
-                ec.pdf_rev * cont,
-            )
-        };
-        let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;
-        for (j, l) in pass.radius_layers.iter().enumerate() {
-            let c = unweighted * (weight(&l.mis, Some((j, l))) / dist2);
-            record(layers, Some(l.layer), c);
+        let densities = [
+            ec.pdf_dir * cont * el.cos / seg,
+            el.pdf_dir * y_cont * ec.cos / seg,
+            el.pdf_rev * y_cont,
+            ec.pdf_rev * cont,
+        ];
+        let [a, b, c, d] = densities;
+        let w = pass.mis.weight_connection(
+            light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), None),
+            (walk.q, camera_merges(&pass.mis, walk, v, dir)),
+            a,
+            b,
+            c,
+            d,
+        );
+        let c = walk.throughput * y.throughput * ec.f * el.f * tr * (w / dist2);
+        if !pass.radius_layers.is_empty() {
+            let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;
+            let y = (y, &light_parts[i], cut);
+            let vm = |m: &Mis| {
+                (
+                    ys.merges(m, dir, None, tr_mis),
+                    camera_merges(m, walk, v, dir),
+                )
+            };
+            connection_radii(
+                pass,
+                layers,
+                (y, &camera),
+                vm,
+                densities,
+                (unweighted, dist2),
+            );
         }
-        let c = unweighted * (weight(&pass.mis, None) / dist2);
         record(layers, pass.layers.connection(y.len + 1, walk.len + 1), c);
         l += c;
     }
     l
+}
+
+/// A connection's values in the radius layers: light vertex `y` with its parts (and
+/// whether its side is cut), the camera subpath's partial weights in each layer, M(x)
+/// of both vertices under a MIS (`vm`: light, camera), the four densities of
+/// [`Mis::weight_connection`], and the unweighted value and d^2. Out of line: the
+/// usual connection has no layers.
+#[cold]
+#[inline(never)]
+fn connection_radii(
+    pass: &Pass,
+    slots: &[AtomicU32],
+    ((y, parts, cut), camera): ((&LightVertex, &Parts, bool), &[Partial]),
+    vm: impl Fn(&Mis) -> (f64, f64),
+    [a, b, c, d]: [f32; 4],
+    (value, dist2): (Rgb, f32),
+) {
+    for (l, &q) in pass.radius_layers.iter().zip(camera) {
+        let (vm_light, vm_camera) = vm(&l.mis);
+        let light = light_side(pass, y, cut, |_| vm_light, Some((parts, l)));
+        let w = l.mis.weight_connection(light, (q, vm_camera), a, b, c, d);
+        record(slots, Some(l.layer), value * (w / dist2));
+    }
 }
 
 /// Merging with every stored light vertex within the radius ([TR] eqs. 38-39), with
@@ -810,24 +877,19 @@ fn merge(
 /// radius, weighted under the layer's MIS, and the layer's kernel normalisation.
 struct RadiusSums<'p> {
     pass: &'p Pass<'p>,
-    /// The camera subpath's partial weights in each layer.
-    camera: [Partial; MAX_RADII],
+    /// The camera subpath's partial weights in each layer, and the layer's sum.
+    layers: Vec<(Partial, Rgb)>,
     k: Merge,
-    sums: [Rgb; MAX_RADII],
 }
 
 impl<'p> RadiusSums<'p> {
     #[inline(always)]
     fn new(pass: &'p Pass<'p>, walk: &'p Walk, k: Merge) -> Self {
-        let camera = match pass.radius_layers.is_empty() {
-            true => [Partial::default(); MAX_RADII],
-            false => camera_qs(pass, walk),
-        };
+        let camera = camera_qs(pass, walk).into_iter();
         RadiusSums {
             pass,
-            camera,
+            layers: camera.map(|q| (q, Rgb::ZERO)).collect(),
             k,
-            sums: [Rgb::ZERO; MAX_RADII],
         }
     }
 
@@ -851,11 +913,10 @@ impl<'p> RadiusSums<'p> {
         let i = (y as *const MergeVertex as usize - set.merge.as_ptr() as usize)
             / std::mem::size_of::<MergeVertex>();
         let parts = &set.parts[i];
-        let layers = pass.radius_layers.iter().zip(&self.camera);
-        for ((l, &q), sum) in layers.zip(&mut self.sums) {
+        for (l, (q, sum)) in pass.radius_layers.iter().zip(&mut self.layers) {
             if d2 <= l.radii[self.k as usize].powi(2) {
                 let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
-                *sum += value(&l.mis, yq, q);
+                *sum += value(&l.mis, yq, *q);
             }
         }
     }
@@ -863,7 +924,7 @@ impl<'p> RadiusSums<'p> {
     /// Records the sums, times `beta` and each layer's kernel normalisation.
     #[inline(always)]
     fn record(&self, beta: Rgb, slots: &[AtomicU32]) {
-        for (l, &sum) in self.pass.radius_layers.iter().zip(&self.sums) {
+        for (l, &(_, sum)) in self.pass.radius_layers.iter().zip(&self.layers) {
             record(slots, Some(l.layer), beta * sum * l.norms[self.k as usize]);
         }
     }

@@ -230,7 +230,9 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         let mis = &pass.mis;
         walk.q = mis.light_hit(walk.q, walk.pending.sum(), d2 / tr, tr, v.d_in());
-        walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
+        if pass.tracks_parts(None) {
+            walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
+        }
         (walk.pending, walk.tr) = (Parts::default(), tr);
         if !v.skips_connections() {
             lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
@@ -361,6 +363,21 @@ struct LensShadow {
     radii: Vec<(usize, Rgb)>,
 }
 
+/// A lens connection's splats in the radius layers, `value` giving it under a MIS and
+/// light partial weights. Out of line: the usual connection has no layers.
+#[cold]
+#[inline(never)]
+fn lens_radii(
+    pass: &Pass,
+    (q, parts): (Partial, &Parts),
+    value: &impl Fn(&Mis, Partial) -> Rgb,
+) -> Vec<(usize, Rgb)> {
+    let layers = pass.radius_layers.iter();
+    layers
+        .map(|l| (l.layer, value(&l.mis, pass.mis.rescale(q, parts, &l.scale))))
+        .collect()
+}
+
 /// Keeps a visible lens connection's splats.
 #[inline(always)]
 fn push_lens(chunk: &mut Chunk, l: &LensShadow) {
@@ -477,16 +494,10 @@ fn connect_to_camera<M: Media>(
         raster,
         value: value(&pass.mis, q),
         layer,
-        radii: pass
-            .radius_layers
-            .iter()
-            .map(|l| {
-                (
-                    l.layer,
-                    value(&l.mis, pass.mis.rescale(q, &parts, &l.scale)),
-                )
-            })
-            .collect(),
+        radii: match pass.radius_layers.is_empty() {
+            true => Vec::new(),
+            false => lens_radii(pass, (q, &parts), &value),
+        },
     };
     if !M::ON {
         return Some(lens);

@@ -93,6 +93,15 @@ impl Pass<'_> {
         self.uses(Merge::PointBeam2d) || self.uses(Merge::BeamBeam1d)
     }
 
+    /// Whether a subpath (a camera one when `camera_len` is Some) keeps its
+    /// [`parts::Parts`]: light subpaths for `merge_depth: first`'s cuts in media,
+    /// both for the `radii` layers.
+    #[inline(always)]
+    pub fn tracks_parts(&self, camera_len: Option<u32>) -> bool {
+        let cuts = camera_len.is_none() && self.mis.first_medium && self.scene.has_media;
+        cuts || !self.radius_layers.is_empty()
+    }
+
     /// Russian-roulette continuation probability at a vertex with material `m`.
     #[inline]
     pub fn continuation(&self, m: &Material) -> f32 {

@@ -135,8 +135,7 @@ pub(crate) fn scatter(
     let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     let cos_out = s.wi.z.abs();
     walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
-    // Camera subpaths need theirs only for the `radii` layers.
-    if camera_len.is_none() || !pass.radius_layers.is_empty() {
+    if pass.tracks_parts(camera_len) {
         let terms = Parts::one(Merge::Surface, vm);
         walk.parts = mis.scatter_parts(walk.parts, terms, cos_out, pdf_dir, pdf_rev, s.delta);
     }
