@@ -68,8 +68,6 @@ pub(super) struct CameraPath<'a> {
     pending: Option<(Ray, Rgb)>,
     /// The medium segments of the current flight, for the beam estimators.
     pieces: Vec<LightSegment>,
-    /// The last light sample's values in the radius layers (empty without them).
-    pending_radii: Vec<Rgb>,
 }
 
 impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
@@ -108,7 +106,6 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             l: Rgb::ZERO,
             pending: None,
             pieces: Vec::new(),
-            pending_radii: Vec::new(),
         }
     }
 
@@ -127,7 +124,6 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             if self.pass.scene.visible(&shadow) {
                 let layer = self.light_layer(p.walk.len);
                 add(&mut p.l, self.slots(p.pixel), layer, e);
-                self.record_pending_radii(&p.pending_radii, self.slots(p.pixel));
             }
         }
         Some(p.l)
@@ -148,14 +144,6 @@ impl<'a, M: Media> CameraPass<'a, M> {
         }
         let n = 3 * self.layers;
         &self.side[pixel * n..(pixel + 1) * n]
-    }
-
-    /// A light sample's values in the radius layers.
-    #[inline(always)]
-    fn record_pending_radii(&self, values: &[Rgb], slots: &[AtomicU32]) {
-        for (l, &v) in self.pass.radius_layers.iter().zip(values) {
-            record(slots, Some(l.layer), v);
-        }
     }
 
     /// The layer of a light sample taken at the camera subpath's vertex `len`.
@@ -251,7 +239,6 @@ impl<'a, M: Media> CameraPass<'a, M> {
         // Read in place, then cleared: `take` copied the whole pending sample.
         if let Some(&(_, e)) = p.pending.as_ref().filter(|_| visible) {
             add(&mut p.l, layers, self.light_layer(p.walk.len - 1), e);
-            self.record_pending_radii(&p.pending_radii, layers);
         }
         p.pending = None;
         event
@@ -395,14 +382,11 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let (pass, ws) = (self.pass, self.ws);
         let walk = &p.walk;
         if pass.technique.connects() {
-            let (e, shadow) = light_sample(pass, walk, v, rng, stats, &mut p.pending_radii);
+            let (e, shadow) = light_sample(pass, walk, v, rng, stats, layers);
             let e = walk.throughput * e;
             match shadow {
                 Some(ray) => p.pending = Some((ray, e)),
-                None => {
-                    add(&mut p.l, layers, self.light_layer(walk.len), e);
-                    self.record_pending_radii(&p.pending_radii, layers);
-                }
+                None => add(&mut p.l, layers, self.light_layer(walk.len), e),
             }
             p.l += connect(pass, (p.light, p.light_parts), walk, v, rng, stats, layers);
         }
@@ -621,11 +605,10 @@ fn light_sample<M: Media>(
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
-    radii: &mut Vec<Rgb>,
+    slots: &[AtomicU32],
 ) -> (Rgb, Option<Ray>) {
     let scene = pass.scene;
     let none = (Rgb::ZERO, None);
-    radii.clear();
     let Some((li, pick, ls)) = pick_light(scene, v.p(), rng) else {
         return none;
     };
@@ -664,6 +647,25 @@ fn light_sample<M: Media>(
     } else {
         e.pdf_dir * cont
     };
+    let w = pass.mis.weight_light_sample(
+        walk.q,
+        camera_merges(&pass.mis, walk, v, ls.wi()),
+        pick,
+        direct / tr_mis,
+        pos * dir,
+        cos_light,
+        e.cos,
+        bsdf_dir,
+        e.pdf_rev * cont,
+    );
+    let c = e.f * ls.li() * tr;
+    if pass.radius_layers.is_empty() {
+        return (c * (w / (pick * ls.pdf)), untraced);
+    }
+    // With radius layers the shadow ray is traced now, for all of them at once.
+    if untraced.is_some_and(|ray| !scene.visible(&ray)) {
+        return none;
+    }
     let weight = |mis: &Mis, q| {
         mis.weight_light_sample(
             q,
@@ -677,12 +679,8 @@ fn light_sample<M: Media>(
             e.pdf_rev * cont,
         )
     };
-    let c = e.f * ls.li() * tr;
-    if !pass.radius_layers.is_empty() {
-        light_sample_radii(pass, walk, &weight, (c, pick * ls.pdf), radii);
-    }
-    let w = weight(&pass.mis, walk.q);
-    (c * (w / (pick * ls.pdf)), untraced)
+    light_sample_radii(pass, walk, &weight, (c, pick * ls.pdf), slots);
+    (c * (w / (pick * ls.pdf)), None)
 }
 
 /// A light sample's values in the radius layers, `weight` giving its weight under a
@@ -695,11 +693,11 @@ fn light_sample_radii(
     walk: &Walk,
     weight: &impl Fn(&Mis, Partial) -> f32,
     (c, pdf): (Rgb, f32),
-    radii: &mut Vec<Rgb>,
+    slots: &[AtomicU32],
 ) {
     for l in &pass.radius_layers {
         let w = weight(&l.mis, camera_q(pass, walk, l));
-        radii.push(walk.throughput * (c * (w / pdf)));
+        record(slots, Some(l.layer), walk.throughput * (c * (w / pdf)));
     }
 }
 

@@ -359,8 +359,6 @@ struct LensShadow {
     /// The splat if nothing blocks the ray.
     value: Rgb,
     layer: Option<usize>,
-    /// The splats of the `radii` layers, as (layer, value).
-    radii: Vec<(usize, Rgb)>,
 }
 
 /// A lens connection's splats in the radius layers, `value` giving it under a MIS and
@@ -369,22 +367,21 @@ struct LensShadow {
 #[inline(never)]
 fn lens_radii(
     pass: &Pass,
+    chunk: &mut Chunk,
+    raster: crate::math::Vec2,
     (q, parts): (Partial, &Parts),
     value: &impl Fn(&Mis, Partial) -> Rgb,
-) -> Vec<(usize, Rgb)> {
-    let layers = pass.radius_layers.iter();
-    layers
-        .map(|l| (l.layer, value(&l.mis, pass.mis.rescale(q, parts, &l.scale))))
-        .collect()
+) {
+    for l in &pass.radius_layers {
+        let v = value(&l.mis, pass.mis.rescale(q, parts, &l.scale));
+        push_splat(chunk, raster, v, Some(l.layer));
+    }
 }
 
-/// Keeps a visible lens connection's splats.
+/// Keeps a visible lens connection's splat.
 #[inline(always)]
 fn push_lens(chunk: &mut Chunk, l: &LensShadow) {
     push_splat(chunk, l.raster, l.value, l.layer);
-    for &(layer, v) in &l.radii {
-        push_splat(chunk, l.raster, v, Some(layer));
-    }
 }
 
 /// The stored form of vertex `v`, reached along `d`.
@@ -462,47 +459,42 @@ fn connect_to_camera<M: Media>(
     // Seen from the lens, the vertex would be the first camera vertex, with the
     // connection as its camera-side segment.
     let vm = |mis: &Mis, tc| v.merges(mis, dir, Some(1), tc);
-    let (tr, tr_mis) = if M::ON {
-        let rays = &mut chunk.stats.shadow_rays;
-        let at = (pass.scene, pass.mis.local_media);
-        shadow::<M>(at, &ray, medium, rng, rays)?
-    } else {
-        (Rgb::ONE, 1.0)
-    };
+    if !M::ON && pass.radius_layers.is_empty() {
+        return Some(LensShadow {
+            ray,
+            raster,
+            value: lens_value(
+                (pass, &pass.mis),
+                walk,
+                (&e, walk.q, vm(&pass.mis, 1.0)),
+                v.cont(),
+                link,
+                Rgb::ONE,
+                1.0,
+            ),
+            layer,
+        });
+    }
+    // In media, or with radius layers (whose splats share the ray): traced now.
+    let rays = &mut chunk.stats.shadow_rays;
+    let at = (pass.scene, pass.mis.local_media);
+    let (tr, tr_mis) = shadow::<M>(at, &ray, medium, rng, rays)?;
     // A medium vertex is on the camera side of the light's earlier vertices.
     let cut = matches!(v, Vertex::Medium { .. }) && pass.mis.first_medium;
-    let (q, parts) = match cut {
-        true => (
-            pass.mis.cut(walk.q, walk.parts.media()),
-            walk.parts.without_media(),
-        ),
-        false => (walk.q, walk.parts),
+    let q = if cut {
+        pass.mis.cut(walk.q, walk.parts.media())
+    } else {
+        walk.q
     };
     let value = |mis: &Mis, q| {
-        lens_value(
-            (pass, mis),
-            walk,
-            (&e, q, vm(mis, tr_mis)),
-            v.cont(),
-            link,
-            tr,
-            tr_mis,
-        )
+        let vm = vm(mis, tr_mis);
+        lens_value((pass, mis), walk, (&e, q, vm), v.cont(), link, tr, tr_mis)
     };
-    let lens = LensShadow {
-        ray,
-        raster,
-        value: value(&pass.mis, q),
-        layer,
-        radii: match pass.radius_layers.is_empty() {
-            true => Vec::new(),
-            false => lens_radii(pass, (q, &parts), &value),
-        },
-    };
-    if !M::ON {
-        return Some(lens);
+    push_splat(chunk, raster, value(&pass.mis, q), layer);
+    if !pass.radius_layers.is_empty() {
+        let parts = if cut { walk.parts.without_media() } else { walk.parts };
+        lens_radii(pass, chunk, raster, (q, &parts), &value);
     }
-    push_lens(chunk, &lens);
     None
 }
 
