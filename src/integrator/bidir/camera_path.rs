@@ -85,7 +85,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             } else {
                 ws.store.light_path(pixel % ws.store.paths)
             },
-            light_parts: if ws.store.paths == 0 {
+            light_parts: if ws.store.paths == 0 || self.pass.radius_layers.is_empty() {
                 &[]
             } else {
                 ws.store.light_path_parts(pixel % ws.store.paths)
@@ -718,7 +718,7 @@ fn connect<M: Media>(
     let mut l = Rgb::ZERO;
     // The camera side of every light vertex holds this one and those before it.
     let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
-    let camera = match light.is_empty() {
+    let camera = match light.is_empty() || pass.radius_layers.is_empty() {
         true => Vec::new(),
         false => camera_qs(pass, walk),
     };

@@ -492,7 +492,11 @@ fn connect_to_camera<M: Media>(
     };
     push_splat(chunk, raster, value(&pass.mis, q), layer);
     if !pass.radius_layers.is_empty() {
-        let parts = if cut { walk.parts.without_media() } else { walk.parts };
+        let parts = if cut {
+            walk.parts.without_media()
+        } else {
+            walk.parts
+        };
         lens_radii(pass, chunk, raster, (q, &parts), &value);
     }
     None
