@@ -647,25 +647,6 @@ fn light_sample<M: Media>(
     } else {
         e.pdf_dir * cont
     };
-    let w = pass.mis.weight_light_sample(
-        walk.q,
-        camera_merges(&pass.mis, walk, v, ls.wi()),
-        pick,
-        direct / tr_mis,
-        pos * dir,
-        cos_light,
-        e.cos,
-        bsdf_dir,
-        e.pdf_rev * cont,
-    );
-    let c = e.f * ls.li() * tr;
-    if pass.radius_layers.is_empty() {
-        return (c * (w / (pick * ls.pdf)), untraced);
-    }
-    // With radius layers the shadow ray is traced now, for all of them at once.
-    if untraced.is_some_and(|ray| !scene.visible(&ray)) {
-        return none;
-    }
     let weight = |mis: &Mis, q| {
         mis.weight_light_sample(
             q,
@@ -679,6 +660,15 @@ fn light_sample<M: Media>(
             e.pdf_rev * cont,
         )
     };
+    let w = weight(&pass.mis, walk.q);
+    let c = e.f * ls.li() * tr;
+    if pass.radius_layers.is_empty() {
+        return (c * (w / (pick * ls.pdf)), untraced);
+    }
+    // With radius layers the shadow ray is traced now, for all of them at once.
+    if untraced.is_some_and(|ray| !scene.visible(&ray)) {
+        return none;
+    }
     light_sample_radii(pass, walk, &weight, (c, pick * ls.pdf), slots);
     (c * (w / (pick * ls.pdf)), None)
 }
