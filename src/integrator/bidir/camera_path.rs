@@ -2,7 +2,10 @@
 //! subpath and merging with all stored light vertices, each weighted by [`super::mis`].
 
 use super::beams;
-use super::merge::{MergeSet, MergeVertex};
+use super::camera_merge::{merge, merge_medium};
+use super::radius_layers::{
+    camera_q, camera_qs, connection_radii, light_q, light_sample_radii, record_radii,
+};
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
@@ -12,8 +15,8 @@ use crate::integrator::paths::partial::Mis;
 use crate::integrator::paths::partial::{Merge, Partial, Site};
 use crate::integrator::paths::parts::{Parts, RadiusLayer};
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
-use crate::integrator::paths::vertex::{Media, MediumPoint, Vertex};
-use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
+use crate::integrator::paths::vertex::{Media, Vertex};
+use crate::integrator::paths::walk::Walk;
 use crate::integrator::transport::medium_walk::{seen_emission, sees_emission};
 use crate::integrator::transport::nee::pick_light;
 use crate::integrator::RenderStats;
@@ -416,36 +419,6 @@ fn camera_merges<M: Media>(mis: &Mis, walk: &Walk, v: &Vertex<M>, other: Vec3) -
     v.merges(mis, other, Some(walk.len), walk.tr)
 }
 
-/// The camera subpath's partial weights in radius layer `l`.
-#[inline(always)]
-fn camera_q(pass: &Pass, walk: &Walk, l: &RadiusLayer) -> Partial {
-    pass.mis.rescale(walk.q, &walk.parts, &l.scale)
-}
-
-/// The same in every radius layer, for the loops over light vertices (empty, and
-/// no allocation, without layers).
-#[inline(always)]
-fn camera_qs(pass: &Pass, walk: &Walk) -> Vec<Partial> {
-    let layers = pass.radius_layers.iter();
-    layers.map(|l| camera_q(pass, walk, l)).collect()
-}
-
-/// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) in
-/// radius layer `l`, from its `parts`.
-#[inline(always)]
-fn light_q(
-    pass: &Pass,
-    (q, vol, parts): (Partial, f64, &Parts),
-    cut: bool,
-    l: &RadiusLayer,
-) -> Partial {
-    let mis = &pass.mis;
-    match cut {
-        true => mis.rescale(mis.cut(q, vol), &parts.without_media(), &l.scale),
-        false => mis.rescale(q, parts, &l.scale),
-    }
-}
-
 /// Light vertex `y`'s partial weights and M(y) (`merges`, evaluated only if needed)
 /// in a connection whose camera side holds a medium vertex when `camera_medium`, as
 /// `merge_depth: first` has them ([`Mis::cuts`]): y too is on the camera side of
@@ -453,7 +426,7 @@ fn light_q(
 ///
 /// [`Mis::cuts`]: crate::integrator::paths::partial::Mis::cuts
 #[inline(always)]
-fn light_side(
+pub(super) fn light_side(
     pass: &Pass,
     y: &LightVertex,
     camera_medium: bool,
@@ -486,7 +459,7 @@ fn add(l: &mut Rgb, layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
 }
 
 #[inline(always)]
-fn record(layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
+pub(super) fn record(layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
     let Some(slot) = layer.and_then(|i| layers.get(3 * i..3 * i + 3)) else {
         return;
     };
@@ -514,29 +487,6 @@ fn own_weight(
     }
     let (direct, emission) = direct();
     mis.weight_emitter_hit(q, direct, emission)
-}
-
-/// Records in every radius layer a sample of value `c` times its weight there,
-/// `weight(l)`.
-#[inline(always)]
-fn record_radii(pass: &Pass, slots: &[AtomicU32], c: Rgb, weight: impl Fn(&RadiusLayer) -> f32) {
-    if !pass.radius_layers.is_empty() {
-        record_radii_cold(pass, slots, c, weight);
-    }
-}
-
-/// Out of line: the usual sample has no radius layers.
-#[cold]
-#[inline(never)]
-fn record_radii_cold(
-    pass: &Pass,
-    slots: &[AtomicU32],
-    c: Rgb,
-    weight: impl Fn(&RadiusLayer) -> f32,
-) {
-    for l in &pass.radius_layers {
-        record(slots, Some(l.layer), c * weight(l));
-    }
 }
 
 /// An area light reached by the camera subpath ([TR] eqs. 42-43).
@@ -673,24 +623,6 @@ fn light_sample<M: Media>(
     (c * (w / (pick * ls.pdf)), None)
 }
 
-/// A light sample's values in the radius layers, `weight` giving its weight under a
-/// MIS and camera partial weights, `c / pdf` its unweighted value. Out of line: the
-/// usual sample has no layers.
-#[cold]
-#[inline(never)]
-fn light_sample_radii(
-    pass: &Pass,
-    walk: &Walk,
-    weight: &impl Fn(&Mis, Partial) -> f32,
-    (c, pdf): (Rgb, f32),
-    slots: &[AtomicU32],
-) {
-    for l in &pass.radius_layers {
-        let w = weight(&l.mis, camera_q(pass, walk, l));
-        record(slots, Some(l.layer), walk.throughput * (c * (w / pdf)));
-    }
-}
-
 /// Connections to the vertices of the light subpath paired with this pixel, through
 /// the media between them ([TR] eqs. 40-41 with d^2 / T, mis.rs), throughput included.
 #[inline(always)]
@@ -779,214 +711,4 @@ fn connect<M: Media>(
         l += c;
     }
     l
-}
-
-/// A connection's values in the radius layers: light vertex `y` with its parts (and
-/// whether its side is cut), the camera subpath's partial weights in each layer, M(x)
-/// of both vertices under a MIS (`vm`: light, camera), the four densities of
-/// [`Mis::weight_connection`], and the unweighted value and d^2. Out of line: the
-/// usual connection has no layers.
-#[cold]
-#[inline(never)]
-fn connection_radii(
-    pass: &Pass,
-    slots: &[AtomicU32],
-    ((y, parts, cut), camera): ((&LightVertex, &Parts, bool), &[Partial]),
-    vm: impl Fn(&Mis) -> (f64, f64),
-    [a, b, c, d]: [f32; 4],
-    (value, dist2): (Rgb, f32),
-) {
-    for (l, &q) in pass.radius_layers.iter().zip(camera) {
-        let (vm_light, vm_camera) = vm(&l.mis);
-        let light = light_side(pass, y, cut, |_| vm_light, Some((parts, l)));
-        let w = l.mis.weight_connection(light, (q, vm_camera), a, b, c, d);
-        record(slots, Some(l.layer), value * (w / dist2));
-    }
-}
-
-/// Merging with every stored light vertex within the radius ([TR] eqs. 38-39), with
-/// the constant kernel 1 / (pi r^2) and the 1 / N of the light paths.
-#[inline(always)]
-fn merge(
-    pass: &Pass,
-    ws: &Workspace,
-    walk: &Walk,
-    (it, surface): (&crate::geometry::Interaction, &Surface),
-    stats: &mut RenderStats,
-    slots: &[AtomicU32],
-) -> Rgb {
-    if !pass.uses(Merge::Surface) {
-        return Rgb::ZERO;
-    }
-    let mut sum = Rgb::ZERO;
-    let mut merges = 0u64;
-    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
-    let surface_merge = (eta, eta);
-    let cut = pass.mis.cuts(walk.medium_seen);
-    let set = &ws.surface;
-    let mut radii = RadiusSums::new(pass, walk, Merge::Surface);
-    let r2 = pass.radii[Merge::Surface as usize].powi(2);
-    set.grid.query_sorted_in(
-        it.p,
-        &set.merge,
-        #[inline(always)]
-        |y, d2| {
-            if y.len + walk.len > pass.s.max_depth {
-                return;
-            }
-            let Some(e) = surface.eval(y.wo, Mode::Radiance) else {
-                return;
-            };
-            if e.cos < MIN_COS {
-                return;
-            }
-            let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
-            // The photon's flux already holds the cosine at its surface: f without it.
-            let c = y.throughput * e.f;
-            radii.add(set, y, d2, cut, |mis, yq, q| {
-                let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
-                c * (mis.weight_merge(yq, q, (eta, eta), dir, rev) / e.cos)
-            });
-            if d2 > r2 {
-                return; // within a radius layer's radius only
-            }
-            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let w = pass.mis.weight_merge(yq, walk.q, surface_merge, dir, rev);
-            merges += 1;
-            sum += c * (w / e.cos);
-        },
-    );
-    stats.merges += merges;
-    radii.record(walk.throughput, slots);
-    sum * pass.norms[Merge::Surface as usize]
-}
-
-/// The sums of a merge in the radius layers: each light vertex within a layer's
-/// radius, weighted under the layer's MIS, and the layer's kernel normalisation.
-struct RadiusSums<'p> {
-    pass: &'p Pass<'p>,
-    /// The camera subpath's partial weights in each layer, and the layer's sum.
-    layers: Vec<(Partial, Rgb)>,
-    k: Merge,
-}
-
-impl<'p> RadiusSums<'p> {
-    #[inline(always)]
-    fn new(pass: &'p Pass<'p>, walk: &'p Walk, k: Merge) -> Self {
-        let camera = camera_qs(pass, walk).into_iter();
-        RadiusSums {
-            pass,
-            layers: camera.map(|q| (q, Rgb::ZERO)).collect(),
-            k,
-        }
-    }
-
-    /// Light vertex `y` of `set` at squared distance `d2`, its partial weights cut if
-    /// `cut`, whose weighted value under a MIS and both sides' partial weights is
-    /// `value`.
-    #[inline(always)]
-    fn add(
-        &mut self,
-        set: &MergeSet,
-        y: &MergeVertex,
-        d2: f32,
-        cut: bool,
-        value: impl Fn(&Mis, Partial, Partial) -> Rgb,
-    ) {
-        let pass = self.pass;
-        if pass.radius_layers.is_empty() {
-            return;
-        }
-        // The grid's storage order indexes the merging copies and their parts alike.
-        let i = (y as *const MergeVertex as usize - set.merge.as_ptr() as usize)
-            / std::mem::size_of::<MergeVertex>();
-        let parts = &set.parts[i];
-        for (l, (q, sum)) in pass.radius_layers.iter().zip(&mut self.layers) {
-            if d2 <= l.radii[self.k as usize].powi(2) {
-                let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
-                *sum += value(&l.mis, yq, *q);
-            }
-        }
-    }
-
-    /// Records the sums, times `beta` and each layer's kernel normalisation.
-    #[inline(always)]
-    fn record(&self, beta: Rgb, slots: &[AtomicU32]) {
-        for (l, &(_, sum)) in self.pass.radius_layers.iter().zip(&self.layers) {
-            record(slots, Some(l.layer), beta * sum * l.norms[self.k as usize]);
-        }
-    }
-}
-
-/// Merging at a medium vertex x with the stored light vertices of the same medium
-/// within the medium radius (point x point 3D): the kernel 1 / (4/3 pi r^3), the
-/// phase function at x, and 1 / N; throughput included. The camera's throughput holds
-/// the flight's sigma_s(x) T / pdf and each light vertex's its own sigma_s: the merged
-/// path has one scattering event, so the camera's sigma_s(x) is divided out (as
-/// `vpm`'s point estimate does).
-#[inline(always)]
-fn merge_medium(
-    pass: &Pass,
-    ws: &Workspace,
-    walk: &Walk,
-    (x, m): (Vec3, &MediumPoint),
-    stats: &mut RenderStats,
-    slots: &[AtomicU32],
-) -> Rgb {
-    let Some(medium) = walk.medium.filter(|_| pass.uses(Merge::Point3d)) else {
-        return Rgb::ZERO;
-    };
-    if pass.mis.cuts(walk.medium_seen) {
-        return Rgb::ZERO;
-    }
-    let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
-    let beta = Rgb::select(
-        sigma_s.cmpgt(Rgb::ZERO),
-        walk.throughput / sigma_s,
-        Rgb::ZERO,
-    );
-    if beta == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    let mut sum = Rgb::ZERO;
-    let mut merges = 0u64;
-    let set = &ws.medium;
-    let mut radii = RadiusSums::new(pass, walk, Merge::Point3d);
-    let r2 = pass.radii[Merge::Point3d as usize].powi(2);
-    // A merge in a medium is on the camera side of the light's earlier vertices.
-    let cut = pass.mis.first_medium;
-    set.grid.query_sorted_in(
-        x,
-        &set.merge,
-        #[inline(always)]
-        |y, d2| {
-            if y.medium != medium || y.len + walk.len > pass.s.max_depth {
-                return;
-            }
-            let ph = m.phase.eval(-m.wo, y.wo);
-            if ph <= 0.0 {
-                return;
-            }
-            let (dir, rev) = (ph * m.cont, ph * y.cont);
-            let sin = pass.mis.sine(m.wo, y.wo);
-            let weight = |mis: &Mis, yq, q| {
-                let own = mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
-                let all = mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
-                mis.weight_merge(yq, q, (own, all), dir, rev)
-            };
-            radii.add(set, y, d2, cut, |mis, yq, q| {
-                y.throughput * (ph * weight(mis, yq, q))
-            });
-            if d2 > r2 {
-                return; // within a radius layer's radius only
-            }
-            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let w = weight(&pass.mis, yq, walk.q);
-            merges += 1;
-            sum += y.throughput * (ph * w);
-        },
-    );
-    stats.merges += merges;
-    radii.record(beta, slots);
-    beta * sum * pass.norms[Merge::Point3d as usize]
 }

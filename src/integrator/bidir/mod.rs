@@ -6,7 +6,8 @@
 //! ([`Technique`], in `settings.rs`); the MIS weights of [`mis`] weigh whatever set is
 //! on. All five live here: the light subpaths come from
 //! [`crate::integrator::paths::light_path`], the camera walk is [`camera_path`], merging
-//! at points [`merge`], and `upbp`'s photon beams and camera beams [`beams`].
+//! at points [`merge`] (the camera side in [`camera_merge`]), the radius layers
+//! [`radius_layers`], and `upbp`'s photon beams and camera beams [`beams`].
 //!
 //! One iteration: trace N light subpaths (N = `light_paths` x pixels), storing their
 //! non-specular vertices and splatting connections to the camera; build the hash grid
@@ -23,9 +24,11 @@
 //! estimator with its own eta in the MIS.
 
 mod beams;
+mod camera_merge;
 mod camera_path;
 mod merge;
 pub mod mis;
+mod radius_layers;
 
 use super::{Integrator, RenderStats};
 use crate::film::Film;

@@ -1,0 +1,143 @@
+//! Merging at a camera vertex: the surface photons within the radius, and in media the
+//! light vertices of the same medium (point x point 3D), each weighted by the MIS and,
+//! with radius layers, under every layer's.
+
+use super::radius_layers::RadiusSums;
+use super::{Pass, Workspace};
+use crate::integrator::paths::partial::{Merge, Mis, Site};
+use crate::integrator::paths::vertex::MediumPoint;
+use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
+use crate::integrator::RenderStats;
+use crate::material::Mode;
+use crate::math::{Rgb, Vec3};
+use std::sync::atomic::AtomicU32;
+
+/// Merging with every stored light vertex within the radius ([TR] eqs. 38-39), with
+/// the constant kernel 1 / (pi r^2) and the 1 / N of the light paths.
+#[inline(always)]
+pub(super) fn merge(
+    pass: &Pass,
+    ws: &Workspace,
+    walk: &Walk,
+    (it, surface): (&crate::geometry::Interaction, &Surface),
+    stats: &mut RenderStats,
+    slots: &[AtomicU32],
+) -> Rgb {
+    if !pass.uses(Merge::Surface) {
+        return Rgb::ZERO;
+    }
+    let mut sum = Rgb::ZERO;
+    let mut merges = 0u64;
+    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
+    let surface_merge = (eta, eta);
+    let cut = pass.mis.cuts(walk.medium_seen);
+    let set = &ws.surface;
+    let mut radii = RadiusSums::new(pass, walk, Merge::Surface);
+    let r2 = pass.radii[Merge::Surface as usize].powi(2);
+    set.grid.query_sorted_in(
+        it.p,
+        &set.merge,
+        #[inline(always)]
+        |y, d2| {
+            if y.len + walk.len > pass.s.max_depth {
+                return;
+            }
+            let Some(e) = surface.eval(y.wo, Mode::Radiance) else {
+                return;
+            };
+            if e.cos < MIN_COS {
+                return;
+            }
+            let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
+            // The photon's flux already holds the cosine at its surface: f without it.
+            let c = y.throughput * e.f;
+            radii.add(set, y, d2, cut, |mis, yq, q| {
+                let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
+                c * (mis.weight_merge(yq, q, (eta, eta), dir, rev) / e.cos)
+            });
+            if d2 > r2 {
+                return; // within a radius layer's radius only
+            }
+            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
+            let w = pass.mis.weight_merge(yq, walk.q, surface_merge, dir, rev);
+            merges += 1;
+            sum += c * (w / e.cos);
+        },
+    );
+    stats.merges += merges;
+    radii.record(walk.throughput, slots);
+    sum * pass.norms[Merge::Surface as usize]
+}
+
+/// Merging at a medium vertex x with the stored light vertices of the same medium
+/// within the medium radius (point x point 3D): the kernel 1 / (4/3 pi r^3), the
+/// phase function at x, and 1 / N; throughput included. The camera's throughput holds
+/// the flight's sigma_s(x) T / pdf and each light vertex's its own sigma_s: the merged
+/// path has one scattering event, so the camera's sigma_s(x) is divided out (as
+/// `vpm`'s point estimate does).
+#[inline(always)]
+pub(super) fn merge_medium(
+    pass: &Pass,
+    ws: &Workspace,
+    walk: &Walk,
+    (x, m): (Vec3, &MediumPoint),
+    stats: &mut RenderStats,
+    slots: &[AtomicU32],
+) -> Rgb {
+    let Some(medium) = walk.medium.filter(|_| pass.uses(Merge::Point3d)) else {
+        return Rgb::ZERO;
+    };
+    if pass.mis.cuts(walk.medium_seen) {
+        return Rgb::ZERO;
+    }
+    let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
+    let beta = Rgb::select(
+        sigma_s.cmpgt(Rgb::ZERO),
+        walk.throughput / sigma_s,
+        Rgb::ZERO,
+    );
+    if beta == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let mut sum = Rgb::ZERO;
+    let mut merges = 0u64;
+    let set = &ws.medium;
+    let mut radii = RadiusSums::new(pass, walk, Merge::Point3d);
+    let r2 = pass.radii[Merge::Point3d as usize].powi(2);
+    // A merge in a medium is on the camera side of the light's earlier vertices.
+    let cut = pass.mis.first_medium;
+    set.grid.query_sorted_in(
+        x,
+        &set.merge,
+        #[inline(always)]
+        |y, d2| {
+            if y.medium != medium || y.len + walk.len > pass.s.max_depth {
+                return;
+            }
+            let ph = m.phase.eval(-m.wo, y.wo);
+            if ph <= 0.0 {
+                return;
+            }
+            let (dir, rev) = (ph * m.cont, ph * y.cont);
+            let sin = pass.mis.sine(m.wo, y.wo);
+            let weight = |mis: &Mis, yq, q| {
+                let own = mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
+                let all = mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
+                mis.weight_merge(yq, q, (own, all), dir, rev)
+            };
+            radii.add(set, y, d2, cut, |mis, yq, q| {
+                y.throughput * (ph * weight(mis, yq, q))
+            });
+            if d2 > r2 {
+                return; // within a radius layer's radius only
+            }
+            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
+            let w = weight(&pass.mis, yq, walk.q);
+            merges += 1;
+            sum += y.throughput * (ph * w);
+        },
+    );
+    stats.merges += merges;
+    radii.record(beta, slots);
+    beta * sum * pass.norms[Merge::Point3d as usize]
+}
