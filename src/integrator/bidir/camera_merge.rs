@@ -15,7 +15,7 @@ use std::sync::atomic::AtomicU32;
 /// Merging with every stored light vertex within the radius ([TR] eqs. 38-39), with
 /// the constant kernel 1 / (pi r^2) and the 1 / N of the light paths.
 #[inline(always)]
-pub(super) fn merge(
+pub(super) fn merge<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
     walk: &Walk,
@@ -32,7 +32,7 @@ pub(super) fn merge(
     let surface_merge = (eta, eta);
     let cut = pass.mis.cuts(walk.medium_seen);
     let set = &ws.surface;
-    let mut radii = RadiusSums::new(pass, walk, Merge::Surface);
+    let mut radii = RadiusSums::<RADII>::new(pass, walk, Merge::Surface);
     let r2 = pass.radii[Merge::Surface as usize].powi(2);
     set.grid.query_sorted_in(
         it.p,
@@ -76,7 +76,7 @@ pub(super) fn merge(
 /// path has one scattering event, so the camera's sigma_s(x) is divided out (as
 /// `vpm`'s point estimate does).
 #[inline(always)]
-pub(super) fn merge_medium(
+pub(super) fn merge_medium<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
     walk: &Walk,
@@ -102,7 +102,7 @@ pub(super) fn merge_medium(
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
     let set = &ws.medium;
-    let mut radii = RadiusSums::new(pass, walk, Merge::Point3d);
+    let mut radii = RadiusSums::<RADII>::new(pass, walk, Merge::Point3d);
     let r2 = pass.radii[Merge::Point3d as usize].powi(2);
     // A merge in a medium is on the camera side of the light's earlier vertices.
     let cut = pass.mis.first_medium;

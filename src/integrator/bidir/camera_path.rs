@@ -28,8 +28,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The camera pass of one iteration, as
 /// [`render_paths`](crate::integrator::drive::pixels::render_paths) drives it: `M` says whether
-/// the scene has media (decided once per pass).
-pub(super) struct CameraPass<'a, M> {
+/// the scene has media and `RADII` whether the pass has radius layers (both decided
+/// once per pass, so that the usual pass compiles without the layers' work).
+pub(super) struct CameraPass<'a, M, const RADII: bool> {
     pass: &'a Pass<'a>,
     ws: &'a Workspace,
     /// Per pixel, its `layers` values (three f32 bit patterns each, zero at the start
@@ -39,7 +40,7 @@ pub(super) struct CameraPass<'a, M> {
     media: PhantomData<M>,
 }
 
-impl<'a, M> CameraPass<'a, M> {
+impl<'a, M, const RADII: bool> CameraPass<'a, M, RADII> {
     pub fn new(
         pass: &'a Pass<'a>,
         ws: &'a Workspace,
@@ -73,7 +74,7 @@ pub(super) struct CameraPath<'a> {
     pieces: Vec<LightSegment>,
 }
 
-impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
+impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RADII> {
     type Path = CameraPath<'a>;
 
     #[inline(always)]
@@ -88,7 +89,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
             } else {
                 ws.store.light_path(pixel % ws.store.paths)
             },
-            light_parts: if ws.store.paths == 0 || self.pass.radius_layers.is_empty() {
+            light_parts: if ws.store.paths == 0 || !RADII {
                 &[]
             } else {
                 ws.store.light_path_parts(pixel % ws.store.paths)
@@ -137,7 +138,7 @@ impl<'a, M: Media + Sync> PathKernel for CameraPass<'a, M> {
 /// starts in and the throughput there.
 type Seen = (Ray, Option<u32>, Rgb);
 
-impl<'a, M: Media> CameraPass<'a, M> {
+impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
     /// Pixel `pixel`'s layer slots.
     #[inline(always)]
     fn slots(&self, pixel: usize) -> &[AtomicU32] {
@@ -192,7 +193,8 @@ impl<'a, M: Media> CameraPass<'a, M> {
             self.estimate(p, v, layers, rng, stats);
         }
         let len = p.walk.len;
-        let Some(next) = v.scatter(pass, rng, &mut p.walk, Mode::Radiance, Some(len)) else {
+        let track = pass.tracks_parts::<M, RADII>(true);
+        let Some(next) = v.scatter(pass, rng, &mut p.walk, Mode::Radiance, Some(len), track) else {
             return false;
         };
         p.ray = next;
@@ -319,7 +321,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
         if sees_emission(scene, surface, matches!(event, Event::Escaped)) {
             let v = *throughput * seen_emission(scene, first, *medium, rng, stats);
             // Weight 1: no other technique finds it, under any radius.
-            record_radii(self.pass, layers, v, |_| 1.0);
+            record_radii::<RADII>(self.pass, layers, v, |_| 1.0);
             add(
                 &mut p.l,
                 layers,
@@ -340,7 +342,7 @@ impl<'a, M: Media> CameraPass<'a, M> {
             p.walk.q = pass.mis.on_hit(p.walk.q, 1.0 / tr, 1.0);
         }
         if !seen {
-            let v = p.walk.throughput * escaped(pass, &p.walk, p.ray.d, layers);
+            let v = p.walk.throughput * escaped::<RADII>(pass, &p.walk, p.ray.d, layers);
             add(
                 &mut p.l,
                 layers,
@@ -358,13 +360,14 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let walk = &mut p.walk;
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
-        if !pass.radius_layers.is_empty() {
+        if RADII {
             let none = Parts::default();
             walk.parts = pass.mis.hit_parts(walk.parts, none, 1.0, v.d_in());
         }
         walk.tr = tr;
         if let (Vertex::Surface { it, .. }, false) = (v, seen) {
-            let e = walk.throughput * emitter_hit(pass, walk, it, (p.ray.d, dist2), layers);
+            let ray = (p.ray.d, dist2);
+            let e = walk.throughput * emitter_hit::<RADII>(pass, walk, it, ray, layers);
             add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
         }
     }
@@ -385,22 +388,24 @@ impl<'a, M: Media> CameraPass<'a, M> {
         let (pass, ws) = (self.pass, self.ws);
         let walk = &p.walk;
         if pass.technique.connects() {
-            let (e, shadow) = light_sample(pass, walk, v, rng, stats, layers);
+            let (e, shadow) = light_sample::<M, RADII>(pass, walk, v, rng, stats, layers);
             let e = walk.throughput * e;
             match shadow {
                 Some(ray) => p.pending = Some((ray, e)),
                 None => add(&mut p.l, layers, self.light_layer(walk.len), e),
             }
-            p.l += connect(pass, (p.light, p.light_parts), walk, v, rng, stats, layers);
+            let light = (p.light, p.light_parts);
+            p.l += connect::<M, RADII>(pass, light, walk, v, rng, stats, layers);
         }
         if walk.len > 1 || pass.s.merge_first {
             let (k, e) = match v {
                 Vertex::Surface { it, s: surface, .. } => {
-                    let e = merge(pass, ws, walk, (it, surface), stats, layers);
+                    let e = merge::<RADII>(pass, ws, walk, (it, surface), stats, layers);
                     (Merge::Surface, walk.throughput * e)
                 }
                 Vertex::Medium { p: x, m } => {
-                    let e = merge_medium(pass, ws, walk, (*x, M::get(m)), stats, layers);
+                    let x = (*x, M::get(m));
+                    let e = merge_medium::<RADII>(pass, ws, walk, x, stats, layers);
                     (Merge::Point3d, e)
                 }
             };
@@ -491,7 +496,7 @@ fn own_weight(
 
 /// An area light reached by the camera subpath ([TR] eqs. 42-43).
 #[inline(always)]
-fn emitter_hit(
+fn emitter_hit<const RADII: bool>(
     pass: &Pass,
     walk: &Walk,
     it: &crate::geometry::Interaction,
@@ -513,7 +518,7 @@ fn emitter_hit(
         let (pos, dir) = area.pdf_le(it.ng, -d);
         (direct, pick * pos * dir)
     };
-    record_radii(pass, slots, walk.throughput * le, |l| {
+    record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
         own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
     });
     le * own_weight(pass, (&pass.mis, walk.q), walk, direct)
@@ -521,7 +526,7 @@ fn emitter_hit(
 
 /// Environment lights seen by a ray that leaves the scene.
 #[inline(always)]
-fn escaped(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
+fn escaped<const RADII: bool>(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
     let scene = pass.scene;
     let mut l = Rgb::ZERO;
     for &li in &scene.env_lights {
@@ -536,7 +541,7 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
             let (pos, dir) = light.pdf_le(&scene.sphere, Vec3::ZERO, -d);
             (direct, pick * pos * dir)
         };
-        record_radii(pass, slots, walk.throughput * le, |l| {
+        record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
             own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
         });
         l += le * own_weight(pass, (&pass.mis, walk.q), walk, direct);
@@ -549,7 +554,7 @@ fn escaped(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
 /// divides d^2, mis.rs). Without media the shadow ray is returned untraced: the
 /// contribution counts only if it is unblocked.
 #[inline(always)]
-fn light_sample<M: Media>(
+fn light_sample<M: Media, const RADII: bool>(
     pass: &Pass,
     walk: &Walk,
     v: &Vertex<M>,
@@ -612,7 +617,7 @@ fn light_sample<M: Media>(
     };
     let w = weight(&pass.mis, walk.q);
     let c = e.f * ls.li() * tr;
-    if pass.radius_layers.is_empty() {
+    if !RADII {
         return (c * (w / (pick * ls.pdf)), untraced);
     }
     // With radius layers the shadow ray is traced now, for all of them at once.
@@ -626,7 +631,7 @@ fn light_sample<M: Media>(
 /// Connections to the vertices of the light subpath paired with this pixel, through
 /// the media between them ([TR] eqs. 40-41 with d^2 / T, mis.rs), throughput included.
 #[inline(always)]
-fn connect<M: Media>(
+fn connect<M: Media, const RADII: bool>(
     pass: &Pass,
     (light, light_parts): (&[LightVertex], &[Parts]),
     walk: &Walk,
@@ -640,9 +645,9 @@ fn connect<M: Media>(
     let mut l = Rgb::ZERO;
     // The camera side of every light vertex holds this one and those before it.
     let cut = walk.medium_seen || matches!(v, Vertex::Medium { .. });
-    let camera = match light.is_empty() || pass.radius_layers.is_empty() {
-        true => Vec::new(),
-        false => camera_qs(pass, walk),
+    let camera = match RADII && !light.is_empty() {
+        true => camera_qs(pass, walk),
+        false => Vec::new(),
     };
     for (i, y) in light.iter().enumerate() {
         // Vertices are stored in order of path length.
@@ -689,7 +694,7 @@ fn connect<M: Media>(
             d,
         );
         let c = walk.throughput * y.throughput * ec.f * el.f * tr * (w / dist2);
-        if !pass.radius_layers.is_empty() {
+        if RADII {
             let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;
             let y = (y, &light_parts[i], cut);
             let vm = |m: &Mis| {

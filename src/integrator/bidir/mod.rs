@@ -39,7 +39,7 @@ use crate::integrator::paths::light_path::trace_light_paths;
 use crate::integrator::paths::partial::{Merge, Merges, Mis};
 use crate::integrator::paths::parts::{RadiusLayer, Scale, ALL};
 use crate::integrator::paths::store::Store;
-use crate::integrator::paths::vertex::{NoMedia, WithMedia};
+use crate::integrator::paths::vertex::{Media, NoMedia, WithMedia};
 use crate::integrator::transport::light_paths::light_path_count;
 use crate::integrator::transport::radius::radius_schedule;
 use crate::math::Rgb;
@@ -265,12 +265,12 @@ impl Integrator for Bidir {
             .collect();
         if pass.technique != Technique::Lt {
             let (ws, side) = (&*ws, &side[..]);
-            stats += if scene.has_media {
-                let kernel = CameraPass::<WithMedia>::new(&pass, ws, side, k);
-                render_paths(scene, seed, iteration, film, &kernel)
-            } else {
-                let kernel = CameraPass::<NoMedia>::new(&pass, ws, side, k);
-                render_paths(scene, seed, iteration, film, &kernel)
+            let run = (&pass, ws, side, k);
+            stats += match (scene.has_media, !pass.radius_layers.is_empty()) {
+                (true, false) => camera_pass::<WithMedia, false>(run, seed, iteration, film),
+                (false, false) => camera_pass::<NoMedia, false>(run, seed, iteration, film),
+                (true, true) => camera_pass::<WithMedia, true>(run, seed, iteration, film),
+                (false, true) => camera_pass::<NoMedia, true>(run, seed, iteration, film),
             };
         }
         add_layer_values(scene, (seed, iteration), film, &ids, &side);
@@ -282,6 +282,19 @@ impl Integrator for Bidir {
         }
         stats
     }
+}
+
+/// The camera pass, compiled for whether the scene has media (`M`) and the pass has
+/// radius layers (`RADII`): `run` is the pass, its workspace, the per-pixel layer
+/// slots and their number of layers.
+fn camera_pass<M: Media + Sync, const RADII: bool>(
+    (pass, ws, side, k): (&Pass, &Workspace, &[AtomicU32], usize),
+    seed: u64,
+    iteration: u64,
+    film: &mut Film,
+) -> RenderStats {
+    let kernel = CameraPass::<M, RADII>::new(pass, ws, side, k);
+    render_paths(pass.scene, seed, iteration, film, &kernel)
 }
 
 /// Adds the camera pass's per-pixel layer values (`side`: three f32 bits per layer

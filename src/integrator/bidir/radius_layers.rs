@@ -44,15 +44,15 @@ pub(super) fn light_q(
 }
 
 /// Records in every radius layer a sample of value `c` times its weight there,
-/// `weight(l)`.
+/// `weight(l)`; nothing unless the pass has layers (`RADII`).
 #[inline(always)]
-pub(super) fn record_radii(
+pub(super) fn record_radii<const RADII: bool>(
     pass: &Pass,
     slots: &[AtomicU32],
     c: Rgb,
     weight: impl Fn(&RadiusLayer) -> f32,
 ) {
-    if !pass.radius_layers.is_empty() {
+    if RADII {
         record_radii_cold(pass, slots, c, weight);
     }
 }
@@ -114,22 +114,25 @@ pub(super) fn connection_radii(
 
 /// The sums of a merge in the radius layers: each light vertex within a layer's
 /// radius, weighted under the layer's MIS, and the layer's kernel normalisation.
-pub(super) struct RadiusSums<'p> {
+/// Without layers (`RADII` false) it holds and does nothing.
+pub(super) struct RadiusSums<'p, const RADII: bool> {
     pass: &'p Pass<'p>,
     /// The camera subpath's partial weights in each layer, and the layer's sum.
     layers: Vec<(Partial, Rgb)>,
     k: Merge,
 }
 
-impl<'p> RadiusSums<'p> {
+impl<'p, const RADII: bool> RadiusSums<'p, RADII> {
     #[inline(always)]
     pub(super) fn new(pass: &'p Pass<'p>, walk: &'p Walk, k: Merge) -> Self {
-        let camera = camera_qs(pass, walk).into_iter();
-        RadiusSums {
-            pass,
-            layers: camera.map(|q| (q, Rgb::ZERO)).collect(),
-            k,
-        }
+        let layers = match RADII {
+            true => camera_qs(pass, walk)
+                .into_iter()
+                .map(|q| (q, Rgb::ZERO))
+                .collect(),
+            false => Vec::new(),
+        };
+        RadiusSums { pass, layers, k }
     }
 
     /// Light vertex `y` of `set` at squared distance `d2`, its partial weights cut if
@@ -145,7 +148,7 @@ impl<'p> RadiusSums<'p> {
         value: impl Fn(&Mis, Partial, Partial) -> Rgb,
     ) {
         let pass = self.pass;
-        if pass.radius_layers.is_empty() {
+        if !RADII {
             return;
         }
         // The grid's storage order indexes the merging copies and their parts alike.
@@ -163,6 +166,9 @@ impl<'p> RadiusSums<'p> {
     /// Records the sums, times `beta` and each layer's kernel normalisation.
     #[inline(always)]
     pub(super) fn record(&self, beta: Rgb, slots: &[AtomicU32]) {
+        if !RADII {
+            return;
+        }
         for (l, &(_, sum)) in self.pass.radius_layers.iter().zip(&self.layers) {
             record(slots, Some(l.layer), beta * sum * l.norms[self.k as usize]);
         }

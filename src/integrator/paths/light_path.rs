@@ -95,10 +95,12 @@ impl ChunkTracer for Subpaths<'_, '_> {
     fn trace(&self, index: u64, chunk: &mut Chunk) {
         let pass = self.pass;
         let mut rng = Stream::LightSubpaths.rng(self.seed, self.iteration, index);
-        if pass.scene.has_media {
-            trace_one::<WithMedia>(pass, &mut rng, chunk, self.budget);
-        } else {
-            trace_one::<NoMedia>(pass, &mut rng, chunk, self.budget);
+        let (media, radii) = (pass.scene.has_media, !pass.radius_layers.is_empty());
+        match (media, radii) {
+            (true, false) => trace_one::<WithMedia, false>(pass, &mut rng, chunk, self.budget),
+            (false, false) => trace_one::<NoMedia, false>(pass, &mut rng, chunk, self.budget),
+            (true, true) => trace_one::<WithMedia, true>(pass, &mut rng, chunk, self.budget),
+            (false, true) => trace_one::<NoMedia, true>(pass, &mut rng, chunk, self.budget),
         }
         chunk.ends.push(chunk.vertices.len() as u32);
         if pass.keep_segments {
@@ -165,9 +167,15 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
     Some((st, ls))
 }
 
-/// One light subpath; `M` (whether the scene has media) is decided once per path.
+/// One light subpath; `M` (whether the scene has media) and `RADII` (whether the pass
+/// has radius layers) are decided once per path.
 #[inline(always)]
-fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Budget) {
+fn trace_one<M: Media, const RADII: bool>(
+    pass: &Pass,
+    rng: &mut Rng,
+    chunk: &mut Chunk,
+    budget: Budget,
+) {
     let scene = pass.scene;
     let Some((st, ls)) = start(pass, rng) else {
         return;
@@ -230,17 +238,18 @@ fn trace_one<M: Media>(pass: &Pass, rng: &mut Rng, chunk: &mut Chunk, budget: Bu
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         let mis = &pass.mis;
         walk.q = mis.light_hit(walk.q, walk.pending.sum(), d2 / tr, tr, v.d_in());
-        if pass.tracks_parts(None) {
+        let track = pass.tracks_parts::<M, RADII>(false);
+        if track {
             walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
         }
         (walk.pending, walk.tr) = (Parts::default(), tr);
         if !v.skips_connections() {
-            lens = keep_vertex(pass, rng, chunk, budget, &walk, v, ray.d);
+            lens = keep_vertex::<M, RADII>(pass, rng, chunk, budget, &walk, v, ray.d);
         }
         if walk.len + 2 > pass.max_depth {
             break;
         }
-        let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None) else {
+        let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None, track) else {
             break;
         };
         ray = next;
@@ -326,7 +335,7 @@ fn finish_area_start(pass: &Pass, walk: &mut Walk, area: AreaStart, p: Vec3, d: 
 /// vertices (within the budget), and connected to the lens when it splats; the lens
 /// connection whose shadow ray is still to trace.
 #[inline(always)]
-fn keep_vertex<M: Media>(
+fn keep_vertex<M: Media, const RADII: bool>(
     pass: &Pass,
     rng: &mut Rng,
     chunk: &mut Chunk,
@@ -340,13 +349,13 @@ fn keep_vertex<M: Media>(
             chunk.over_budget = true;
         } else {
             chunk.vertices.push(stored(v, walk, d, pass.scene));
-            if !pass.radius_layers.is_empty() {
+            if RADII {
                 chunk.parts.push(walk.parts);
             }
         }
     }
     if pass.tracing.splats {
-        connect_to_camera(pass, rng, chunk, walk, v)
+        connect_to_camera::<M, RADII>(pass, rng, chunk, walk, v)
     } else {
         None
     }
@@ -424,7 +433,7 @@ fn stored<M: Media>(
         cont: v.cont(),
         len: walk.len,
         q: walk.q,
-        vol: if walk.q.dvc > 0.0 {
+        vol: if M::ON && walk.q.dvc > 0.0 {
             (walk.parts.media() / walk.q.dvc) as f32
         } else {
             0.0
@@ -436,7 +445,7 @@ fn stored<M: Media>(
 /// the media between them ([TR] eqs. 46-47; SmallVCM's ConnectToCamera). Without
 /// media the shadow ray is returned untraced, with the splat it decides.
 #[inline(always)]
-fn connect_to_camera<M: Media>(
+fn connect_to_camera<M: Media, const RADII: bool>(
     pass: &Pass,
     rng: &mut Rng,
     chunk: &mut Chunk,
@@ -459,7 +468,7 @@ fn connect_to_camera<M: Media>(
     // Seen from the lens, the vertex would be the first camera vertex, with the
     // connection as its camera-side segment.
     let vm = |mis: &Mis, tc| v.merges(mis, dir, Some(1), tc);
-    if !M::ON && pass.radius_layers.is_empty() {
+    if !M::ON && !RADII {
         return Some(LensShadow {
             ray,
             raster,
@@ -491,7 +500,7 @@ fn connect_to_camera<M: Media>(
         lens_value((pass, mis), walk, (&e, q, vm), v.cont(), link, tr, tr_mis)
     };
     push_splat(chunk, raster, value(&pass.mis, q), layer);
-    if !pass.radius_layers.is_empty() {
+    if RADII {
         let parts = if cut {
             walk.parts.without_media()
         } else {

@@ -93,13 +93,13 @@ impl Pass<'_> {
         self.uses(Merge::PointBeam2d) || self.uses(Merge::BeamBeam1d)
     }
 
-    /// Whether a subpath (a camera one when `camera_len` is Some) keeps its
-    /// [`parts::Parts`]: light subpaths for `merge_depth: first`'s cuts in media,
-    /// both for the `radii` layers.
+    /// Whether a subpath (a camera one when `camera`) keeps its [`parts::Parts`]:
+    /// light subpaths for `merge_depth: first`'s cuts in media, both for the `radii`
+    /// layers. `M` and `RADII` are the pass's compile-time choices, so that in the
+    /// usual pass (no layers) this is a constant.
     #[inline(always)]
-    pub fn tracks_parts(&self, camera_len: Option<u32>) -> bool {
-        let cuts = camera_len.is_none() && self.mis.first_medium && self.scene.has_media;
-        cuts || !self.radius_layers.is_empty()
+    pub fn tracks_parts<M: vertex::Media, const RADII: bool>(&self, camera: bool) -> bool {
+        RADII || (!camera && M::ON && self.mis.first_medium)
     }
 
     /// Russian-roulette continuation probability at a vertex with material `m`.

@@ -311,7 +311,8 @@ impl<'a, M: Media> Vertex<'a, M> {
 
     /// Samples the next direction (BSDF or phase function), updating throughput, MIS
     /// state and, past a surface that bounds media, the walk's medium. None ends the
-    /// path; `camera_len` is Some on camera subpaths.
+    /// path; `camera_len` is Some on camera subpaths, and `track` says whether the walk
+    /// keeps its [`Parts`] ([`Pass::tracks_parts`]).
     #[inline(always)]
     pub fn scatter(
         &self,
@@ -320,16 +321,19 @@ impl<'a, M: Media> Vertex<'a, M> {
         walk: &mut Walk,
         mode: Mode,
         camera_len: Option<u32>,
+        track: bool,
     ) -> Option<Ray> {
         match self {
             Vertex::Surface { it, s, .. } => {
-                let ray = scatter(pass, rng, walk, it, s, mode, camera_len)?;
+                let ray = scatter(pass, rng, walk, it, s, mode, (camera_len, track))?;
                 if M::ON {
                     walk.medium = self.medium_towards(pass, ray.d, walk.medium);
                 }
                 Some(ray)
             }
-            Vertex::Medium { p, m } => scatter_medium(pass, rng, walk, *p, M::get(m), camera_len),
+            Vertex::Medium { p, m } => {
+                scatter_medium(pass, rng, walk, *p, M::get(m), (camera_len, track))
+            }
         }
     }
 }
@@ -344,7 +348,7 @@ fn scatter_medium(
     walk: &mut Walk,
     p: Vec3,
     m: &MediumPoint,
-    camera_len: Option<u32>,
+    (camera_len, track): (Option<u32>, bool),
 ) -> Option<Ray> {
     let (wi, pdf) = m.phase.sample(-m.wo, rng.next_2d());
     if m.cont < 1.0 && rng.next_f32() >= m.cont {
@@ -362,7 +366,7 @@ fn scatter_medium(
     let vm = match camera_len {
         Some(_) => {
             let cut = mis.cuts(walk.medium_seen);
-            if !pass.radius_layers.is_empty() {
+            if track {
                 let terms = match cut {
                     true => Parts::default(),
                     false => mis.merge_terms(Site::Medium, m.sigma, sin, camera_len, walk.tr),

@@ -101,7 +101,8 @@ pub(crate) struct Walk {
 }
 
 /// Samples the next direction and updates throughput and MIS state; None ends the
-/// path. `camera_len` is Some on camera subpaths.
+/// path. `camera_len` is Some on camera subpaths; `track` says whether the walk keeps
+/// its [`Parts`] ([`Pass::tracks_parts`]).
 #[inline(always)]
 pub(crate) fn scatter(
     pass: &Pass,
@@ -110,7 +111,7 @@ pub(crate) fn scatter(
     it: &Interaction,
     surface: &Surface,
     mode: Mode,
-    camera_len: Option<u32>,
+    (camera_len, track): (Option<u32>, bool),
 ) -> Option<Ray> {
     let u_lobe = rng.next_f32();
     let s = surface.m.sample(surface.wo, u_lobe, rng.next_2d(), mode)?;
@@ -135,7 +136,7 @@ pub(crate) fn scatter(
     let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     let cos_out = s.wi.z.abs();
     walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
-    if pass.tracks_parts(camera_len) {
+    if track {
         let terms = Parts::one(Merge::Surface, vm);
         walk.parts = mis.scatter_parts(walk.parts, terms, cos_out, pdf_dir, pdf_rev, s.delta);
     }
