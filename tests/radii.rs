@@ -60,6 +60,11 @@ fn assert_layers_are_separate_jobs(
     let (film, n) = render(scene, &settings(alg, with(&base, &list)), SEED, ITERATIONS);
     assert_eq!(n, ITERATIONS);
     let main = film.to_image(1.0 / n as f64);
+    // The layers change nothing in the main image: it is the job without them.
+    let (alone, m) = render(scene, &settings(alg, base.clone()), SEED, ITERATIONS);
+    let worst = mismatch(&main, &alone.to_image(1.0 / m as f64));
+    eprintln!("{alg} main image: {worst:.2e} of the peak from the job without layers");
+    assert!(worst < 1e-6, "{alg} {list}: main image moved by {worst}");
     let layers = film.layer_images();
     let names: Vec<&str> = layers.iter().map(|(n, _)| n.as_str()).collect();
     let expected: Vec<String> = (0..single.len()).map(|i| format!("radius{i}")).collect();

@@ -166,24 +166,52 @@ impl Film {
     /// the weights normalised to sum to one ([`PixelFilter::splat_taps`]).
     #[inline(always)]
     pub fn add_splat(&mut self, filter: &PixelFilter, p: Vec2, v: Rgb, layer: Option<usize>) {
+        self.splat(filter, p, v, (true, layer));
+    }
+
+    /// A splat that belongs to `layer` alone, not to the main image: a radius layer
+    /// (`radii`) is a whole other image, not a part of this one.
+    #[inline(always)]
+    pub fn add_layer_splat(&mut self, filter: &PixelFilter, p: Vec2, v: Rgb, layer: usize) {
+        self.splat(filter, p, v, (false, Some(layer)));
+    }
+
+    /// [`add_splat`](Self::add_splat) to the main image if `main`, and to `layer`.
+    #[inline(always)]
+    fn splat(
+        &mut self,
+        filter: &PixelFilter,
+        p: Vec2,
+        v: Rgb,
+        (main, layer): (bool, Option<usize>),
+    ) {
         if filter.is_pixel_box() {
             let x = (p.x as u32).min(self.width - 1);
             let y = (p.y as u32).min(self.height - 1);
             let i = (y * self.width + x) as usize;
-            self.add_index(i, v);
+            if main {
+                self.add_index(i, v);
+            }
             if let Some(k) = layer {
                 self.add_layer_index(k, i, v);
             }
             return;
         }
-        self.add_filtered_splat(filter, p, v, layer);
+        self.add_filtered_splat(filter, p, v, (main, layer));
     }
 
-    /// [`add_splat`](Self::add_splat) with a filter wider than the pixel box.
+    /// [`Film::splat`] with a filter wider than the pixel box.
     #[inline(never)]
-    fn add_filtered_splat(&mut self, filter: &PixelFilter, p: Vec2, v: Rgb, layer: Option<usize>) {
+    fn add_filtered_splat(
+        &mut self,
+        filter: &PixelFilter,
+        p: Vec2,
+        v: Rgb,
+        (main, layer): (bool, Option<usize>),
+    ) {
         if !is_valid_sample(v) {
-            self.dropped += 1;
+            // Counted once, by the main image's own splat.
+            self.dropped += main as u64;
             return;
         }
         let (w, h, n) = (self.width, self.height, self.sums.len());
@@ -191,7 +219,9 @@ impl Film {
             return;
         };
         let taps = (tx, ty);
-        spread(&mut self.splats, (w, n), taps, v);
+        if main {
+            spread(&mut self.splats, (w, n), taps, v);
+        }
         if let Some(k) = layer {
             spread(&mut self.layers[k].splats, (w, n), taps, v);
         }

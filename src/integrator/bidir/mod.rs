@@ -52,7 +52,8 @@ use std::sync::Mutex;
 
 mod settings;
 pub use settings::{
-    BidirSettings, Estimators, MergeDepth, Technique, UpbpTechnique, MAX_STRATEGY_LENGTH,
+    radius_layer_name, BidirSettings, Estimators, MergeDepth, Technique, UpbpTechnique,
+    MAX_STRATEGY_LENGTH,
 };
 
 /// An iteration's constants: the subpaths' ([`crate::integrator::paths::Pass`], which
@@ -276,9 +277,15 @@ impl Integrator for Bidir {
         add_layer_values(scene, (seed, iteration), film, &ids, &side);
         // Splats go in after the camera pass, in chunk order: the sum never depends on
         // which thread traced which chunk.
+        // A radius layer's splats are its own, not the main image's.
+        let radii = self.layers.radii;
         for &(p, v, layer) in ws.store.splats() {
-            let id = ids.get(layer as usize).copied();
-            film.add_splat(&scene.filter, p, v, id);
+            match ids.get(layer as usize) {
+                Some(&id) if layer as usize >= radii => {
+                    film.add_layer_splat(&scene.filter, p, v, id)
+                }
+                id => film.add_splat(&scene.filter, p, v, id.copied()),
+            }
         }
         stats
     }
