@@ -624,6 +624,7 @@ fn metrics_and_openapi_are_served() {
         ("get", "/v1/jobs/{id}/snapshots"),
         ("get", "/v1/jobs/{id}/snapshots/{file}"),
         ("get", "/v1/jobs/{id}/log"),
+        ("get", "/v1/jobs/{id}/layers"),
         ("get", "/v1/jobs/{id}/events"),
         ("post", "/v1/sweeps"),
         ("get", "/v1/sweeps/{id}"),

@@ -226,6 +226,10 @@ pub struct SweepArgs {
     /// Print the final table as JSON.
     #[arg(long)]
     pub json: bool,
+    /// One job per grid point, even where points differ only in params.radius (by
+    /// default those share one job that renders the other radii as layers).
+    #[arg(long)]
+    pub separate_radii: bool,
     #[command(flatten)]
     pub server: ServerArgs,
 }

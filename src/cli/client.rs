@@ -101,6 +101,7 @@ pub fn sweep(a: SweepArgs) -> Result<()> {
         no_wait: a.no_wait,
         csv: a.csv,
         json: a.json,
+        separate_radii: a.separate_radii,
     };
     client_exit(caustic::client::sweep(
         &connect(&a.server),

@@ -135,6 +135,8 @@ pub struct SweepOptions {
     pub no_wait: bool,
     pub csv: bool,
     pub json: bool,
+    /// One job per grid point even where points differ only in `params.radius`.
+    pub separate_radii: bool,
 }
 
 fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
@@ -161,6 +163,7 @@ fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
             base: JobOptions::default().spec("")?,
             grid: BTreeMap::new(),
             name: None,
+            radius_layers: true,
         },
     };
     if let Some(scene) = &o.scene {
@@ -182,6 +185,9 @@ fn sweep_spec(client: &Client, o: &SweepOptions) -> Result<SweepSpec> {
     }
     if o.name.is_some() {
         spec.name = o.name.clone();
+    }
+    if o.separate_radii {
+        spec.radius_layers = false;
     }
     Ok(spec)
 }

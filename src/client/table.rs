@@ -105,6 +105,10 @@ pub fn sweep_text(t: &SweepTable) -> String {
     let mut headers: Vec<&str> = vec!["job"];
     headers.extend(keys.iter().map(|k| k.as_str()));
     headers.extend(["state", "iterations", "time_s", "rmse"]);
+    let layered = t.rows.iter().any(|r| r.layer.is_some());
+    if layered {
+        headers.push("layer");
+    }
     let rows: Vec<Vec<String>> = t
         .rows
         .iter()
@@ -121,10 +125,14 @@ pub fn sweep_text(t: &SweepTable) -> String {
             row.push(r.iterations.to_string());
             row.push(format!("{:.2}", r.time_s));
             row.push(r.rmse.map(|x| format!("{x:.4e}")).unwrap_or("-".into()));
+            if layered {
+                row.push(r.layer.clone().unwrap_or("main".into()));
+            }
             row
         })
         .collect();
     let mut right = vec![false; 1 + keys.len()];
-    right.extend([false, true, true, true]);
+    right.extend([false, true, true, true, false]);
+    right.truncate(headers.len());
     table(&headers, &rows, &right)
 }

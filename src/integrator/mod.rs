@@ -424,6 +424,19 @@ impl Settings {
         }
     }
 
+    /// The radius layers (`radii`) a job with these settings renders: each layer's
+    /// name, initial merge radius and initial medium radius (None: the job's
+    /// `medium_radius`, or the one derived from the scene). Each is a whole image, as a
+    /// job with that radius renders it.
+    pub fn radius_layers(&self) -> Vec<(String, f32, Option<f32>)> {
+        let (Settings::Bpm(s) | Settings::Vcm(s) | Settings::Upbp(s)) = self else {
+            return Vec::new();
+        };
+        let medium = |i: usize| s.medium_radii.get(i).copied().or(s.medium_radius);
+        let layer = |(i, &r): (usize, &f32)| (bidir::radius_layer_name(i), r, medium(i));
+        s.radii.iter().enumerate().map(layer).collect()
+    }
+
     pub fn build(&self) -> Box<dyn Integrator> {
         let (name, params) = self.parts();
         params.build(name)

@@ -13,6 +13,7 @@ pub mod disk;
 pub mod events;
 pub mod failpoint;
 mod keep;
+pub mod layer_log;
 pub mod limits;
 pub mod lock;
 pub mod memory;

@@ -13,6 +13,7 @@
 use super::context::{Context, JobSettings};
 use super::disk;
 use super::failpoint;
+use super::layer_log::{append_layer_rows, truncate_layer_log, LayerRow};
 use super::remote::ranges::{remote_batch, RemoteJob};
 use super::runtime::Runtime;
 use super::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
@@ -124,6 +125,7 @@ fn start(ctx: &Context, settings: JobSettings, status: &mut JobStatus) -> Result
     let at = checkpoint.as_ref().map_or(0, |c| c.iteration);
     // Rows and snapshots past the checkpoint came from iterations that run again.
     truncate_log(&dir, at)?;
+    truncate_layer_log(&dir, at)?;
     disk::drop_snapshots_after(&dir, at);
     let runtime = Runtime::resume(&status.id, settings, scene, reference, checkpoint)?;
     status.iteration = at;
@@ -245,6 +247,36 @@ fn count(ctx: &Context, stats: &RenderStats, n: u64, secs: f64, new_drops: u64) 
         .fetch_add((secs * 1e9) as u64, Ordering::Relaxed);
 }
 
+/// layers.csv's rows of a snapshot at iteration `it`: each radius layer of `film`
+/// against the reference, if the job has one.
+fn layer_rows(rt: &Runtime, film: &film::Film, it: u64) -> Result<Vec<LayerRow>, JobError> {
+    let radii = rt.settings.radius_layers();
+    if radii.is_empty() {
+        return Ok(Vec::new());
+    }
+    let images = match rt.reference {
+        Some(_) => film.layer_images(),
+        None => Vec::new(),
+    };
+    let mut rows = Vec::with_capacity(radii.len());
+    for (layer, radius, medium) in radii {
+        let image = images.iter().find(|(n, _)| *n == layer).map(|(_, i)| i);
+        let metrics = match (image, &rt.reference) {
+            (Some(i), Some(r)) => Some(film::compare(i, r)?),
+            _ => None,
+        };
+        rows.push(LayerRow {
+            iteration: it,
+            layer,
+            radius: radius as f64,
+            medium_radius: medium.map(f64::from),
+            rmse: metrics.map(|m| m.rmse),
+            rel_mse: metrics.map(|m| m.rel_mse),
+        });
+    }
+    Ok(rows)
+}
+
 /// Writes the final images and the completed status, then drops what a finished job
 /// no longer needs (the checkpoint unless kept, `latest.*`, which `final.*` replaces).
 fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), JobError> {
@@ -304,7 +336,8 @@ fn snapshot(
 ) -> Result<(), JobError> {
     let dir = ctx.job_dir(&status.id);
     let it = status.iteration;
-    let img = rt.sums.to_film().to_image(1.0 / it.max(1) as f64);
+    let film = rt.sums.to_film();
+    let img = film.to_image(1.0 / it.max(1) as f64);
     failpoint::hit("snapshot-exr", it);
     film::write_exr(dir.snapshot(it, "exr"), &img)?;
     failpoint::hit("snapshot-png", it);
@@ -332,6 +365,7 @@ fn snapshot(
             ..figures.clone()
         },
     )?;
+    append_layer_rows(&dir, &layer_rows(rt, &film, it)?)?;
     failpoint::hit("checkpoint", it);
     rt.checkpoint(status).write(&dir)?;
     rt.last_snapshot = (it, status.elapsed_s);

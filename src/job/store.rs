@@ -46,6 +46,9 @@ impl JobDir {
     pub fn log_csv(&self) -> PathBuf {
         self.root.join("log.csv")
     }
+    pub fn layers_csv(&self) -> PathBuf {
+        self.root.join("layers.csv")
+    }
 
     pub fn write_status(&self, s: &JobStatus) -> Result<(), JobError> {
         let bytes = serde_json::to_vec_pretty(s).expect("status serialises");

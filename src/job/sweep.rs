@@ -19,6 +19,19 @@ pub struct SweepSpec {
     pub grid: BTreeMap<String, Vec<serde_json::Value>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// Whether grid points that differ only in `params.radius` render as the radius
+    /// layers (`radii`) of one job, where the algorithm has them and the halt is by
+    /// count (see [`SweepSpec::radius_groups`]). True unless set false.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub radius_layers: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 /// A grid point: the value of every grid key.
@@ -33,6 +46,17 @@ pub struct Sweep {
     pub spec: SweepSpec,
     /// Each grid point (key -> value) with the job that renders it.
     pub jobs: Vec<(Point, String)>,
+    /// Per entry of `jobs`, the job's radius layer that renders the point; None (and
+    /// an empty list, as sweeps stored before layers have) for the main image.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub layers: Vec<Option<String>>,
+}
+
+impl Sweep {
+    /// Entry `i`'s radius layer, None for the job's main image.
+    pub fn layer(&self, i: usize) -> Option<&str> {
+        self.layers.get(i).and_then(|l| l.as_deref())
+    }
 }
 
 fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobError> {
@@ -111,6 +135,58 @@ impl SweepSpec {
     }
 }
 
+impl SweepSpec {
+    /// The expanded points (`expand`'s output) in groups that one job renders: points
+    /// that differ only in `params.radius` share a job whose main image takes the
+    /// first radius and whose `radii` layers the others, as separate jobs with those
+    /// radii and the same seed would render them (tests/radius_sweeps.rs). Only where
+    /// the halt is a count: under `halt.time_s` a job with layers runs fewer
+    /// iterations than each separate job would, and `halt.target_rmse` watches the
+    /// main image alone. Every other point is a group of its own. The service still
+    /// falls back to separate jobs where the algorithm has no radius layers.
+    pub fn radius_groups(&self, expanded: &[(Point, JobSpec)]) -> Vec<Vec<usize>> {
+        let mut groups: Vec<(Option<String>, Vec<usize>)> = Vec::new();
+        let shared = self.radius_layers
+            && self.grid.get("params.radius").is_some_and(|v| v.len() > 1)
+            && !self.base.params.contains_key("radii");
+        for (i, (_, spec)) in expanded.iter().enumerate() {
+            let key = shared.then(|| radius_free_key(spec)).flatten();
+            match groups.iter_mut().find(|(k, _)| key.is_some() && *k == key) {
+                Some((_, g)) => g.push(i),
+                None => groups.push((key, vec![i])),
+            }
+        }
+        groups.into_iter().map(|(_, g)| g).collect()
+    }
+}
+
+/// What a job is apart from its `params.radius`, as text; None where the job may not
+/// share: a halt by time or error, or a radius that is not a positive number.
+fn radius_free_key(spec: &JobSpec) -> Option<String> {
+    if spec.halt.time_s.is_some() || spec.halt.target_rmse.is_some() {
+        return None;
+    }
+    let r = spec.params.get("radius")?.as_f64()?;
+    if !(r.is_finite() && r > 0.0) {
+        return None;
+    }
+    let mut rest = spec.clone();
+    rest.params.remove("radius");
+    serde_json::to_string(&rest).ok()
+}
+
+/// The one job of a group of `radius_groups`: the first spec with the others' radii
+/// as its `radii`.
+pub fn layered_spec(specs: &[&JobSpec]) -> JobSpec {
+    let mut job = specs[0].clone();
+    let radii: Vec<serde_json::Value> = specs[1..]
+        .iter()
+        .map(|s| s.params["radius"].clone())
+        .collect();
+    job.params.insert("radii".into(), radii.into());
+    job
+}
+
 /// One row per job of a sweep.
 #[derive(Serialize, Deserialize, Debug, Clone, utoipa::ToSchema)]
 pub struct SweepRow {
@@ -121,6 +197,10 @@ pub struct SweepRow {
     pub iterations: u64,
     pub time_s: f64,
     pub rmse: Option<f64>,
+    /// The radius layer of the job that renders this point (`rmse` is the layer's,
+    /// from the job's layers.csv); absent for the job's main image.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer: Option<String>,
 }
 
 // A sweep's summary, one row per job in grid order (no doc comment: it would change
@@ -144,7 +224,7 @@ impl SweepTable {
             out.push(',');
             out.push_str(k);
         }
-        out.push_str(",state,iterations,time_s,rmse\n");
+        out.push_str(",state,iterations,time_s,rmse,layer\n");
         for r in &self.rows {
             out.push_str(&r.job);
             for k in &keys {
@@ -158,10 +238,11 @@ impl SweepTable {
             }
             let rmse = r.rmse.map(|x| format!("{x:.6e}")).unwrap_or_default();
             out.push_str(&format!(
-                ",{},{},{:.3},{rmse}\n",
+                ",{},{},{:.3},{rmse},{}\n",
                 r.state.as_str(),
                 r.iterations,
-                r.time_s
+                r.time_s,
+                r.layer.as_deref().unwrap_or_default()
             ));
         }
         out
@@ -196,5 +277,39 @@ mod tests {
         }))
         .unwrap();
         assert!(bad.expand("s").is_err());
+    }
+
+    fn groups(spec: serde_json::Value) -> Vec<Vec<usize>> {
+        let spec: SweepSpec = serde_json::from_value(spec).unwrap();
+        spec.radius_groups(&spec.expand("s").unwrap())
+    }
+
+    #[test]
+    fn points_that_differ_only_in_radius_share_a_job() {
+        let base = json!({"scene": "x", "halt": {"spp": 4}});
+        // Row-major over sorted keys: algorithm varies slowest.
+        let grid = json!({"algorithm": ["vcm", "bpm"], "params.radius": [0.1, 0.2, 0.3]});
+        let g = groups(json!({"base": base, "grid": grid}));
+        assert_eq!(g, vec![vec![0, 1, 2], vec![3, 4, 5]]);
+        // The radius not the fastest key: the groups still gather by everything else.
+        let grid = json!({"params.radius": [0.1, 0.2], "seed": [1, 2]});
+        let g = groups(json!({"base": base, "grid": grid}));
+        assert_eq!(g, vec![vec![0, 2], vec![1, 3]]);
+        let single = |g: Vec<Vec<usize>>| g.iter().all(|g| g.len() == 1);
+        let grid = json!({"params.radius": [0.1, 0.2]});
+        assert!(single(groups(
+            json!({"base": base, "grid": grid, "radius_layers": false})
+        )));
+        let timed = json!({"scene": "x", "halt": {"time_s": 4}});
+        assert!(single(groups(json!({"base": timed, "grid": grid}))));
+        let listed = json!({"scene": "x", "halt": {"spp": 4}, "params": {"radii": [0.5]}});
+        assert!(single(groups(json!({"base": listed, "grid": grid}))));
+        let odd = json!({"params.radius": [0.1, "auto"]});
+        assert!(single(groups(json!({"base": base, "grid": odd}))));
+        let spec: SweepSpec = serde_json::from_value(json!({"base": base, "grid": grid})).unwrap();
+        let expanded = spec.expand("s").unwrap();
+        let job = layered_spec(&[&expanded[0].1, &expanded[1].1]);
+        assert_eq!(job.params["radius"], json!(0.1));
+        assert_eq!(job.params["radii"], json!([0.2]));
     }
 }

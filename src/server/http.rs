@@ -5,6 +5,7 @@ use super::auth::Token;
 use super::error::ApiError;
 use crate::api::{AlgorithmInfo, ErrorBody, ErrorDetail, JobUrls, JobView};
 use crate::api::{SweepRow, SweepTable};
+use crate::job::layer_log::LayerRow;
 use crate::job::remote::WorkerInfo;
 use crate::job::scenes::SceneInfo;
 use crate::job::service::JobFilter;
@@ -134,6 +135,7 @@ pub fn app(svc: Svc, token: Option<String>) -> Router {
         .route("/jobs/{id}/snapshots", get(snapshots))
         .route("/jobs/{id}/snapshots/{file}", get(snapshot))
         .route("/jobs/{id}/log", get(log))
+        .route("/jobs/{id}/layers", get(layer_log))
         .route("/jobs/{id}/events", get(events))
         .route("/sweeps", post(create_sweep))
         .route("/sweeps/{id}", get(get_sweep))
@@ -454,6 +456,20 @@ async fn log(
     Ok(bytes_response("text/csv", csv))
 }
 
+#[utoipa::path(get, path = "/v1/jobs/{id}/layers", description = "layers.csv: each radius layer's error per snapshot (jobs with `radii`), CSV, or JSON rows with `Accept: application/json`.", params(("id" = String, Path)), responses((status = 200, body = Vec<LayerRow>), (status = 404, body = ErrorBody)))]
+async fn layer_log(
+    State(svc): State<Svc>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    if wants(&headers, "application/json") {
+        let rows = blocking(&svc, move |s| s.layer_log(&id)).await?;
+        return Ok(Json(rows).into_response());
+    }
+    let csv = blocking(&svc, move |s| s.layer_log_csv(&id)).await?;
+    Ok(bytes_response("text/csv", csv))
+}
+
 /// Server-Sent Events for one job: its current state first, then progress, snapshot and
 /// state events, and a final `done`.
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", description = "Server-Sent Events: state first, then progress, snapshot and state events, ending with done.", params(("id" = String, Path)), responses((status = 200, content_type = "text/event-stream", body = String)))]
@@ -572,6 +588,7 @@ async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
         snapshots,
         snapshot,
         log,
+        layer_log,
         events,
         create_sweep,
         get_sweep,
@@ -588,6 +605,7 @@ async fn metrics(State(svc): State<Svc>) -> ApiResult<Response> {
         JobUrls,
         SceneInfo,
         LogRow,
+        LayerRow,
         SweepSpec,
         SweepTable,
         SweepRow,

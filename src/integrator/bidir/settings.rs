@@ -207,6 +207,11 @@ pub struct BidirSettings {
     pub medium_radii: Vec<f32>,
 }
 
+/// The EXR layer of `radii[i]`.
+pub fn radius_layer_name(i: usize) -> String {
+    format!("radius{i}")
+}
+
 impl Default for BidirSettings {
     fn default() -> Self {
         BidirSettings {
@@ -596,7 +601,7 @@ impl Layers {
         layers.radii = layers.names.len();
         layers
             .names
-            .extend((0..s.radii.len()).map(|i| format!("radius{i}")));
+            .extend((0..s.radii.len()).map(radius_layer_name));
         layers
     }
 }

@@ -2,6 +2,7 @@
 //! for the front ends.
 
 use super::{bad, Service};
+use crate::job::layer_log::{read_layer_log, LayerRow, LAYER_HEADER};
 use crate::job::store::{read_log, JobDir, LogRow};
 use crate::job::JobError;
 use std::path::Path;
@@ -65,6 +66,17 @@ impl Service {
         let dir = self.job_dir(id)?;
         Ok(std::fs::read(dir.log_csv())
             .unwrap_or_else(|_| format!("{}\n", crate::job::store::LOG_HEADER).into_bytes()))
+    }
+
+    pub fn layer_log(&self, id: &str) -> Result<Vec<LayerRow>, JobError> {
+        Ok(read_layer_log(&self.job_dir(id)?))
+    }
+
+    /// layers.csv; its header alone for a job that has none (yet, or no `radii`).
+    pub fn layer_log_csv(&self, id: &str) -> Result<Vec<u8>, JobError> {
+        let dir = self.job_dir(id)?;
+        Ok(std::fs::read(dir.layers_csv())
+            .unwrap_or_else(|_| format!("{LAYER_HEADER}\n").into_bytes()))
     }
 }
 

@@ -1,5 +1,7 @@
-// A sweep's table (GET /v1/sweeps/ID): one row per job with a thumbnail of its
-// latest image, sortable by any column, refreshed while jobs run; CSV download.
+// A sweep's table (GET /v1/sweeps/ID): one row per grid point with a thumbnail of its
+// job's latest image (points rendered as a radius layer of a shared job name the
+// layer instead: previews show main images), sortable by any column, refreshed while
+// jobs run; CSV download.
 
 import { api, blob, download } from "./api.js";
 import { el, errorBox, fmtNum, showBlob, stateBadge, TERMINAL } from "./util.js";
@@ -32,10 +34,12 @@ export function sweepPage(view, route, signal) {
       { key: "iterations", label: "iterations", get: (r) => r.iterations, num: true },
       { key: "time_s", label: "time (s)", get: (r) => r.time_s, num: true },
       { key: "rmse", label: "RMSE", get: (r) => r.rmse, num: true },
+      ...(table.rows.some((r) => r.layer) ? [{ key: "layer", label: "layer", get: (r) => r.layer }] : []),
     ];
   };
 
   const thumb = (r) => {
+    if (r.layer) return el("span", { class: "muted" }, `layer ${r.layer}`);
     let t = thumbs.get(r.job);
     if (!t) {
       t = { img: el("img", { class: "thumb", alt: r.job }), iteration: -1 };
@@ -78,6 +82,7 @@ export function sweepPage(view, route, signal) {
         if (c.key === "job") return el("td", {}, el("a", { href: `#/job/${encodeURIComponent(r.job)}` }, r.job));
         if (c.key === "state") return el("td", {}, stateBadge(r.state));
         const v = c.get(r);
+        if (c.key === "layer") return el("td", {}, v ?? "main");
         return el("td", { class: "num" }, typeof v === "number" ? fmtNum(v, 4) : v == null ? "–" : JSON.stringify(v));
       }))));
   };

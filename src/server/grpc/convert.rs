@@ -183,14 +183,19 @@ pub(super) fn job_to_pb(j: JobStatus) -> pb::Job {
 }
 
 pub(super) fn sweep_to_pb(s: Sweep) -> pb::Sweep {
+    let layers: Vec<String> = (0..s.jobs.len())
+        .map(|i| s.layer(i).unwrap_or_default().to_string())
+        .collect();
     pb::Sweep {
         spec_json: serde_json::to_string(&s.spec).expect("sweep spec serialises"),
         jobs: s
             .jobs
             .into_iter()
-            .map(|(point, job_id)| pb::SweepJob {
+            .zip(layers)
+            .map(|((point, job_id), layer)| pb::SweepJob {
                 point_json: point.into_iter().map(|(k, v)| (k, v.to_string())).collect(),
                 job_id,
+                layer,
             })
             .collect(),
         id: s.id,
