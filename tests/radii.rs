@@ -153,6 +153,40 @@ fn upbp_radius_layers_in_fog_equal_separate_jobs() {
     );
 }
 
+/// `upbp` with every estimator, the beams included: each layer's point x beam 2D
+/// and beam x beam 1D radii from `pb2d_radii` and `bb1d_radii`, or the job's own
+/// (then only their MIS weights differ from the main image's), with short and long
+/// query beams.
+#[test]
+fn upbp_beam_radius_layers_in_fog_equal_separate_jobs() {
+    let scene = shipped_media("fog-cornell", 16, 8);
+    for query_beams in ["short", "long"] {
+        let base = json!({"radius": 0.03, "medium_radius": 0.05, "pb2d_radius": 0.04,
+                          "bb1d_radius": 0.015, "query_beams": query_beams,
+                          "techniques": "bpt+surf+pp3d+pb2d+bb1d"});
+        assert_layers_are_separate_jobs(
+            &scene,
+            "upbp",
+            base.clone(),
+            json!({"radii": [0.06, 0.015], "medium_radii": [0.1, 0.03],
+                   "pb2d_radii": [0.08, 0.02], "bb1d_radii": [0.03, 0.008]}),
+            &[
+                json!({"radius": 0.06, "medium_radius": 0.1, "pb2d_radius": 0.08,
+                       "bb1d_radius": 0.03}),
+                json!({"radius": 0.015, "medium_radius": 0.03, "pb2d_radius": 0.02,
+                       "bb1d_radius": 0.008}),
+            ],
+        );
+        assert_layers_are_separate_jobs(
+            &scene,
+            "upbp",
+            base,
+            json!({"radii": [0.06]}),
+            &[json!({"radius": 0.06})],
+        );
+    }
+}
+
 /// The error of resolving `alg` with `params`, which must name `field` (and not be
 /// serde's refusal of an unknown field).
 fn refused(alg: &str, params: Value, field: &str) {
@@ -181,7 +215,19 @@ fn radii_are_checked() {
     // An empty list asks for no layers.
     let none = Settings::resolve(Some("vcm"), None, &map(json!({"radii": []})));
     assert!(none.is_ok(), "{none:?}");
-    refused("upbp", json!({"radii": [0.01]}), "pb2d");
+    let all = json!({"radii": [0.01], "pb2d_radii": [0.02], "bb1d_radii": [0.01],
+                     "techniques": "bpt+surf+pp3d+pb2d+bb1d"});
+    Settings::resolve(Some("upbp"), None, &map(all)).unwrap();
+    refused(
+        "upbp",
+        json!({"radii": [0.01, 0.02], "bb1d_radii": [0.05]}),
+        "bb1d_radii",
+    );
+    refused(
+        "upbp",
+        json!({"radii": [0.01], "pb2d_radii": [-1.0]}),
+        "pb2d_radii",
+    );
     refused("vcm", json!({"radii": [0.01, -0.02]}), "radii");
     refused("bpm", json!({"radii": [0.0]}), "radii");
     refused("vcm", json!({"radii": vec![0.01; 17]}), "radii");

@@ -147,10 +147,9 @@ fn radius_sweeps_that_cannot_share_a_job_run_separately() {
         .map(|r| r["job"].as_str().unwrap())
         .collect();
     assert_eq!(jobs.len(), 3, "{table}");
-    // An algorithm without radius layers (upbp with photon beams): separate jobs.
+    // An algorithm without radius layers (sppm): separate jobs.
     let spec = json!({
-        "base": {"scene": setup.0, "algorithm": "upbp", "halt": {"iterations": 1},
-                 "params": {"techniques": ["bpt", "pb2d"], "light_paths": 0.25}},
+        "base": {"scene": setup.0, "algorithm": "sppm", "halt": {"iterations": 1}},
         "grid": {"params.radius": RADII},
     });
     let (code, table) = s.post_json("/v1/sweeps", &spec);

@@ -432,7 +432,7 @@ impl Settings {
         let (Settings::Bpm(s) | Settings::Vcm(s) | Settings::Upbp(s)) = self else {
             return Vec::new();
         };
-        let medium = |i: usize| s.medium_radii.get(i).copied().or(s.medium_radius);
+        let medium = |i: usize| s.layer_radii(i)[1];
         let layer = |(i, &r): (usize, &f32)| (bidir::radius_layer_name(i), r, medium(i));
         s.radii.iter().enumerate().map(layer).collect()
     }

@@ -53,14 +53,14 @@ pub struct StepResult {
 /// the settings to build one from.
 pub enum Held {
     Live(Box<Live>),
-    Settings(JobSettings),
+    Settings(Box<JobSettings>),
 }
 
 /// Runs the next batch of `status`'s job, building its runtime first if needed.
 pub fn step(ctx: &Context, held: Held, mut status: JobStatus) -> StepResult {
     let mut live = match held {
         Held::Live(live) => live,
-        Held::Settings(settings) => match start(ctx, settings, &mut status) {
+        Held::Settings(settings) => match start(ctx, *settings, &mut status) {
             Ok(live) => Box::new(live),
             Err(e) => return fail(ctx, status, e),
         },

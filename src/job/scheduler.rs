@@ -166,7 +166,7 @@ pub fn run(shared: Arc<Shared>, pool: Arc<rayon::ThreadPool>) {
             e.active = true;
             let held = match e.runtime.take() {
                 Some(rt) => Held::Live(rt),
-                None => Held::Settings(e.settings.clone()),
+                None => Held::Settings(Box::new(e.settings.clone())),
             };
             // A queued job is running from here on, and says so before its batch
             // reports any progress: watchers see `state` before `progress` (job.json

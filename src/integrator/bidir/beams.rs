@@ -25,19 +25,23 @@
 //!
 //! [`Mis::beam_scale`]: crate::integrator::paths::partial::Mis::beam_scale
 
+use super::camera_path::record;
+use super::radius_layers::light_q;
 use super::Pass;
 use crate::integrator::estimators::beam_estimate::{meet, Meeting};
 use crate::integrator::estimators::beams::{collect, Beam, BeamForm};
 use crate::integrator::estimators::{Lbvh, Point, PointBvh};
 use crate::integrator::memory::{array, refilled};
 use crate::integrator::paths::light_vertex::{LightVertex, MEDIUM_VERTEX};
-use crate::integrator::paths::partial::{self as mis, Merge, Partial, Site, MIN_BEAM_SIN};
+use crate::integrator::paths::partial::{self as mis, Merge, Mis, Partial, Site, MIN_BEAM_SIN};
+use crate::integrator::paths::parts::{Parts, RadiusLayer};
 use crate::integrator::paths::segments::{LightSegment, NO_AREA};
-use crate::integrator::paths::store::{path_segments, Chunk};
+use crate::integrator::paths::store::{path_segment_parts, path_segments, Chunk};
 use crate::integrator::paths::vertex::{mis_sigma, MediumPoint};
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Medium;
+use std::sync::atomic::AtomicU32;
 
 impl Point for LightVertex {
     #[inline(always)]
@@ -58,6 +62,10 @@ pub(super) struct BeamStore {
     segments: Vec<LightSegment>,
     beams: Vec<Beam>,
     beam_bvh: Lbvh<Beam>,
+    /// With radius layers, the points' and the segments' [`Parts`] (theirs, and for a
+    /// segment the pending ones of its start), in `points`' and `segments`' order.
+    point_parts: Vec<Parts>,
+    segment_parts: Vec<[Parts; 2]>,
 }
 
 impl BeamStore {
@@ -66,16 +74,34 @@ impl BeamStore {
         self.points.clear();
         self.segments.clear();
         self.beams.clear();
+        self.point_parts.clear();
+        self.segment_parts.clear();
+        let radii = !pass.radius_layers.is_empty();
         if pass.technique.uses(Merge::PointBeam2d) {
             let all = chunks.iter().flat_map(|c| c.vertices.iter());
             let medium = all.filter(|v| v.material == MEDIUM_VERTEX);
             self.points.extend(medium.copied());
+            if radii {
+                let all = chunks.iter().flat_map(|c| c.vertices.iter().zip(&c.parts));
+                let medium = all.filter(|(v, _)| v.material == MEDIUM_VERTEX);
+                self.point_parts.extend(medium.map(|(_, p)| *p));
+            }
         }
         self.point_bvh.build(&mut self.points);
+        if radii && !self.points.is_empty() {
+            // The BVH reordered the points: their parts follow.
+            let parts = std::mem::take(&mut self.point_parts);
+            let order = self.point_bvh.order();
+            self.point_parts.extend(order.map(|i| parts[i]));
+        }
         if pass.technique.uses(Merge::BeamBeam1d) {
             let n = pass.beam_paths.min(pass.light_paths);
             for path in 0..n {
                 self.segments.extend_from_slice(path_segments(chunks, path));
+                if radii {
+                    let parts = path_segment_parts(chunks, path);
+                    self.segment_parts.extend_from_slice(parts);
+                }
             }
             let scene = pass.scene;
             let piece = scene.sphere.radius * PIECE;
@@ -98,7 +124,9 @@ impl BeamStore {
     }
 
     pub fn bytes(&self) -> usize {
-        self.points.capacity() * std::mem::size_of::<LightVertex>()
+        self.point_parts.capacity() * std::mem::size_of::<Parts>()
+            + self.segment_parts.capacity() * std::mem::size_of::<[Parts; 2]>()
+            + self.points.capacity() * std::mem::size_of::<LightVertex>()
             + self.segments.capacity() * std::mem::size_of::<LightSegment>()
             + self.beams.capacity() * std::mem::size_of::<Beam>()
             + self.point_bvh.bytes()
@@ -138,6 +166,16 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Pa
     (mis.cut(q, mis.hit_share(s.vol, s.pending, tr, sigma)), tr)
 }
 
+/// The parts of [`partial_at`]'s partial weights, from the segment's start's
+/// `[parts, pending parts]` (radius layers).
+fn parts_at(pass: &Pass, [parts, pending]: &[Parts; 2], tr: f32, sigma: f32) -> Parts {
+    let at = pass.mis.hit_parts(*parts, *pending, tr, sigma);
+    match pass.mis.first_medium {
+        true => at.without_media(),
+        false => at,
+    }
+}
+
 /// The camera's query beam along camera segment `c`, and the medium it is in.
 fn query_beam<'a>(pass: &'a Pass, c: &LightSegment, rng: &mut Rng) -> Option<(Beam, &'a Medium)> {
     let m = &pass.scene.media[c.medium as usize];
@@ -146,8 +184,8 @@ fn query_beam<'a>(pass: &'a Pass, c: &LightSegment, rng: &mut Rng) -> Option<(Be
 }
 
 /// What both beam estimators read of the camera side: its segment, query beam, the
-/// MIS factor D of its medium (homogeneous; see [`Query::sigma_at`]), and the camera
-/// subpath's length.
+/// MIS factor D of its medium (homogeneous; see [`Query::sigma_at`]), the camera
+/// subpath's length, and with radius layers the parts where its flight began.
 struct Query<'a> {
     c: &'a LightSegment,
     beam: Beam,
@@ -157,6 +195,31 @@ struct Query<'a> {
     /// In a homogeneous medium, the continuation probability and sigma_s, the same at
     /// every point (read once per query rather than per merge).
     uniform: Option<(f32, Rgb)>,
+    parts: Parts,
+}
+
+/// Where the two sides of a beam estimate meet, as its MIS reads it: the merged
+/// vertex's D (`sigma`), the camera segment's MIS transmittance to it (`tr`), the
+/// sine between the two directions, both sides' partial weights (light, camera),
+/// their continuation probabilities (camera, light) and the phase function.
+struct Meet {
+    sigma: f32,
+    tr: f32,
+    sin: f32,
+    q: (Partial, Partial),
+    cont: (f32, f32),
+    ph: f32,
+}
+
+impl Meet {
+    /// Estimator `k`'s weight under `mis`, the sides' partial weights being `q`.
+    #[inline(always)]
+    fn weight(&self, mis: &Mis, k: Merge, (ql, qc): (Partial, Partial)) -> f32 {
+        let own = mis.eta(k, self.sigma, self.sin, self.tr);
+        let all = mis.merges(Site::Medium, self.sigma, self.sin, None, self.tr);
+        let (cont_c, cont_l) = self.cont;
+        mis.weight_merge(ql, qc, (own, all), self.ph * cont_c, self.ph * cont_l)
+    }
 }
 
 impl Query<'_> {
@@ -170,28 +233,35 @@ impl Query<'_> {
         }
     }
 
-    /// The MIS weight of estimator `k` for the path through the camera point `xc`
-    /// (`tc` along the query beam), whose vertex has MIS factor `sigma`, and the light
-    /// point with partial weights `ql`, continuation `cont_l` and incoming direction
-    /// `wl` (towards its predecessor).
-    #[allow(clippy::too_many_arguments)]
-    fn weight(
+    /// The meeting at the camera point `xc` (`tc` along the query beam), whose vertex
+    /// has MIS factor `sigma`, of the light point with partial weights `ql`,
+    /// continuation `cont_l` and incoming direction `wl` (towards its predecessor).
+    #[inline(always)]
+    fn meet(
         &self,
         pass: &Pass,
-        k: Merge,
         (xc, tc, sigma): (Vec3, f32, f32),
-        ql: Partial,
-        cont_l: f32,
-        wl: Vec3,
+        (ql, cont_l, wl): (Partial, f32, Vec3),
         ph: f32,
-    ) -> f32 {
+    ) -> Meet {
         let sin = pass.mis.sine(self.beam.d, wl);
         let (qc, tr) = partial_at(pass, self.c, xc, tc, sigma);
-        let own = pass.mis.eta(k, sigma, sin, tr);
-        let all = pass.mis.merges(Site::Medium, sigma, sin, None, tr);
         let cont_c = self.continuation(pass, xc);
-        pass.mis
-            .weight_merge(ql, qc, (own, all), ph * cont_c, ph * cont_l)
+        Meet {
+            sigma,
+            tr,
+            sin,
+            q: (ql, qc),
+            cont: (cont_c, cont_l),
+            ph,
+        }
+    }
+
+    /// The camera side's partial weights at meeting `m` in radius layer `l`.
+    #[inline(always)]
+    fn camera_q(&self, pass: &Pass, m: &Meet, l: &RadiusLayer) -> Partial {
+        let parts = parts_at(pass, &[self.parts, Parts::default()], m.tr, m.sigma);
+        pass.mis.rescale(m.q.1, &parts, &l.scale)
     }
 
     /// The continuation probability of a vertex at x in the query's medium.
@@ -213,24 +283,46 @@ impl Query<'_> {
     }
 }
 
+/// Each radius layer's sum of one estimator along one query (empty without layers).
+fn layer_sums<const RADII: bool>(pass: &Pass) -> Vec<Rgb> {
+    match RADII {
+        true => vec![Rgb::ZERO; pass.radius_layers.len()],
+        false => Vec::new(),
+    }
+}
+
+/// The widest radius of estimator `k` over the pass and its radius layers.
+fn widest(pass: &Pass, k: Merge) -> f32 {
+    let layers = pass.radius_layers.iter().map(|l| l.radii[k as usize]);
+    layers.fold(pass.radii[k as usize], f32::max)
+}
+
 /// Point x beam 2D along the query beam: (1 / (N pi r^2)) sum over the medium light
 /// vertices y within r of it of w(t) f(y.wo, -d) beta_y times the MIS weight, per unit
-/// of the camera throughput at the segment's start.
-fn point_beam(
+/// of the camera throughput at the segment's start. With radius layers the query
+/// reaches the widest radius and each layer sums the vertices within its own into
+/// `layers`; vertices outside the job's radius take their w(t) from a copy of the
+/// random stream, so that the job's own image is the one it renders without layers.
+fn point_beam<const RADII: bool>(
     pass: &Pass,
     store: &BeamStore,
     q: &Query,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    layers: &mut [Rgb],
 ) -> Rgb {
     let b = &q.beam;
     let phase = q.m.phase();
     let (max_depth, mis) = (pass.s.max_depth, &pass.mis);
     let mut sum = Rgb::ZERO;
-    let r = pass.radii[Merge::PointBeam2d as usize];
+    let k = Merge::PointBeam2d;
+    let r = pass.radii[k as usize];
+    let reach = if RADII { widest(pass, k) } else { r };
+    let mut spare = rng.clone();
+    let points = &store.points;
     store
         .point_bvh
-        .query(&store.points, b.o, b.d, b.len, r, |y, t| {
+        .query_d2(points, b.o, b.d, b.len, reach, |y, t, d2| {
             if y.medium != q.c.medium || y.len + q.camera_len > max_depth {
                 return;
             }
@@ -245,77 +337,141 @@ fn point_beam(
                 y.q
             };
             let at = (x, t, q.sigma_at(pass, x));
-            let w = q.weight(pass, Merge::PointBeam2d, at, yq, y.cont, y.wo, ph);
-            stats.merges += 1;
-            sum += y.throughput * b.weight_at(q.m, t, rng) * (ph * w);
+            let m = q.meet(pass, at, (yq, y.cont, y.wo), ph);
+            let own = d2 <= r * r;
+            let wt = if own {
+                let w = m.weight(mis, k, m.q);
+                stats.merges += 1;
+                let wt = b.weight_at(q.m, t, rng);
+                sum += y.throughput * wt * (ph * w);
+                wt
+            } else {
+                b.weight_at(q.m, t, &mut spare)
+            };
+            if RADII {
+                // The grid's storage order indexes the points and their parts alike.
+                let i = (y as *const LightVertex as usize - points.as_ptr() as usize)
+                    / std::mem::size_of::<LightVertex>();
+                let parts = &store.point_parts[i];
+                for (l, sum) in pass.radius_layers.iter().zip(layers.iter_mut()) {
+                    if d2 <= l.radii[k as usize].powi(2) {
+                        let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, l);
+                        let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, &m, l)));
+                        *sum += y.throughput * wt * (ph * w);
+                    }
+                }
+            }
         });
-    sum * pass.norms[Merge::PointBeam2d as usize]
+    sum * pass.norms[k as usize]
+}
+
+/// Where a photon beam crosses the query beam within a radius: the closest points,
+/// along the query (`tc`) and the beam (`tb`), and the sine of their angle.
+struct Crossing {
+    tc: f32,
+    tb: f32,
+    sin: f32,
 }
 
 /// Beam x beam 1D along the query beam: over the photon beams crossing within r at
 /// sine >= MIN_BEAM_SIN, beta_b w_b(t_b) w_c(t_c) sigma_s(x_c) f(d_b, -d) /
-/// (2 r sin theta) times the MIS weight (beta_b holds 1 / N of the beam paths).
-fn beam_beam(
+/// (2 r sin theta) times the MIS weight (beta_b holds 1 / N of the beam paths). With
+/// radius layers, as [`point_beam`]: the widest radius, each layer its own.
+fn beam_beam<const RADII: bool>(
     pass: &Pass,
     store: &BeamStore,
     q: &Query,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    layers: &mut [Rgb],
 ) -> Rgb {
     let c = &q.beam;
     let phase = q.m.phase();
     let max_depth = pass.s.max_depth;
-    let r = pass.radii[Merge::BeamBeam1d as usize];
+    let k = Merge::BeamBeam1d;
+    let r = pass.radii[k as usize];
+    let reach = if RADII { widest(pass, k) } else { r };
+    let mut spare = rng.clone();
     let mut sum = Rgb::ZERO;
-    store.beam_bvh.visit(&store.beams, c.o, c.d, c.len, r, |b| {
-        if b.medium != q.c.medium || b.depth + q.camera_len > max_depth {
-            return;
-        }
-        let Some(Meeting::Cross { tc, tb, sin }) = meet(c.o, c.d, c.len, b, r, MIN_BEAM_SIN) else {
-            return;
-        };
-        let ph = phase.eval(b.d, -c.d);
-        if ph <= 0.0 {
-            return;
-        }
-        let s = &store.segments[b.seg as usize];
-        let (xc, xl) = (c.o + c.d * tc, b.o + b.d * tb);
-        let sigma = q.sigma_at(pass, xc);
-        let (ql, _) = partial_at(pass, s, xl, b.start + tb, sigma);
-        let cont_l = q.continuation(pass, xl);
-        let w = q.weight(
-            pass,
-            Merge::BeamBeam1d,
-            (xc, tc, sigma),
-            ql,
-            cont_l,
-            -b.d,
-            ph,
-        );
-        stats.merges += 1;
-        let wc = c.weight_at(q.m, tc, rng);
-        let sigma_s = q.sigma_s(xc);
-        sum += b.beta * b.weight_at(q.m, tb, rng) * wc * sigma_s * (ph * w / (2.0 * r * sin));
-    });
+    let crossing = |b: &Beam, r: f32| match meet(c.o, c.d, c.len, b, r, MIN_BEAM_SIN) {
+        Some(Meeting::Cross { tc, tb, sin }) => Some(Crossing { tc, tb, sin }),
+        _ => None,
+    };
+    store
+        .beam_bvh
+        .visit(&store.beams, c.o, c.d, c.len, reach, |b| {
+            if b.medium != q.c.medium || b.depth + q.camera_len > max_depth {
+                return;
+            }
+            let ph = phase.eval(b.d, -c.d);
+            if ph <= 0.0 {
+                return;
+            }
+            let s = &store.segments[b.seg as usize];
+            // The meeting and its value (all but the MIS weight and 1 / (2 r sin)).
+            let estimate = |x: &Crossing, rng: &mut Rng| {
+                let (xc, xl) = (c.o + c.d * x.tc, b.o + b.d * x.tb);
+                let sigma = q.sigma_at(pass, xc);
+                let (ql, tr_l) = partial_at(pass, s, xl, b.start + x.tb, sigma);
+                let cont_l = q.continuation(pass, xl);
+                let m = q.meet(pass, (xc, x.tc, sigma), (ql, cont_l, -b.d), ph);
+                let wc = c.weight_at(q.m, x.tc, rng);
+                let value = b.beta * b.weight_at(q.m, x.tb, rng) * wc * q.sigma_s(xc) * ph;
+                (m, tr_l, value)
+            };
+            let own = crossing(b, r).map(|x| {
+                let (m, tr_l, value) = estimate(&x, rng);
+                stats.merges += 1;
+                sum += value * (m.weight(&pass.mis, k, m.q) / (2.0 * r * x.sin));
+                (m, tr_l, value)
+            });
+            if !RADII {
+                return;
+            }
+            for (l, sum) in pass.radius_layers.iter().zip(layers.iter_mut()) {
+                let rl = l.radii[k as usize];
+                let Some(x) = crossing(b, rl) else {
+                    continue;
+                };
+                // The closest points do not depend on the radius: the job's estimate
+                // serves where it exists.
+                let fresh;
+                let (m, tr_l, value) = match &own {
+                    Some((m, tr_l, value)) => (m, *tr_l, *value),
+                    None => {
+                        fresh = estimate(&x, &mut spare);
+                        (&fresh.0, fresh.1, fresh.2)
+                    }
+                };
+                let parts = parts_at(pass, &store.segment_parts[b.seg as usize], tr_l, m.sigma);
+                let ql = pass.mis.rescale(m.q.0, &parts, &l.scale);
+                let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, m, l)));
+                *sum += value * (w / (2.0 * rl * x.sin));
+            }
+        });
     sum
 }
 
 /// Both beam estimators along the camera's segments of one flight (`pieces`, each
-/// with the throughput at its start), the camera subpath `camera_len` segments long;
-/// `out(k, value)` receives each estimator's part.
-pub(super) fn gather(
+/// with the throughput at its start), the camera subpath `camera_len` segments long
+/// and its parts `parts` where the flight began; `out(k, value)` receives each
+/// estimator's part, and with radius layers (`RADII`) their values go to `slots`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn gather<const RADII: bool>(
     pass: &Pass,
     store: &BeamStore,
-    pieces: &[LightSegment],
+    (pieces, parts): (&[LightSegment], Parts),
     camera_len: u32,
     rng: &mut Rng,
     stats: &mut RenderStats,
+    slots: &[AtomicU32],
     mut out: impl FnMut(Merge, Rgb),
 ) {
     if camera_len == 1 && !pass.s.merge_first {
         return;
     }
     let (pb, bb) = (pass.uses(Merge::PointBeam2d), pass.uses(Merge::BeamBeam1d));
+    let mut layers = layer_sums::<RADII>(pass);
     for c in pieces {
         let Some((beam, m)) = query_beam(pass, c, rng) else {
             continue;
@@ -333,18 +489,30 @@ pub(super) fn gather(
             sigma,
             camera_len,
             uniform,
+            parts,
         };
         if pb {
-            out(
-                Merge::PointBeam2d,
-                c.beta * point_beam(pass, store, &q, rng, stats),
-            );
+            let v = point_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
+            out(Merge::PointBeam2d, c.beta * v);
+            record_layers(pass, slots, Merge::PointBeam2d, c.beta, &mut layers);
         }
         if bb {
-            out(
-                Merge::BeamBeam1d,
-                c.beta * beam_beam(pass, store, &q, rng, stats),
-            );
+            let v = beam_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
+            out(Merge::BeamBeam1d, c.beta * v);
+            record_layers(pass, slots, Merge::BeamBeam1d, c.beta, &mut layers);
         }
+    }
+}
+
+/// Records each radius layer's sum of estimator `k` (times `beta`, and for the point
+/// estimator its kernel normalisation) and clears it.
+fn record_layers(pass: &Pass, slots: &[AtomicU32], k: Merge, beta: Rgb, sums: &mut [Rgb]) {
+    for (l, sum) in pass.radius_layers.iter().zip(sums) {
+        let norm = match k {
+            Merge::PointBeam2d => l.norms[k as usize],
+            _ => 1.0,
+        };
+        record(slots, Some(l.layer), beta * *sum * norm);
+        *sum = Rgb::ZERO;
     }
 }

@@ -264,6 +264,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         let mut over = false;
         let mut sink = SegmentSink {
             out: &mut p.pieces,
+            parts: None,
             budget: usize::MAX,
             over_budget: &mut over,
             start: FlightStart {
@@ -273,6 +274,8 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
                 vol: 0.0,
                 from: walk.origin,
                 area: NO_AREA,
+                // The query segments' parts are the flight's start's (gather_beams).
+                parts: [Parts::default(); 2],
             },
         };
         let scene = self.pass.scene;
@@ -293,7 +296,10 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         if pass.mis.cuts(p.walk.medium_seen) {
             return;
         }
-        beams::gather(pass, &self.ws.beams, &p.pieces, len, rng, stats, |k, v| {
+        // The walk's parts are still those where the flight began.
+        let pieces = (&p.pieces[..], p.walk.parts);
+        let store = &self.ws.beams;
+        beams::gather::<RADII>(pass, store, pieces, len, rng, stats, layers, |k, v| {
             add(l, layers, pass.layers.merge(k, len), v);
         });
     }

@@ -110,17 +110,17 @@ impl Bidir {
         let light_paths = light_path_count(pixels, self.s.light_paths);
         let s = &self.s;
         let beam_paths = beam_path_count(light_paths, s.beam_paths);
-        let sized = |radius: Option<f32>, medium: Option<f32>| {
-            let radii = self.radii(scene, iteration, radius, medium);
+        let sized = |initial: [Option<f32>; Merge::COUNT]| {
+            let radii = self.radii(scene, iteration, initial);
             let merges = self.merges(scene, radii, light_paths, beam_paths);
             (radii, merges, self.mis(light_paths, merges))
         };
-        let (radii, merges, mis) = sized(s.radius, s.medium_radius);
+        let job = [s.radius, s.medium_radius, s.pb2d_radius, s.bb1d_radius];
+        let (radii, merges, mis) = sized(job);
         let norms = |m: &Merges| ALL.map(|k| m.norm(k));
         let radius_layers = (0..s.radii.len())
             .map(|i| {
-                let medium = s.medium_radii.get(i).copied().or(s.medium_radius);
-                let (radii, merges, own) = sized(Some(s.radii[i]), medium);
+                let (radii, merges, own) = sized(s.layer_radii(i));
                 RadiusLayer {
                     scale: Scale::between(&mis, &own),
                     mis: own,
@@ -159,8 +159,7 @@ impl Bidir {
         &self,
         scene: &Scene,
         iteration: u64,
-        radius: Option<f32>,
-        medium: Option<f32>,
+        [radius, medium, pb2d, bb1d]: [Option<f32>; Merge::COUNT],
     ) -> [f32; Merge::COUNT] {
         let s = &self.s;
         let r0 = radius.unwrap_or(s.radius_factor * scene.sphere.radius);
@@ -176,8 +175,8 @@ impl Bidir {
         [
             surface,
             volume(medium, s.medium_radius_factor, s.medium_alpha, 3),
-            volume(s.pb2d_radius, s.pb2d_radius_factor, s.pb2d_alpha, 2),
-            volume(s.bb1d_radius, s.bb1d_radius_factor, s.bb1d_alpha, 1),
+            volume(pb2d, s.pb2d_radius_factor, s.pb2d_alpha, 2),
+            volume(bb1d, s.bb1d_radius_factor, s.bb1d_alpha, 1),
         ]
     }
 

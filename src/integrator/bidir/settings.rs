@@ -167,8 +167,9 @@ impl Estimators {
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
 /// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
 /// | `depth_layers` | false | with `technique_layers`: each merge layer split by the camera vertex or segment the merge sits at: `<technique>_c1`, `_c2`, `_c3+` |
-/// | `radii` | none | `bpm`, `vcm`, `upbp` (without `pb2d` and `bb1d`): more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
+/// | `radii` | none | `bpm`, `vcm`, `upbp`: more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
 /// | `medium_radii` | none | with `radii`: the layers' initial medium merge radii (as `medium_radius`), one per radius; absent, every layer keeps the job's own |
+/// | `pb2d_radii`, `bb1d_radii` | none | with `radii`: the layers' initial point x beam 2D and beam x beam 1D radii (as `pb2d_radius`, `bb1d_radius`), one per radius; absent, every layer keeps the job's own |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -205,6 +206,10 @@ pub struct BidirSettings {
     pub radii: Vec<f32>,
     #[serde(deserialize_with = "de_radii")]
     pub medium_radii: Vec<f32>,
+    #[serde(deserialize_with = "de_radii")]
+    pub pb2d_radii: Vec<f32>,
+    #[serde(deserialize_with = "de_radii")]
+    pub bb1d_radii: Vec<f32>,
 }
 
 /// The EXR layer of `radii[i]`.
@@ -244,6 +249,8 @@ impl Default for BidirSettings {
             strategy_images: 0,
             radii: Vec::new(),
             medium_radii: Vec::new(),
+            pb2d_radii: Vec::new(),
+            bb1d_radii: Vec::new(),
         }
     }
 }
@@ -426,7 +433,13 @@ impl BidirSettings {
     /// `radii` and `medium_radii`: positive, finite, at most MAX_RADII, with a
     /// technique that merges where they apply.
     fn check_radii(&self, technique: Technique) -> Result<(), ParamError> {
-        for (name, list) in [("radii", &self.radii), ("medium_radii", &self.medium_radii)] {
+        let lists = [
+            ("radii", &self.radii),
+            ("medium_radii", &self.medium_radii),
+            ("pb2d_radii", &self.pb2d_radii),
+            ("bb1d_radii", &self.bb1d_radii),
+        ];
+        for (name, list) in lists {
             if let Some(r) = list.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
                 let message = format!("{name} must be positive and finite, got {r}");
                 return Err(ParamError::new(name, message));
@@ -437,10 +450,12 @@ impl BidirSettings {
             let message = format!("radii lists at most {MAX_RADII} radii, got {n}");
             return Err(ParamError::new("radii", message));
         }
-        if !self.medium_radii.is_empty() && self.medium_radii.len() != n {
-            let m = self.medium_radii.len();
-            let message = format!("medium_radii needs one radius per radii entry ({n}), got {m}");
-            return Err(ParamError::new("medium_radii", message));
+        for (name, list) in &lists[1..] {
+            if !list.is_empty() && list.len() != n {
+                let m = list.len();
+                let message = format!("{name} needs one radius per radii entry ({n}), got {m}");
+                return Err(ParamError::new(*name, message));
+            }
         }
         if n == 0 {
             return Ok(());
@@ -449,11 +464,19 @@ impl BidirSettings {
             let message = "radii are merge radii: they need bpm, vcm or upbp";
             return Err(ParamError::new("radii", message));
         }
-        if technique.uses(Merge::PointBeam2d) || technique.uses(Merge::BeamBeam1d) {
-            let message = "radii covers surface and point x point merging: leave pb2d and bb1d out of upbp's techniques";
-            return Err(ParamError::new("radii", message));
-        }
         Ok(())
+    }
+
+    /// Layer `i`'s initial radius of each estimator, where its lists set one (else
+    /// the job's own: None where the job derives it from the scene).
+    pub fn layer_radii(&self, i: usize) -> [Option<f32>; Merge::COUNT] {
+        let own = |list: &[f32], job: Option<f32>| list.get(i).copied().or(job);
+        [
+            self.radii.get(i).copied(),
+            own(&self.medium_radii, self.medium_radius),
+            own(&self.pb2d_radii, self.pb2d_radius),
+            own(&self.bb1d_radii, self.bb1d_radius),
+        ]
     }
 
     fn check_techniques(&self) -> Result<(), ParamError> {
@@ -528,9 +551,17 @@ impl BidirSettings {
             e.add("photon points and beams", &driver, bytes);
         }
         if !self.radii.is_empty() {
-            // Each stored vertex's parts, in the store and again in its merge set.
-            let n = stored.surface + stored.medium;
-            let bytes = 2.0 * n * std::mem::size_of::<Parts>() as f64;
+            // Each stored vertex's parts, in the store and again in its merge set;
+            // the photon points' again in the beam store; each kept segment's two
+            // (its own and pending), in the store and at most as many in the beam store.
+            let mut n = 2.0 * (stored.surface + stored.medium);
+            if has_media && technique.uses(Merge::PointBeam2d) {
+                n += stored.medium;
+            }
+            if has_media && technique.uses(Merge::BeamBeam1d) {
+                n += 4.0 * stored.segments;
+            }
+            let bytes = n * std::mem::size_of::<Parts>() as f64;
             e.add("radius-layer parts", &driver, bytes);
         }
         let layers = self.layer_count(technique) as f64;

@@ -228,14 +228,35 @@ impl<T: Point> Lbvh<T> {
         r: f32,
         mut f: impl FnMut(&T, f32),
     ) {
+        self.query_d2(photons, o, d, tmax, r, |ph, t, _| f(ph, t));
+    }
+
+    /// [`Lbvh::query`], telling `f` each photon's squared distance from the segment
+    /// too (so a caller can sort the photons into narrower radii).
+    #[inline]
+    pub fn query_d2(
+        &self,
+        photons: &[T],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        r: f32,
+        mut f: impl FnMut(&T, f32, f32),
+    ) {
         let r2 = r * r;
         self.visit(photons, o, d, tmax, r, |ph| {
             let v = ph.position() - o;
             let t = v.dot(d);
-            if (0.0..tmax).contains(&t) && (v - d * t).length_squared() <= r2 {
-                f(ph, t);
+            let d2 = (v - d * t).length_squared();
+            if (0.0..tmax).contains(&t) && d2 <= r2 {
+                f(ph, t, d2);
             }
         });
+    }
+
+    /// The items' original indices in the order [`Lbvh::build`] left them.
+    pub fn order(&self) -> impl Iterator<Item = usize> + '_ {
+        self.keys.iter().map(|k| *k as u32 as usize)
     }
 }
 

@@ -85,6 +85,7 @@ impl ChunkTracer for Subpaths<'_, '_> {
         chunk.ends.clear();
         chunk.segments.clear();
         chunk.segment_ends.clear();
+        chunk.segment_parts.clear();
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
         chunk.over_budget = false;
@@ -204,7 +205,7 @@ fn trace_one<M: Media, const RADII: bool>(
                 Some((l, _, _, _, n0, _)) if walk.len == 1 => (l as u32, n0),
                 _ => NO_AREA,
             };
-            flight::<M>(
+            flight::<M, RADII>(
                 pass,
                 rng,
                 chunk,
@@ -265,7 +266,7 @@ fn trace_one<M: Media, const RADII: bool>(
 /// In media: the walk to the next event, keeping the segments it crosses when the
 /// pass asks for them; the event and its MIS transmittance.
 #[inline(always)]
-fn flight<'a, 's, M: Media>(
+fn flight<'a, 's, M: Media, const RADII: bool>(
     pass: &Pass<'s>,
     rng: &mut Rng,
     chunk: &mut Chunk,
@@ -276,12 +277,14 @@ fn flight<'a, 's, M: Media>(
 ) -> (Event<'a>, f32) {
     let Chunk {
         segments,
+        segment_parts,
         over_budget,
         stats,
         ..
     } = chunk;
     let mut sink = SegmentSink {
         out: segments,
+        parts: RADII.then_some(segment_parts),
         budget: budget.segments,
         over_budget,
         start: FlightStart {
@@ -291,6 +294,7 @@ fn flight<'a, 's, M: Media>(
             vol: walk.parts.media(),
             from: walk.origin,
             area,
+            parts: [walk.parts, walk.pending],
         },
     };
     let keep = pass.keep_segments.then_some(&mut sink);

@@ -9,6 +9,7 @@
 //! store never depends on the thread count.
 
 use super::partial::Partial;
+use super::parts::Parts;
 use crate::integrator::transport::medium_walk::Segment;
 use crate::math::{Rgb, Vec3};
 use crate::medium::Medium;
@@ -63,6 +64,9 @@ pub(crate) struct FlightStart {
     pub vol: f64,
     pub from: Vec3,
     pub area: (u32, Vec3),
+    /// With radius layers, the subpath's [`Parts`] and its pending ones where the
+    /// flight began (the per-estimator form of `q`'s dvc and dvm, and of `pending`).
+    pub parts: [Parts; 2],
 }
 
 impl LightSegment {
@@ -122,9 +126,11 @@ pub(crate) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option
     (len > 0.0 && len.is_finite()).then_some((len, rate))
 }
 
-/// Where a subpath's walk puts its segments, and how many it may still add.
+/// Where a subpath's walk puts its segments, and how many it may still add; with
+/// radius layers, where it puts each segment's `start.parts`, in the same order.
 pub(crate) struct SegmentSink<'a> {
     pub out: &'a mut Vec<LightSegment>,
+    pub parts: Option<&'a mut Vec<[Parts; 2]>>,
     pub budget: usize,
     pub over_budget: &'a mut bool,
     pub start: FlightStart,
@@ -137,6 +143,9 @@ impl SegmentSink<'_> {
         if self.out.len() < self.budget {
             self.out
                 .push(LightSegment::new(seg, t, &self.start, depth0));
+            if let Some(parts) = self.parts.as_mut() {
+                parts.push(self.start.parts);
+            }
         } else {
             *self.over_budget = true;
         }

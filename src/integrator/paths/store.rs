@@ -31,6 +31,17 @@ pub(crate) fn path_segments(chunks: &[Chunk], path: usize) -> &[LightSegment] {
     &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
 }
 
+/// The [`Chunk::segment_parts`] of [`path_segments`]`(chunks, path)`: empty
+/// without radius layers.
+pub(crate) fn path_segment_parts(chunks: &[Chunk], path: usize) -> &[[Parts; 2]] {
+    let (chunk, i) = (&chunks[path / PATHS_PER_TASK], path % PATHS_PER_TASK);
+    if chunk.segment_parts.is_empty() {
+        return &[];
+    }
+    let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
+    &chunk.segment_parts[begin as usize..chunk.segment_ends[i] as usize]
+}
+
 /// How many vertices and segments one chunk may store (`max_vertex_mib` each).
 #[derive(Clone, Copy)]
 pub(crate) struct Budget {
@@ -65,6 +76,10 @@ pub(crate) struct Chunk {
     /// Segments through media, when the pass keeps them, and per light path their end.
     pub(crate) segments: Vec<LightSegment>,
     pub(crate) segment_ends: Vec<u32>,
+    /// With `radii` layers, each segment's [`FlightStart::parts`] (else empty).
+    ///
+    /// [`FlightStart::parts`]: super::segments::FlightStart::parts
+    pub(crate) segment_parts: Vec<[Parts; 2]>,
     pub splats: Vec<Splat>,
     pub(crate) stats: RenderStats,
     /// A vertex was not stored because the budget was spent.
