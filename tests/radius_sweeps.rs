@@ -13,11 +13,16 @@ const ITERATIONS: u64 = 3;
 
 /// The tiny scene, uploaded, and a reference for it (a short `pt` render).
 fn scene_and_reference(s: &TestServer) -> (Value, Value) {
-    let scene = tiny_scene(16);
+    upload_with_reference(s, tiny_scene(16))
+}
+
+/// `scene` uploaded, and a reference for it (a short `pt` render).
+fn upload_with_reference(s: &TestServer, scene: Value) -> (Value, Value) {
     let (code, info) = s.post_bytes("/v1/scenes", scene.to_string().as_bytes());
     assert_eq!(code, 201, "{info}");
     let pixels = direct_render(&scene.to_string(), Some("pt"), &json!({}), 1, 16);
-    let img = caustic::film::Image::from_pixels(16, 16, pixels);
+    let size = scene["film"]["width"].as_u64().unwrap() as u32;
+    let img = caustic::film::Image::from_pixels(size, size, pixels);
     let exr = caustic::film::encode_exr(&img).unwrap();
     let (code, reference) = s.post_bytes("/v1/references", &exr);
     assert_eq!(code, 201, "{reference}");
@@ -25,13 +30,28 @@ fn scene_and_reference(s: &TestServer) -> (Value, Value) {
 }
 
 /// Runs a `vcm` sweep over `RADII` (with `extra` fields) to the end; its table.
-fn radius_sweep(s: &TestServer, (scene, reference): &(Value, Value), extra: Value) -> Value {
+fn radius_sweep(s: &TestServer, setup: &(Value, Value), extra: Value) -> Value {
+    let base = json!({"algorithm": "vcm"});
+    sweep_over(s, setup, (base, "params.radius"), extra)
+}
+
+/// Runs a sweep of `base` (fields added to the test's) over `key` taking `RADII`,
+/// with `extra` fields in the sweep spec, to the end; its table.
+fn sweep_over(
+    s: &TestServer,
+    (scene, reference): &(Value, Value),
+    (base, key): (Value, &str),
+    extra: Value,
+) -> Value {
     let mut spec = json!({
-        "base": {"scene": scene, "algorithm": "vcm", "seed": 5,
+        "base": {"scene": scene, "seed": 5,
                  "halt": {"iterations": ITERATIONS}, "reference": {"upload": reference},
                  "snapshot_every": {"iterations": 1}},
-        "grid": {"params.radius": RADII},
+        "grid": {key: RADII},
     });
+    for (k, v) in base.as_object().unwrap() {
+        spec["base"][k] = v.clone();
+    }
     for (k, v) in extra.as_object().unwrap() {
         spec[k] = v.clone();
     }
@@ -162,4 +182,29 @@ fn radius_sweeps_that_cannot_share_a_job_run_separately() {
     for id in jobs {
         assert_eq!(s.wait_job(id)["state"], "completed");
     }
+}
+
+/// A sweep over a volume radius (`upbp`'s beam x beam 1D radius, the job's `radius`
+/// fixed): one job whose layers repeat the radius and list the beam radii, each point
+/// with the error of a separate job.
+#[test]
+fn a_beam_radius_sweep_is_one_upbp_job() {
+    let s = TestServer::start(None);
+    let setup = upload_with_reference(&s, foggy_scene(12));
+    let base = json!({"algorithm": "upbp", "params": {"radius": 0.05, "light_paths": 0.5}});
+    let key = "params.bb1d_radius";
+    let layered = sweep_over(&s, &setup, (base.clone(), key), json!({}));
+    let separate = sweep_over(&s, &setup, (base, key), json!({"radius_layers": false}));
+    let (shared, own) = (rows(&layered), rows(&separate));
+    let job = shared[0]["job"].as_str().unwrap();
+    assert!(shared.iter().all(|r| r["job"] == job), "{layered}");
+    let (_, status) = s.get_json(&format!("/v1/jobs/{job}"));
+    let radii = &status["settings"]["radii"];
+    assert_eq!(radii.as_array().map(Vec::len), Some(2), "{status}");
+    for (a, b) in shared.iter().zip(own) {
+        let (x, y) = (a["rmse"].as_f64().unwrap(), b["rmse"].as_f64().unwrap());
+        assert!((x - y).abs() <= 1e-4 * y, "{}: {x} against {y}", a["point"]);
+    }
+    let r: Vec<f64> = own.iter().map(|r| r["rmse"].as_f64().unwrap()).collect();
+    assert!(r[0] != r[1] && r[1] != r[2], "{r:?}");
 }

@@ -135,22 +135,51 @@ impl SweepSpec {
     }
 }
 
+/// The radius parameters whose sweeps may share a job, each with the list that
+/// takes its other values as radius layers.
+const RADIUS_PARAMS: [(&str, &str); 4] = [
+    ("radius", "radii"),
+    ("medium_radius", "medium_radii"),
+    ("pb2d_radius", "pb2d_radii"),
+    ("bb1d_radius", "bb1d_radii"),
+];
+
+/// A swept radius parameter and its list (one of [`RADIUS_PARAMS`]).
+pub type SweptRadius = (&'static str, &'static str);
+
 impl SweepSpec {
+    /// The one radius parameter the grid sweeps over several values, if there is
+    /// exactly one.
+    pub fn swept_radius(&self) -> Option<SweptRadius> {
+        let swept = |(p, _): &&SweptRadius| {
+            let key = format!("params.{p}");
+            self.grid.get(&key).is_some_and(|v| v.len() > 1)
+        };
+        let mut all = RADIUS_PARAMS.iter().filter(swept);
+        let one = *all.next()?;
+        all.next().is_none().then_some(one)
+    }
+
     /// The expanded points (`expand`'s output) in groups that one job renders: points
-    /// that differ only in `params.radius` share a job whose main image takes the
-    /// first radius and whose `radii` layers the others, as separate jobs with those
-    /// radii and the same seed would render them (tests/radius_sweeps.rs). Only where
-    /// the halt is a count: under `halt.time_s` a job with layers runs fewer
-    /// iterations than each separate job would, and `halt.target_rmse` watches the
-    /// main image alone. Every other point is a group of its own. The service still
-    /// falls back to separate jobs where the algorithm has no radius layers.
+    /// that differ only in the swept radius parameter share a job whose main image
+    /// takes the first value and whose radius layers the others (`radii`, and for a
+    /// volume radius its list with `radii` repeating the job's `radius`), as separate
+    /// jobs with those radii and the same seed would render them
+    /// (tests/radius_sweeps.rs). Only where the halt is a count: under `halt.time_s` a
+    /// job with layers runs fewer iterations than each separate job would, and
+    /// `halt.target_rmse` watches the main image alone. Every other point is a group
+    /// of its own. The service still falls back to separate jobs where the algorithm
+    /// has no radius layers.
     pub fn radius_groups(&self, expanded: &[(Point, JobSpec)]) -> Vec<Vec<usize>> {
         let mut groups: Vec<(Option<String>, Vec<usize>)> = Vec::new();
-        let shared = self.radius_layers
-            && self.grid.get("params.radius").is_some_and(|v| v.len() > 1)
-            && !self.base.params.contains_key("radii");
+        let listed = RADIUS_PARAMS
+            .iter()
+            .any(|(_, list)| self.base.params.contains_key(*list));
+        let swept = self
+            .swept_radius()
+            .filter(|_| self.radius_layers && !listed);
         for (i, (_, spec)) in expanded.iter().enumerate() {
-            let key = shared.then(|| radius_free_key(spec)).flatten();
+            let key = swept.and_then(|(param, _)| radius_free_key(spec, param));
             match groups.iter_mut().find(|(k, _)| key.is_some() && *k == key) {
                 Some((_, g)) => g.push(i),
                 None => groups.push((key, vec![i])),
@@ -160,30 +189,38 @@ impl SweepSpec {
     }
 }
 
-/// What a job is apart from its `params.radius`, as text; None where the job may not
-/// share: a halt by time or error, or a radius that is not a positive number.
-fn radius_free_key(spec: &JobSpec) -> Option<String> {
+/// What a job is apart from its radius parameter `param`, as text; None where the job
+/// may not share: a halt by time or error, a value that is not a positive number, or
+/// for a volume radius a `radius` that is not one (the layers repeat it).
+fn radius_free_key(spec: &JobSpec, param: &str) -> Option<String> {
     if spec.halt.time_s.is_some() || spec.halt.target_rmse.is_some() {
         return None;
     }
-    let r = spec.params.get("radius")?.as_f64()?;
-    if !(r.is_finite() && r > 0.0) {
+    let positive = |key: &str| {
+        let r = spec.params.get(key).and_then(|v| v.as_f64());
+        r.is_some_and(|r| r.is_finite() && r > 0.0)
+    };
+    if !positive(param) || !positive("radius") {
         return None;
     }
     let mut rest = spec.clone();
-    rest.params.remove("radius");
+    rest.params.remove(param);
     serde_json::to_string(&rest).ok()
 }
 
-/// The one job of a group of `radius_groups`: the first spec with the others' radii
-/// as its `radii`.
-pub fn layered_spec(specs: &[&JobSpec]) -> JobSpec {
+/// The one job of a group of `radius_groups` over `(param, list)`: the first spec,
+/// with the others' values of `param` as `list` (and `radii` repeating its `radius`
+/// where the swept parameter is a volume radius).
+pub fn layered_spec(specs: &[&JobSpec], (param, list): SweptRadius) -> JobSpec {
     let mut job = specs[0].clone();
-    let radii: Vec<serde_json::Value> = specs[1..]
-        .iter()
-        .map(|s| s.params["radius"].clone())
-        .collect();
-    job.params.insert("radii".into(), radii.into());
+    let values: Vec<serde_json::Value> =
+        specs[1..].iter().map(|s| s.params[param].clone()).collect();
+    if param != "radius" {
+        let radius = job.params["radius"].clone();
+        job.params
+            .insert("radii".into(), vec![radius; values.len()].into());
+    }
+    job.params.insert(list.into(), values.into());
     job
 }
 
@@ -308,8 +345,24 @@ mod tests {
         assert!(single(groups(json!({"base": base, "grid": odd}))));
         let spec: SweepSpec = serde_json::from_value(json!({"base": base, "grid": grid})).unwrap();
         let expanded = spec.expand("s").unwrap();
-        let job = layered_spec(&[&expanded[0].1, &expanded[1].1]);
+        let job = layered_spec(&[&expanded[0].1, &expanded[1].1], ("radius", "radii"));
         assert_eq!(job.params["radius"], json!(0.1));
         assert_eq!(job.params["radii"], json!([0.2]));
+        // A volume radius: the layers repeat the job's radius, which must be set.
+        let fixed = json!({"scene": "x", "halt": {"spp": 4}, "params": {"radius": 0.05}});
+        let grid = json!({"params.pb2d_radius": [0.1, 0.2, 0.3]});
+        let spec = json!({"base": fixed, "grid": grid});
+        assert_eq!(groups(spec.clone()), vec![vec![0, 1, 2]]);
+        let spec: SweepSpec = serde_json::from_value(spec).unwrap();
+        assert_eq!(spec.swept_radius(), Some(("pb2d_radius", "pb2d_radii")));
+        let expanded = spec.expand("s").unwrap();
+        let specs: Vec<&JobSpec> = expanded.iter().map(|(_, j)| j).collect();
+        let job = layered_spec(&specs, ("pb2d_radius", "pb2d_radii"));
+        assert_eq!(job.params["radii"], json!([0.05, 0.05]));
+        assert_eq!(job.params["pb2d_radii"], json!([0.2, 0.3]));
+        assert!(single(groups(json!({"base": base, "grid": grid}))));
+        // Two radius parameters swept at once: no sharing.
+        let two = json!({"params.radius": [0.1, 0.2], "params.bb1d_radius": [0.1, 0.2]});
+        assert!(single(groups(json!({"base": base, "grid": two}))));
     }
 }

@@ -403,12 +403,18 @@ fn beam_beam<const RADII: bool>(
             if b.medium != q.c.medium || b.depth + q.camera_len > max_depth {
                 return;
             }
+            // Tested first: most beams the BVH visits pass farther than r.
+            let cross = crossing(b, r);
+            if !RADII && cross.is_none() {
+                return;
+            }
             let ph = phase.eval(b.d, -c.d);
             if ph <= 0.0 {
                 return;
             }
             let s = &store.segments[b.seg as usize];
-            // The meeting and its value (all but the MIS weight and 1 / (2 r sin)).
+            // The meeting and its value (all but the phase function, the MIS weight
+            // and 1 / (2 r sin)).
             let estimate = |x: &Crossing, rng: &mut Rng| {
                 let (xc, xl) = (c.o + c.d * x.tc, b.o + b.d * x.tb);
                 let sigma = q.sigma_at(pass, xc);
@@ -416,13 +422,13 @@ fn beam_beam<const RADII: bool>(
                 let cont_l = q.continuation(pass, xl);
                 let m = q.meet(pass, (xc, x.tc, sigma), (ql, cont_l, -b.d), ph);
                 let wc = c.weight_at(q.m, x.tc, rng);
-                let value = b.beta * b.weight_at(q.m, x.tb, rng) * wc * q.sigma_s(xc) * ph;
+                let value = b.beta * b.weight_at(q.m, x.tb, rng) * wc * q.sigma_s(xc);
                 (m, tr_l, value)
             };
-            let own = crossing(b, r).map(|x| {
+            let own = cross.map(|x| {
                 let (m, tr_l, value) = estimate(&x, rng);
                 stats.merges += 1;
-                sum += value * (m.weight(&pass.mis, k, m.q) / (2.0 * r * x.sin));
+                sum += value * (ph * m.weight(&pass.mis, k, m.q) / (2.0 * r * x.sin));
                 (m, tr_l, value)
             });
             if !RADII {
@@ -446,7 +452,7 @@ fn beam_beam<const RADII: bool>(
                 let parts = parts_at(pass, &store.segment_parts[b.seg as usize], tr_l, m.sigma);
                 let ql = pass.mis.rescale(m.q.0, &parts, &l.scale);
                 let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, m, l)));
-                *sum += value * (w / (2.0 * rl * x.sin));
+                *sum += value * (ph * w / (2.0 * rl * x.sin));
             }
         });
     sum

@@ -25,7 +25,7 @@ impl Service {
         let mut renders: Vec<(usize, Option<String>)> = vec![(0, None); expanded.len()];
         let mut prepared = Vec::new();
         for group in spec.radius_groups(&expanded) {
-            if let Some(job) = self.prepare_layered(&expanded, &group) {
+            if let Some(job) = self.prepare_layered(&spec, &expanded, &group) {
                 for (k, &i) in group.iter().enumerate() {
                     let layer = (k > 0).then(|| radius_layer_name(k - 1));
                     renders[i] = (prepared.len(), layer);
@@ -80,14 +80,13 @@ impl Service {
     /// layers, and the job fits the memory budget); None: separate jobs.
     fn prepare_layered(
         &self,
+        spec: &SweepSpec,
         expanded: &[(Point, JobSpec)],
         group: &[usize],
     ) -> Option<(JobStatus, Settings)> {
-        if group.len() < 2 {
-            return None;
-        }
+        let swept = spec.swept_radius().filter(|_| group.len() > 1)?;
         let specs: Vec<&JobSpec> = group.iter().map(|&i| &expanded[i].1).collect();
-        let job = self.prepare(layered_spec(&specs)).ok()?;
+        let job = self.prepare(layered_spec(&specs, swept)).ok()?;
         (job.1.radius_layers().len() + 1 == group.len()).then_some(job)
     }
 
