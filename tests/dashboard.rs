@@ -569,6 +569,55 @@ fn sweep_table_and_workers_page() {
     b.screenshot("workers");
 }
 
+/// A sweep over the merge radius runs as one job with radius layers: the sweep table
+/// names each point's layer, and the job's error plot draws a curve per layer.
+#[test]
+fn a_radius_sweep_shows_its_layers() {
+    let Some(b) = Browser::start() else { return };
+    let s = TestServer::start(None);
+    let scene = upload_cornell(&s);
+    let (code, reference) = s.post_json("/v1/jobs", &json!({"scene": scene, "halt": {"spp": 16}}));
+    assert_eq!(code, 201, "{reference}");
+    let reference = reference["id"].as_str().unwrap().to_string();
+    assert_eq!(s.wait_job(&reference)["state"], "completed");
+    let (code, table) = s.post_json(
+        "/v1/sweeps",
+        &json!({"base": {"scene": scene, "algorithm": "vcm", "halt": {"spp": 4},
+                         "reference": {"job": reference}, "snapshot_every": {"iterations": 1}},
+                "grid": {"params.radius": [0.02, 0.05]}}),
+    );
+    assert_eq!(code, 201, "{table}");
+    let rows = table["rows"].as_array().unwrap();
+    let job = rows[0]["job"].as_str().unwrap().to_string();
+    assert!(rows.iter().all(|r| r["job"] == job.as_str()), "{table}");
+    assert_eq!(s.wait_job(&job)["state"], "completed");
+    b.goto(&format!(
+        "{}/#/sweep/{}",
+        s.url,
+        table["id"].as_str().unwrap()
+    ));
+    b.wait_for(
+        "the layer column",
+        "const col = [...document.querySelectorAll('#sweep th')].findIndex((h) => h.dataset.key === 'layer');
+         if (col < 0) return false;
+         const cells = [...document.querySelectorAll('#sweep tbody tr')].map((r) => r.children[col].textContent);
+         return cells.includes('main') && cells.includes('radius0')",
+        WAIT,
+    );
+    b.goto(&format!("{}/#/job/{job}", s.url));
+    // Points in the first layer's colour (#7fd47f).
+    b.wait_for(
+        "the radius layer's curve",
+        "const c = document.getElementById('plot');
+         const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+         let n = 0;
+         for (let i = 0; i < d.length; i += 4) if (d[i] === 0x7f && d[i + 1] === 0xd4 && d[i + 2] === 0x7f) n++;
+         return n > 0",
+        WAIT,
+    );
+    b.screenshot("radius-layers");
+}
+
 #[test]
 fn a_token_is_asked_for_kept_in_the_session_and_sent_as_a_header() {
     let Some(b) = Browser::start() else { return };

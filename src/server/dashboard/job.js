@@ -8,6 +8,9 @@ import { followEvents } from "./sse.js";
 import { logLogPlot } from "./plot.js";
 import { el, errorBox, fmtDuration, fmtNum, progressBar, stateBadge, TERMINAL } from "./util.js";
 
+/// The radius layers' curves in the error plot, in layer order.
+const LAYER_COLOURS = ["#7fd47f", "#d47fd4", "#d4d47f", "#7fd4d4", "#f07f7f", "#a0a0f0"];
+
 export function jobPage(view, route, signal) {
   const id = route.arg;
   const base = `/v1/jobs/${encodeURIComponent(id)}`;
@@ -176,6 +179,23 @@ export function jobPage(view, route, signal) {
     }
   }
 
+  // The radius layers' RMSE (jobs with `radii`, from layers.csv), one curve each, at
+  // the render time of the log row of the same iteration.
+  async function layerSeries(rows) {
+    const layers = await api(`${base}/layers`, { signal });
+    const time = new Map(rows.map((r) => [r.iteration, r.elapsed_s]));
+    const names = [...new Set(layers.map((l) => l.layer))];
+    return names.map((name, i) => {
+      const own = layers.filter((l) => l.layer === name && l.rmse != null && time.has(l.iteration));
+      const radius = own.length ? ` (r ${fmtNum(own[0].radius, 3)})` : "";
+      return {
+        name: `RMSE ${name}${radius}`,
+        color: LAYER_COLOURS[i % LAYER_COLOURS.length],
+        points: own.map((l) => [time.get(l.iteration), l.rmse]),
+      };
+    });
+  }
+
   async function refreshLog() {
     try {
       const rows = await api(`${base}/log`, { signal });
@@ -191,6 +211,7 @@ export function jobPage(view, route, signal) {
       logLogPlot(plot, [
         { name: "RMSE", color: "#f0a53a", points: rows.filter((r) => r.rmse != null).map((r) => [r.elapsed_s, r.rmse]) },
         { name: "rel MSE", color: "#5cb3f0", points: rows.filter((r) => r.rel_mse != null).map((r) => [r.elapsed_s, r.rel_mse]) },
+        ...(await layerSeries(rows)),
       ], { xLabel: "render time (s)", yLabel: "error" });
     } catch (e) {
       if (e.name !== "AbortError") logBody.replaceChildren(el("tr", {}, el("td", {}, errorBox(e))));

@@ -61,7 +61,7 @@ export function logLogPlot(canvas, series, { xLabel = "", yLabel = "" } = {}) {
     g.stroke();
     for (const [x, y] of p) g.fillRect(px(x) - 1.5, py(y) - 1.5, 3, 3);
     if (p.length) {
-      g.fillText(s.name, w - m.r - 70, ly0);
+      g.fillText(s.name, w - m.r - Math.max(70, g.measureText(s.name).width + 4), ly0);
       ly0 += 14;
     }
   }
