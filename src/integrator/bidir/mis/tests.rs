@@ -4,43 +4,13 @@
 //! set. Paths may have medium vertices (D = sigma_t from both sides instead of two
 //! cosines) and segments with transmittance T < 1 in the densities of whatever is
 //! sampled along them; the recursive side gets them as the module notes say.
+use crate::integrator::paths::full_path::{FullPath as Path, Technique as Tech};
 use crate::integrator::paths::partial::{
-    transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH, MIN_BEAM_SIN,
+    transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH,
 };
 use crate::integrator::paths::parts::{Parts, Scale};
 use crate::integrator::transport::Heuristic;
 use crate::math::Rng;
-
-/// A path x0 (light) .. xn (camera) described by its densities and cosines.
-struct Path {
-    n: usize,
-    d2: Vec<f32>,
-    /// MIS transmittance of segment (x_i, x_{i+1}).
-    tr: Vec<f32>,
-    /// D at x_i towards x_{i+1} (i < n) and towards x_{i-1} (i > 0): cosines at
-    /// surfaces, the same sigma_t both ways at medium vertices.
-    cf: Vec<f32>,
-    cb: Vec<f32>,
-    /// Solid-angle densities at scattering vertex i of sampling x_{i+1} (light
-    /// direction) and x_{i-1} (camera direction).
-    pl: Vec<f32>,
-    site: Vec<Site>,
-    pc: Vec<f32>,
-    /// Sine between the two segments at each vertex (beam x beam's density).
-    sin: Vec<f32>,
-    pick: f32,
-    /// x0 is a direction (environment light): positions come from a disk and
-    /// light sampling picks a solid angle, with no distance or cosine at x0.
-    infinite: bool,
-    /// Density of x0 for light sampling (area, or solid angle at infinity),
-    /// emission position (area, or on the disk) and direction.
-    a_direct: f32,
-    e_pos: f32,
-    e_dir: f32,
-    camera: f32,
-    /// Query beams are long, weighted as such ([`Mis::beam_scale`]).
-    long: bool,
-}
 
 fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
     let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
@@ -79,14 +49,6 @@ fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
     p
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Tech {
-    /// Connection with s light vertices.
-    Vc(usize),
-    /// Merge at vertex j by an estimator.
-    Vm(usize, Merge),
-}
-
 const ALL_MERGES: [Merge; Merge::COUNT] = [
     Merge::Surface,
     Merge::Point3d,
@@ -95,57 +57,6 @@ const ALL_MERGES: [Merge; Merge::COUNT] = [
 ];
 
 impl Path {
-    /// Density of x_i sampled from the light side (area measure, or the
-    /// direction for x0 at infinity).
-    fn fwd(&self, i: usize) -> f32 {
-        match (i, self.infinite) {
-            (0, false) => self.pick * self.e_pos,
-            (0, true) => self.pick * self.e_dir,
-            (1, false) => self.e_dir * self.cb[1] * self.tr[0] / self.d2[0],
-            (1, true) => self.e_pos * self.cb[1] * self.tr[0],
-            _ => self.pl[i - 1] * self.cb[i] * self.tr[i - 1] / self.d2[i - 1],
-        }
-    }
-
-    /// Density of x_i sampled from the camera side.
-    fn bwd(&self, i: usize) -> f32 {
-        if i == self.n - 1 {
-            self.camera * self.cf[i] * self.tr[i] / self.d2[i]
-        } else if i == 0 && self.infinite {
-            self.pc[1] * self.tr[0]
-        } else {
-            self.pc[i + 1] * self.cf[i] * self.tr[i] / self.d2[i]
-        }
-    }
-
-    /// D at vertex i as the MIS takes it (1 at surfaces).
-    fn sigma(&self, i: usize) -> f32 {
-        match self.site[i] {
-            Site::Surface => 1.0,
-            Site::Medium => self.cf[i],
-        }
-    }
-
-    /// eta_k(x_j) from its definition ([UPBP], the notes on `Mis`): 0 where the
-    /// estimator is not used or cannot sit at x_j. A long query beam covers x_j with
-    /// probability 1 rather than the T of the camera-side segment (x_j, x_{j+1}).
-    fn eta(&self, j: usize, k: Merge, merges: &Merges) -> f64 {
-        let Some(eta) = merges.eta[k as usize] else {
-            return 0.0;
-        };
-        let sigma = self.sigma(j) as f64;
-        let cover = if self.long { self.tr[j] as f64 } else { 1.0 };
-        match (self.site[j], k) {
-            (Site::Surface, Merge::Surface) => eta,
-            (Site::Medium, Merge::Point3d) => eta,
-            (Site::Medium, Merge::PointBeam2d) => eta / (sigma * cover),
-            (Site::Medium, Merge::BeamBeam1d) if self.sin[j] >= MIN_BEAM_SIN => {
-                eta * self.sin[j] as f64 / (sigma * sigma * cover)
-            }
-            _ => 0.0,
-        }
-    }
-
     /// M(x_i) as the recursion takes it: whichever subpath x_i is on, its camera-side
     /// segment is (x_i, x_{i+1}).
     fn vm(&self, m: &Mis, i: usize, camera_len: Option<u32>) -> f64 {
@@ -156,23 +67,6 @@ impl Path {
             camera_len,
             self.tr[i],
         )
-    }
-
-    /// The technique's density times its sample count.
-    fn density(&self, t: Tech, merges: &Merges, light_paths: f32) -> f64 {
-        let n = self.n;
-        let both = |s: usize| -> f32 {
-            (0..s).map(|i| self.fwd(i)).product::<f32>()
-                * (s..n).map(|i| self.bwd(i)).product::<f32>()
-        };
-        match t {
-            Tech::Vc(1) => {
-                (self.pick * self.a_direct * (1..n).map(|i| self.bwd(i)).product::<f32>()) as f64
-            }
-            Tech::Vc(s) if s == n => (light_paths * both(n)) as f64,
-            Tech::Vc(s) => both(s) as f64,
-            Tech::Vm(j, k) => self.eta(j, k, merges) * (both(j) * self.fwd(j)) as f64,
-        }
     }
 
     /// d^2 / T of segment i as on_hit takes it (1 / T from infinity).
@@ -285,11 +179,11 @@ impl Path {
             }
         };
         match t {
-            Tech::Vc(0) => {
+            Tech::Connect(0) => {
                 let (qc, _, _, parts) = self.camera_q(m, 0);
                 m.weight_emitter_hit(q(qc, parts), self.pick * self.a_direct, self.emission())
             }
-            Tech::Vc(1) => {
+            Tech::Connect(1) => {
                 let (qc, len, seen, parts) = self.camera_q(m, 1);
                 // Light sampling's solid-angle density, with the segment's T.
                 let (direct_w, cos_light) = if self.infinite {
@@ -313,7 +207,7 @@ impl Path {
                     self.pl[1],
                 )
             }
-            Tech::Vc(s) if s == n => {
+            Tech::Connect(s) if s == n => {
                 // x_{n-1} is on the camera side of the light's earlier vertices.
                 let medium = self.site[n - 1] == Site::Medium;
                 let (ql, parts) = cut(self.light_q(m, n - 1), m.cuts(medium));
@@ -321,7 +215,7 @@ impl Path {
                 let vm1 = vm(self.vm(m, n - 1, Some(1)), self.terms(m, n - 1, Some(1)));
                 m.weight_camera_connection((q(ql, parts), vm1), camera_a, self.pc[n - 1])
             }
-            Tech::Vc(s) => {
+            Tech::Connect(s) => {
                 let (qc, len, seen, cparts) = self.camera_q(m, s);
                 let seg = self.seg(s - 1);
                 // x_{s-1}, x_s and the camera vertices before it are the camera
@@ -347,7 +241,7 @@ impl Path {
                     self.pl[s],
                 )
             }
-            Tech::Vm(j, k) => {
+            Tech::Merge(j, k) => {
                 let (qc, _, seen, cparts) = self.camera_q(m, j);
                 // A merge in a medium is on the camera side of the light's vertices.
                 let medium = self.site[j] == Site::Medium;
@@ -496,21 +390,7 @@ fn check_path(
     label: &str,
 ) {
     let n = path.n;
-    let mut techs = Vec::new();
-    if vc {
-        techs.extend((0..=n).map(Tech::Vc));
-    }
-    let last = if setup.merge_first { n } else { n - 1 };
-    for j in 1..last {
-        // With `merge_depth: first`, no merge in a medium with a medium vertex
-        // between it and the camera.
-        let camera_side_medium = (j + 1..n).any(|i| path.site[i] == Site::Medium);
-        let cut = setup.first && path.site[j] == Site::Medium && camera_side_medium;
-        let can = ALL_MERGES
-            .into_iter()
-            .filter(|&k| !cut && path.eta(j, k, merges) > 0.0);
-        techs.extend(can.map(|k| Tech::Vm(j, k)));
-    }
+    let techs = path.techniques(merges, vc, setup.merge_first, setup.first);
     if techs.is_empty() {
         return; // merging alone, where no estimator can sit on this path
     }
@@ -577,6 +457,73 @@ fn upbp_weights_match_explicit_heuristics_and_sum_to_one() {
             }
         }
     }
+}
+
+/// Correlation-aware weights (Grittmann et al. 2021) from the explicit densities:
+/// each rho in (0, 1], 1 at the first camera vertex; the weights of every technique
+/// that can sample a path sum to one; and since rho only lowers merge densities, the
+/// merges' total weight never grows.
+#[test]
+fn correlation_aware_weights_sum_to_one_and_never_favour_merges() {
+    let mut rng = Rng::new(7, 2, 9);
+    let mut lowered = 0;
+    for (mask, media) in [(1u32, false), (0b1111, true), (0b0011, true)] {
+        let merges = upbp(mask);
+        for n in 2..7 {
+            for k in 0..40 {
+                let path = random_path(&mut rng, n, media, k % 2 == 1);
+                for j in 0..n {
+                    let rho = path.correlation(j);
+                    assert!(rho > 0.0 && rho <= 1.0 + 1e-12, "rho_{j} = {rho}");
+                    if j == n - 1 {
+                        assert_eq!(rho, 1.0);
+                    }
+                }
+                for h in [Heuristic::Balance, Heuristic::Power] {
+                    let techs = path.techniques(&merges, true, true, false);
+                    let w = |t, c| path.weight(t, &techs, (&merges, 1000.0), h, c);
+                    let sum: f64 = techs.iter().map(|&t| w(t, true)).sum();
+                    assert!((sum - 1.0).abs() < 1e-9, "{techs:?}: {sum}");
+                    let merged = |c| {
+                        let m = techs.iter().filter(|t| matches!(t, Tech::Merge(..)));
+                        m.map(|&t| w(t, c)).sum::<f64>()
+                    };
+                    let (with, without) = (merged(true), merged(false));
+                    assert!(with <= without * (1.0 + 1e-9), "{with} > {without}");
+                    lowered += usize::from(with < without * (1.0 - 1e-6));
+                }
+            }
+        }
+    }
+    // Not vacuous: on some paths the factors do move weight.
+    assert!(lowered > 0);
+}
+
+/// rho's limits, on a path built for them: where the camera subpath surely reaches
+/// the merge's neighbourhood (every acceptance 1) there is no penalty, and where the
+/// light subpath surely does, rho is the camera's acceptance probability.
+#[test]
+fn correlation_factor_limits() {
+    let mut rng = Rng::new(1, 1, 1);
+    let mut path = random_path(&mut rng, 4, false, false);
+    // A footprint radius of tan(1 deg) * 10.
+    path.d2[3] = 100.0;
+    let area = std::f64::consts::PI * (0.017_455_064_928_217_585f64 * 10.0).powi(2);
+    // Camera-side densities huge, light-side tiny: cam = 1.
+    path.camera = 1e9;
+    path.pc = vec![1e9; 5];
+    path.pl = vec![1e-9; 5];
+    assert!((path.correlation(1) - 1.0).abs() < 1e-12);
+    // Light-side densities huge: light = 1, rho = cam.
+    path.pc = vec![1e-3; 5];
+    path.pl = vec![1e9; 5];
+    (path.pick, path.e_pos, path.e_dir) = (1.0, 1e9, 1e9);
+    let cam: f64 = (1..4)
+        .map(|i| (path.bwd(i) as f64 * area).min(1.0))
+        .product();
+    assert!(cam < 1.0);
+    let rho = path.correlation(1);
+    assert!((rho - cam).abs() <= 1e-9 * cam, "rho {rho}, cam {cam}");
 }
 
 #[test]
