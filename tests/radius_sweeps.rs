@@ -151,35 +151,35 @@ fn a_radius_sweep_is_one_job_whose_layers_match_separate_jobs() {
     assert!(csv.lines().nth(2).unwrap().ends_with(",radius0"), "{csv}");
 }
 
+/// Creates the sweep `spec`; its distinct jobs.
+fn jobs_of(s: &TestServer, spec: Value) -> std::collections::BTreeSet<String> {
+    let (code, table) = s.post_json("/v1/sweeps", &spec);
+    assert_eq!(code, 201, "{table}");
+    let ids = rows(&table)
+        .iter()
+        .map(|r| r["job"].as_str().unwrap().to_string());
+    ids.collect()
+}
+
 #[test]
 fn radius_sweeps_that_cannot_share_a_job_run_separately() {
     let s = TestServer::start(None);
     let setup = scene_and_reference(&s);
     // A time halt: a job with layers would run fewer iterations than each separate job.
-    let spec = json!({
-        "base": {"scene": setup.0, "algorithm": "vcm", "halt": {"time_s": 0.2}},
-        "grid": {"params.radius": RADII},
-    });
-    let (code, table) = s.post_json("/v1/sweeps", &spec);
-    assert_eq!(code, 201, "{table}");
-    let jobs: std::collections::HashSet<&str> = rows(&table)
-        .iter()
-        .map(|r| r["job"].as_str().unwrap())
-        .collect();
-    assert_eq!(jobs.len(), 3, "{table}");
+    let timed = jobs_of(
+        &s,
+        json!({"base": {"scene": setup.0, "algorithm": "vcm", "halt": {"time_s": 0.2}},
+               "grid": {"params.radius": RADII}}),
+    );
+    assert_eq!(timed.len(), 3, "{timed:?}");
     // An algorithm without radius layers (sppm): separate jobs.
-    let spec = json!({
-        "base": {"scene": setup.0, "algorithm": "sppm", "halt": {"iterations": 1}},
-        "grid": {"params.radius": RADII},
-    });
-    let (code, table) = s.post_json("/v1/sweeps", &spec);
-    assert_eq!(code, 201, "{table}");
-    let jobs: std::collections::HashSet<&str> = rows(&table)
-        .iter()
-        .map(|r| r["job"].as_str().unwrap())
-        .collect();
-    assert_eq!(jobs.len(), 3, "{table}");
-    for id in jobs {
+    let sppm = jobs_of(
+        &s,
+        json!({"base": {"scene": setup.0, "algorithm": "sppm", "halt": {"iterations": 1}},
+               "grid": {"params.radius": RADII}}),
+    );
+    assert_eq!(sppm.len(), 3, "{sppm:?}");
+    for id in sppm.iter().chain(&timed) {
         assert_eq!(s.wait_job(id)["state"], "completed");
     }
 }

@@ -3,10 +3,9 @@
 //! that radius renders it, so its error reads like log.csv's; technique layers are
 //! parts of the image and have none. Cut back to the checkpoint on resume, as the log.
 
-use super::store::JobDir;
+use super::store::{append_csv, JobDir};
 use super::JobError;
 use crate::film::write_bytes_atomic;
-use std::io::Write;
 
 pub const LAYER_HEADER: &str = "iteration,layer,radius,medium_radius,rmse,rel_mse";
 
@@ -66,25 +65,11 @@ pub fn append_layer_rows(dir: &JobDir, rows: &[LayerRow]) -> Result<(), JobError
     if rows.is_empty() {
         return Ok(());
     }
-    let path = dir.layers_csv();
-    let new = !path.exists();
-    let mut text = String::new();
-    if new {
-        text.push_str(LAYER_HEADER);
-        text.push('\n');
-    }
-    for r in rows {
-        text.push_str(&r.csv());
-        text.push('\n');
-    }
-    let mut f = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&path)
-        .map_err(|e| JobError::io(&path, e))?;
-    f.write_all(text.as_bytes())
-        .and_then(|_| f.sync_data())
-        .map_err(|e| JobError::io(&path, e))
+    append_csv(
+        &dir.layers_csv(),
+        LAYER_HEADER,
+        rows.iter().map(LayerRow::csv),
+    )
 }
 
 pub fn read_layer_log(dir: &JobDir) -> Vec<LayerRow> {
@@ -117,6 +102,7 @@ pub fn truncate_layer_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
 
     fn row(iteration: u64, layer: &str, rmse: Option<f64>) -> LayerRow {
         LayerRow {

@@ -303,25 +303,36 @@ impl LogRow {
 /// keeps one header and one shape of row.
 pub fn append_log(dir: &JobDir, row: &LogRow) -> Result<(), JobError> {
     let path = dir.log_csv();
-    let new = !path.exists();
-    if !new && !has_current_header(&path) {
+    if path.exists() && !has_current_header(&path) {
         write_log(dir, &read_log(dir))?;
+    }
+    append_csv(&path, LOG_HEADER, [row.csv()])
+}
+
+/// Appends `rows` to the CSV file at `path` (with `header` first if the file is new)
+/// and syncs it.
+pub fn append_csv(
+    path: &Path,
+    header: &str,
+    rows: impl IntoIterator<Item = String>,
+) -> Result<(), JobError> {
+    let mut text = String::new();
+    if !path.exists() {
+        text.push_str(header);
+        text.push('\n');
+    }
+    for r in rows {
+        text.push_str(&r);
+        text.push('\n');
     }
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
-        .open(&path)
-        .map_err(|e| JobError::io(&path, e))?;
-    let mut text = String::new();
-    if new {
-        text.push_str(LOG_HEADER);
-        text.push('\n');
-    }
-    text.push_str(&row.csv());
-    text.push('\n');
+        .open(path)
+        .map_err(|e| JobError::io(path, e))?;
     f.write_all(text.as_bytes())
         .and_then(|_| f.sync_data())
-        .map_err(|e| JobError::io(&path, e))
+        .map_err(|e| JobError::io(path, e))
 }
 
 pub fn read_log(dir: &JobDir) -> Vec<LogRow> {
