@@ -210,10 +210,17 @@ pub fn sweep(client: &Client, o: &SweepOptions, out: &mut impl Write) -> Result<
         }
         return Ok(true);
     }
-    eprintln!("sweep {id}: {} jobs", table.rows.len());
+    // Points that differ only in a radius may share a job (its radius layers).
+    let jobs: std::collections::BTreeSet<&str> =
+        table.rows.iter().map(|r| r.job.as_str()).collect();
+    eprintln!(
+        "sweep {id}: {} points, {} jobs",
+        table.rows.len(),
+        jobs.len()
+    );
     let bar = ProgressBar::new(table.rows.len() as u64);
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} jobs  {msg} [{elapsed}]")
+        ProgressStyle::with_template("{bar:40} {pos}/{len} points  {msg} [{elapsed}]")
             .expect("template"),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
