@@ -87,6 +87,7 @@ impl<T: Bounded> Lbvh<T> {
             "too many items for the BVH"
         );
         self.nodes.clear();
+        self.keys.clear();
         if photons.is_empty() {
             return;
         }
@@ -95,7 +96,6 @@ impl<T: Bounded> Lbvh<T> {
             |a, b| (a.0.min(b.0), a.1.max(b.1)),
         );
         let scale = Vec3::splat(1023.0) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
-        self.keys.clear();
         self.keys
             .par_extend(photons.par_iter().enumerate().map(|(i, p)| {
                 let c = ((centre(p) - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
