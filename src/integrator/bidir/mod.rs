@@ -5,7 +5,8 @@
 //! Křivánek et al. 2014) differ only in which techniques they use
 //! ([`Technique`], in `settings.rs`); the MIS weights of [`mis`] weigh whatever set is
 //! on. All five live here: the light subpaths come from
-//! [`crate::integrator::paths::light_path`], the camera walk is [`camera_path`], merging
+//! [`crate::integrator::paths::light_path`], the camera walk is [`camera_path`] (its
+//! light samples and connections in [`connect`]), merging
 //! at points [`merge`] (the camera side in [`camera_merge`]), the radius layers
 //! [`radius_layers`], and `upbp`'s photon beams and camera beams [`beams`].
 //!
@@ -26,6 +27,7 @@
 mod beams;
 mod camera_merge;
 mod camera_path;
+mod connect;
 mod merge;
 pub mod mis;
 mod radius_layers;

@@ -3,7 +3,8 @@
 //! parts ([`crate::integrator::paths::parts`]). Out of line where the usual pass has no
 //! layers, so that it pays only a branch.
 
-use super::camera_path::{light_side, record};
+use super::camera_path::record;
+use super::connect::light_side;
 use super::merge::{MergeSet, MergeVertex};
 use super::Pass;
 use crate::integrator::paths::light_vertex::LightVertex;
