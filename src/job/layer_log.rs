@@ -3,9 +3,8 @@
 //! that radius renders it, so its error reads like log.csv's; technique layers are
 //! parts of the image and have none. Cut back to the checkpoint on resume, as the log.
 
-use super::store::{append_csv, JobDir};
+use super::store::{append_csv, read_csv, write_csv, JobDir};
 use super::JobError;
-use crate::film::write_bytes_atomic;
 
 pub const LAYER_HEADER: &str = "iteration,layer,radius,medium_radius,rmse,rel_mse";
 
@@ -73,12 +72,7 @@ pub fn append_layer_rows(dir: &JobDir, rows: &[LayerRow]) -> Result<(), JobError
 }
 
 pub fn read_layer_log(dir: &JobDir) -> Vec<LayerRow> {
-    std::fs::read_to_string(dir.layers_csv())
-        .unwrap_or_default()
-        .lines()
-        .skip(1)
-        .filter_map(LayerRow::parse)
-        .collect()
+    read_csv(&dir.layers_csv(), LayerRow::parse)
 }
 
 /// Keeps only rows up to `iteration`, rewriting the file whole (see
@@ -87,16 +81,10 @@ pub fn truncate_layer_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> 
     if !dir.layers_csv().exists() {
         return Ok(());
     }
-    let mut text = String::from(LAYER_HEADER);
-    text.push('\n');
-    for r in read_layer_log(dir)
-        .iter()
-        .filter(|r| r.iteration <= iteration)
-    {
-        text.push_str(&r.csv());
-        text.push('\n');
-    }
-    write_bytes_atomic(&dir.layers_csv(), text.as_bytes()).map_err(JobError::from)
+    let rows = read_layer_log(dir)
+        .into_iter()
+        .filter(|r| r.iteration <= iteration);
+    write_csv(&dir.layers_csv(), LAYER_HEADER, rows.map(|r| r.csv()))
 }
 
 #[cfg(test)]

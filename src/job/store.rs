@@ -336,12 +336,14 @@ pub fn append_csv(
 }
 
 pub fn read_log(dir: &JobDir) -> Vec<LogRow> {
-    std::fs::read_to_string(dir.log_csv())
-        .unwrap_or_default()
-        .lines()
-        .skip(1)
-        .filter_map(LogRow::parse)
-        .collect()
+    read_csv(&dir.log_csv(), LogRow::parse)
+}
+
+/// The rows of the CSV file at `path` that `parse` reads, after its header (none if
+/// the file is missing).
+pub fn read_csv<R>(path: &Path, parse: impl Fn(&str) -> Option<R>) -> Vec<R> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines().skip(1).filter_map(parse).collect()
 }
 
 /// Keeps only rows up to `iteration` (after a crash, rows may be ahead of the
@@ -360,13 +362,22 @@ pub fn truncate_log(dir: &JobDir, iteration: u64) -> Result<(), JobError> {
 
 /// Replaces log.csv with `rows` in the current format, atomically.
 fn write_log(dir: &JobDir, rows: &[LogRow]) -> Result<(), JobError> {
-    let mut text = String::from(LOG_HEADER);
+    write_csv(&dir.log_csv(), LOG_HEADER, rows.iter().map(LogRow::csv))
+}
+
+/// Replaces the CSV file at `path` with `header` and `rows`, atomically.
+pub fn write_csv(
+    path: &Path,
+    header: &str,
+    rows: impl IntoIterator<Item = String>,
+) -> Result<(), JobError> {
+    let mut text = String::from(header);
     text.push('\n');
     for r in rows {
-        text.push_str(&r.csv());
+        text.push_str(&r);
         text.push('\n');
     }
-    write_bytes_atomic(&dir.log_csv(), text.as_bytes()).map_err(JobError::from)
+    write_bytes_atomic(path, text.as_bytes()).map_err(JobError::from)
 }
 
 fn has_current_header(path: &Path) -> bool {

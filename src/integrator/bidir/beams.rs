@@ -26,7 +26,7 @@
 //! [`Mis::beam_scale`]: crate::integrator::paths::partial::Mis::beam_scale
 
 use super::camera_path::record;
-use super::radius_layers::light_q;
+use super::radius_layers::{index_in, light_q};
 use super::Pass;
 use crate::integrator::estimators::beam_estimate::{meet, Meeting};
 use crate::integrator::estimators::beams::{collect, Beam, BeamForm};
@@ -349,10 +349,8 @@ fn point_beam<const RADII: bool>(
                 b.weight_at(q.m, t, &mut spare)
             };
             if RADII {
-                // The grid's storage order indexes the points and their parts alike.
-                let i = (y as *const LightVertex as usize - points.as_ptr() as usize)
-                    / std::mem::size_of::<LightVertex>();
-                let parts = &store.point_parts[i];
+                // The BVH's order indexes the points and their parts alike.
+                let parts = &store.point_parts[index_in(points, y)];
                 for (l, sum) in pass.radius_layers.iter().zip(layers.iter_mut()) {
                     if d2 <= l.radii[k as usize].powi(2) {
                         let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, l);

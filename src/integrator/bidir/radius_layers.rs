@@ -153,9 +153,7 @@ impl<'p, const RADII: bool> RadiusSums<'p, RADII> {
             return;
         }
         // The grid's storage order indexes the merging copies and their parts alike.
-        let i = (y as *const MergeVertex as usize - set.merge.as_ptr() as usize)
-            / std::mem::size_of::<MergeVertex>();
-        let parts = &set.parts[i];
+        let parts = &set.parts[index_in(&set.merge, y)];
         for (l, (q, sum)) in pass.radius_layers.iter().zip(&mut self.layers) {
             if d2 <= l.radii[self.k as usize].powi(2) {
                 let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
@@ -174,4 +172,12 @@ impl<'p, const RADII: bool> RadiusSums<'p, RADII> {
             record(slots, Some(l.layer), beta * sum * l.norms[self.k as usize]);
         }
     }
+}
+
+/// The index in `all` of `item`, a reference into it (what a grid or BVH query hands
+/// back), for the side arrays kept in the same order.
+#[inline(always)]
+pub(super) fn index_in<T>(all: &[T], item: &T) -> usize {
+    let offset = item as *const T as usize - all.as_ptr() as usize;
+    offset / std::mem::size_of::<T>()
 }
