@@ -27,6 +27,7 @@
 
 use super::camera_path::record;
 use super::radius_layers::{index_in, light_q};
+use super::selection::{rule, Rule};
 use super::Pass;
 use crate::integrator::estimators::beam_estimate::{meet, Meeting};
 use crate::integrator::estimators::beams::{collect, Beam, BeamForm};
@@ -34,7 +35,7 @@ use crate::integrator::estimators::{Lbvh, Point, PointBvh};
 use crate::integrator::memory::{array, refilled};
 use crate::integrator::paths::light_vertex::{LightVertex, MEDIUM_VERTEX};
 use crate::integrator::paths::partial::{self as mis, Merge, Mis, Partial, Site, MIN_BEAM_SIN};
-use crate::integrator::paths::parts::{Parts, RadiusLayer};
+use crate::integrator::paths::parts::{Candidate, Parts, Scale, MEDIA};
 use crate::integrator::paths::segments::{LightSegment, NO_AREA};
 use crate::integrator::paths::store::{path_segment_parts, path_segments, Chunk};
 use crate::integrator::paths::vertex::{mis_sigma, MediumPoint};
@@ -76,7 +77,7 @@ impl BeamStore {
         self.beams.clear();
         self.point_parts.clear();
         self.segment_parts.clear();
-        let radii = !pass.radius_layers.is_empty();
+        let radii = pass.reweights();
         if pass.technique.uses(Merge::PointBeam2d) {
             let all = chunks.iter().flat_map(|c| c.vertices.iter());
             let medium = all.filter(|v| v.material == MEDIUM_VERTEX);
@@ -196,6 +197,8 @@ struct Query<'a> {
     /// every point (read once per query rather than per merge).
     uniform: Option<(f32, Rgb)>,
     parts: Parts,
+    /// How the main image weighs this estimator's merges (per-pixel selection).
+    rule: Rule<'a>,
 }
 
 /// Where the two sides of a beam estimate meet, as its MIS reads it: the merged
@@ -257,11 +260,12 @@ impl Query<'_> {
         }
     }
 
-    /// The camera side's partial weights at meeting `m` in radius layer `l`.
+    /// The camera side's partial weights at meeting `m` under the factors `scale` (a
+    /// radius layer's, a candidate's).
     #[inline(always)]
-    fn camera_q(&self, pass: &Pass, m: &Meet, l: &RadiusLayer) -> Partial {
+    fn camera_q(&self, pass: &Pass, m: &Meet, scale: &Scale) -> Partial {
         let parts = parts_at(pass, &[self.parts, Parts::default()], m.tr, m.sigma);
-        pass.mis.rescale(m.q.1, &parts, &l.scale)
+        pass.mis.rescale(m.q.1, &parts, scale)
     }
 
     /// The continuation probability of a vertex at x in the query's medium.
@@ -340,7 +344,13 @@ fn point_beam<const RADII: bool>(
             let m = q.meet(pass, at, (yq, y.cont, y.wo), ph);
             let own = d2 <= r * r;
             let wt = if own {
-                let w = m.weight(mis, k, m.q);
+                let sides = |scale: &_| {
+                    let parts = &store.point_parts[index_in(points, y)];
+                    let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
+                    (ql, q.camera_q(pass, &m, scale))
+                };
+                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                let w = q.rule.weight(k, m.q, sides, weight, mis);
                 stats.merges += 1;
                 let wt = b.weight_at(q.m, t, rng);
                 sum += y.throughput * wt * (ph * w);
@@ -353,8 +363,8 @@ fn point_beam<const RADII: bool>(
                 let parts = &store.point_parts[index_in(points, y)];
                 for (l, sum) in pass.radius_layers.iter().zip(layers.iter_mut()) {
                     if d2 <= l.radii[k as usize].powi(2) {
-                        let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, l);
-                        let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, &m, l)));
+                        let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, &l.scale);
+                        let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, &m, &l.scale)));
                         *sum += y.throughput * wt * (ph * w);
                     }
                 }
@@ -426,7 +436,16 @@ fn beam_beam<const RADII: bool>(
             let own = cross.map(|x| {
                 let (m, tr_l, value) = estimate(&x, rng);
                 stats.merges += 1;
-                sum += value * (ph * m.weight(&pass.mis, k, m.q) / (2.0 * r * x.sin));
+                let sides = |scale: &_| {
+                    let parts = &store.segment_parts[b.seg as usize];
+                    let ql = pass
+                        .mis
+                        .rescale(m.q.0, &parts_at(pass, parts, tr_l, m.sigma), scale);
+                    (ql, q.camera_q(pass, &m, scale))
+                };
+                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                let w = q.rule.weight(k, m.q, sides, weight, &pass.mis);
+                sum += value * (ph * w / (2.0 * r * x.sin));
                 (m, tr_l, value)
             });
             if !RADII {
@@ -449,7 +468,7 @@ fn beam_beam<const RADII: bool>(
                 };
                 let parts = parts_at(pass, &store.segment_parts[b.seg as usize], tr_l, m.sigma);
                 let ql = pass.mis.rescale(m.q.0, &parts, &l.scale);
-                let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, m, l)));
+                let w = m.weight(&l.mis, k, (ql, q.camera_q(pass, m, &l.scale)));
                 *sum += value * (ph * w / (2.0 * rl * x.sin));
             }
         });
@@ -463,7 +482,7 @@ fn beam_beam<const RADII: bool>(
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather<const RADII: bool>(
     pass: &Pass,
-    store: &BeamStore,
+    (store, cand): (&BeamStore, Option<&Candidate>),
     (pieces, parts): (&[LightSegment], Parts),
     camera_len: u32,
     rng: &mut Rng,
@@ -477,6 +496,14 @@ pub(super) fn gather<const RADII: bool>(
     let (pb, bb) = (pass.uses(Merge::PointBeam2d), pass.uses(Merge::BeamBeam1d));
     let mut layers = layer_sums::<RADII>(pass);
     for c in pieces {
+        // Decided before the query beam is sampled: a pixel that queries neither
+        // estimator draws nothing, as a job without them.
+        let rule_of = |k, used: bool| used.then(|| rule(pass, cand, (c.q, &parts), k, &MEDIA))?;
+        let pb_rule = rule_of(Merge::PointBeam2d, pb);
+        let bb_rule = rule_of(Merge::BeamBeam1d, bb);
+        if pb_rule.is_none() && bb_rule.is_none() {
+            continue;
+        }
         let Some((beam, m)) = query_beam(pass, c, rng) else {
             continue;
         };
@@ -486,7 +513,7 @@ pub(super) fn gather<const RADII: bool>(
             let cont = pass.medium_continuation(h.albedo());
             (cont, h.sigma_s)
         });
-        let q = Query {
+        let mut q = Query {
             c,
             beam,
             m,
@@ -494,13 +521,16 @@ pub(super) fn gather<const RADII: bool>(
             camera_len,
             uniform,
             parts,
+            rule: Rule::Job,
         };
-        if pb {
+        if let Some(r) = pb_rule {
+            q.rule = r;
             let v = point_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
             out(Merge::PointBeam2d, c.beta * v);
             record_layers(pass, slots, Merge::PointBeam2d, c.beta, &mut layers);
         }
-        if bb {
+        if let Some(r) = bb_rule {
+            q.rule = r;
             let v = beam_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
             out(Merge::BeamBeam1d, c.beta * v);
             record_layers(pass, slots, Merge::BeamBeam1d, c.beta, &mut layers);

@@ -2,9 +2,11 @@
 //! light vertices of the same medium (point x point 3D), each weighted by the MIS and,
 //! with radius layers, under every layer's.
 
-use super::radius_layers::RadiusSums;
+use super::radius_layers::{light_q, RadiusSums};
+use super::selection::rule;
 use super::{Pass, Workspace};
 use crate::integrator::paths::partial::{Merge, Mis, Site};
+use crate::integrator::paths::parts::{Candidate, MEDIA};
 use crate::integrator::paths::vertex::MediumPoint;
 use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
 use crate::integrator::RenderStats;
@@ -18,7 +20,7 @@ use std::sync::atomic::AtomicU32;
 pub(super) fn merge<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
-    walk: &Walk,
+    (walk, cand): (&Walk, Option<&Candidate>),
     (it, surface): (&crate::geometry::Interaction, &Surface),
     stats: &mut RenderStats,
     slots: &[AtomicU32],
@@ -26,10 +28,13 @@ pub(super) fn merge<const RADII: bool>(
     if !pass.uses(Merge::Surface) {
         return Rgb::ZERO;
     }
+    let k = Merge::Surface;
+    let at = (walk.q, &walk.parts);
+    let Some(rule) = rule(pass, cand, at, k, &[k]) else {
+        return Rgb::ZERO;
+    };
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
-    let eta = pass.mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
-    let surface_merge = (eta, eta);
     let cut = pass.mis.cuts(walk.medium_seen);
     let set = &ws.surface;
     let mut radii = RadiusSums::<RADII>::new(pass, walk, Merge::Surface);
@@ -51,15 +56,22 @@ pub(super) fn merge<const RADII: bool>(
             let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
             // The photon's flux already holds the cosine at its surface: f without it.
             let c = y.throughput * e.f;
-            radii.add(set, y, d2, cut, |mis, yq, q| {
+            let weight = |mis: &Mis, yq, q| {
                 let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
-                c * (mis.weight_merge(yq, q, (eta, eta), dir, rev) / e.cos)
+                mis.weight_merge(yq, q, (eta, eta), dir, rev)
+            };
+            radii.add(set, y, d2, cut, |mis, yq, q| {
+                c * (weight(mis, yq, q) / e.cos)
             });
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
             let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let w = pass.mis.weight_merge(yq, walk.q, surface_merge, dir, rev);
+            let sides = |scale: &_| {
+                let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
+                (light, pass.mis.rescale(walk.q, &walk.parts, scale))
+            };
+            let w = rule.weight(k, (yq, walk.q), sides, weight, &pass.mis);
             merges += 1;
             sum += c * (w / e.cos);
         },
@@ -79,7 +91,7 @@ pub(super) fn merge<const RADII: bool>(
 pub(super) fn merge_medium<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
-    walk: &Walk,
+    (walk, cand): (&Walk, Option<&Candidate>),
     (x, m): (Vec3, &MediumPoint),
     stats: &mut RenderStats,
     slots: &[AtomicU32],
@@ -90,6 +102,10 @@ pub(super) fn merge_medium<const RADII: bool>(
     if pass.mis.cuts(walk.medium_seen) {
         return Rgb::ZERO;
     }
+    let k = Merge::Point3d;
+    let Some(rule) = rule(pass, cand, (walk.q, &walk.parts), k, &MEDIA) else {
+        return Rgb::ZERO;
+    };
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
     let beta = Rgb::select(
         sigma_s.cmpgt(Rgb::ZERO),
@@ -132,7 +148,11 @@ pub(super) fn merge_medium<const RADII: bool>(
                 return; // within a radius layer's radius only
             }
             let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let w = weight(&pass.mis, yq, walk.q);
+            let sides = |scale: &_| {
+                let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
+                (light, pass.mis.rescale(walk.q, &walk.parts, scale))
+            };
+            let w = rule.weight(k, (yq, walk.q), sides, weight, &pass.mis);
             merges += 1;
             sum += y.throughput * (ph * w);
         },

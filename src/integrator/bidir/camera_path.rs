@@ -6,6 +6,7 @@ use super::beams;
 use super::camera_merge::{merge, merge_medium};
 use super::connect::{connect, light_sample};
 use super::radius_layers::{camera_q, record_radii};
+use super::selection::camera_main;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
@@ -13,7 +14,7 @@ use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, Event, Owner};
 use crate::integrator::paths::partial::Mis;
 use crate::integrator::paths::partial::{Merge, Partial};
-use crate::integrator::paths::parts::Parts;
+use crate::integrator::paths::parts::{Candidate, Parts};
 use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
 use crate::integrator::paths::vertex::{Media, Vertex};
 use crate::integrator::paths::walk::Walk;
@@ -70,6 +71,8 @@ pub(super) struct CameraPath<'a> {
     pending: Option<(Ray, Rgb)>,
     /// The medium segments of the current flight, for the beam estimators.
     pieces: Vec<LightSegment>,
+    /// The pixel's candidate under per-pixel selection (None: the job's weights).
+    cand: Option<&'a Candidate>,
 }
 
 impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RADII> {
@@ -108,6 +111,10 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
             l: Rgb::ZERO,
             pending: None,
             pieces: Vec::new(),
+            cand: match RADII {
+                true => self.pass.selection.as_ref().and_then(|s| s.at(pixel)),
+                false => None,
+            },
         }
     }
 
@@ -296,7 +303,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         }
         // The walk's parts are still those where the flight began.
         let pieces = (&p.pieces[..], p.walk.parts);
-        let store = &self.ws.beams;
+        let store = (&self.ws.beams, p.cand);
         beams::gather::<RADII>(pass, store, pieces, len, rng, stats, layers, |k, v| {
             add(l, layers, pass.layers.merge(k, len), v);
         });
@@ -346,7 +353,8 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
             p.walk.q = pass.mis.on_hit(p.walk.q, 1.0 / tr, 1.0);
         }
         if !seen {
-            let v = p.walk.throughput * escaped::<RADII>(pass, &p.walk, p.ray.d, layers);
+            let walk = (&p.walk, p.cand);
+            let v = p.walk.throughput * escaped::<RADII>(pass, walk, p.ray.d, layers);
             add(
                 &mut p.l,
                 layers,
@@ -360,7 +368,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
     /// quantities, and an emitter there counts unless phase 2 found it (`seen`).
     #[inline(always)]
     fn arrive(&self, p: &mut CameraPath, v: &Vertex<M>, tr: f32, seen: bool, layers: &[AtomicU32]) {
-        let pass = self.pass;
+        let (pass, cand) = (self.pass, p.cand);
         let walk = &mut p.walk;
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
@@ -371,7 +379,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         walk.tr = tr;
         if let (Vertex::Surface { it, .. }, false) = (v, seen) {
             let ray = (p.ray.d, dist2);
-            let e = walk.throughput * emitter_hit::<RADII>(pass, walk, it, ray, layers);
+            let e = walk.throughput * emitter_hit::<RADII>(pass, (walk, cand), it, ray, layers);
             add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
         }
     }
@@ -390,26 +398,27 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         stats: &mut RenderStats,
     ) {
         let (pass, ws) = (self.pass, self.ws);
-        let walk = &p.walk;
+        let (walk, cand) = (&p.walk, p.cand);
         if pass.technique.connects() {
-            let (e, shadow) = light_sample::<M, RADII>(pass, walk, v, rng, stats, layers);
+            let at = (walk, cand);
+            let (e, shadow) = light_sample::<M, RADII>(pass, at, v, rng, stats, layers);
             let e = walk.throughput * e;
             match shadow {
                 Some(ray) => p.pending = Some((ray, e)),
                 None => add(&mut p.l, layers, self.light_layer(walk.len), e),
             }
             let light = (p.light, p.light_parts);
-            p.l += connect::<M, RADII>(pass, light, walk, v, rng, stats, layers);
+            p.l += connect::<M, RADII>(pass, light, (walk, cand), v, rng, stats, layers);
         }
         if walk.len > 1 || pass.s.merge_first {
             let (k, e) = match v {
                 Vertex::Surface { it, s: surface, .. } => {
-                    let e = merge::<RADII>(pass, ws, walk, (it, surface), stats, layers);
+                    let e = merge::<RADII>(pass, ws, (walk, cand), (it, surface), stats, layers);
                     (Merge::Surface, walk.throughput * e)
                 }
                 Vertex::Medium { p: x, m } => {
                     let x = (*x, M::get(m));
-                    let e = merge_medium::<RADII>(pass, ws, walk, x, stats, layers);
+                    let e = merge_medium::<RADII>(pass, ws, (walk, cand), x, stats, layers);
                     (Merge::Point3d, e)
                 }
             };
@@ -460,7 +469,7 @@ fn own_weight(
 #[inline(always)]
 fn emitter_hit<const RADII: bool>(
     pass: &Pass,
-    walk: &Walk,
+    (walk, cand): (&Walk, Option<&Candidate>),
     it: &crate::geometry::Interaction,
     (d, dist2): (Vec3, f32),
     slots: &[AtomicU32],
@@ -483,12 +492,17 @@ fn emitter_hit<const RADII: bool>(
     record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
         own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
     });
-    le * own_weight(pass, (&pass.mis, walk.q), walk, direct)
+    le * own_weight(pass, camera_main(pass, cand, walk), walk, direct)
 }
 
 /// Environment lights seen by a ray that leaves the scene.
 #[inline(always)]
-fn escaped<const RADII: bool>(pass: &Pass, walk: &Walk, d: Vec3, slots: &[AtomicU32]) -> Rgb {
+fn escaped<const RADII: bool>(
+    pass: &Pass,
+    (walk, cand): (&Walk, Option<&Candidate>),
+    d: Vec3,
+    slots: &[AtomicU32],
+) -> Rgb {
     let scene = pass.scene;
     let mut l = Rgb::ZERO;
     for &li in &scene.env_lights {
@@ -506,7 +520,7 @@ fn escaped<const RADII: bool>(pass: &Pass, walk: &Walk, d: Vec3, slots: &[Atomic
         record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
             own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
         });
-        l += le * own_weight(pass, (&pass.mis, walk.q), walk, direct);
+        l += le * own_weight(pass, camera_main(pass, cand, walk), walk, direct);
     }
     l
 }

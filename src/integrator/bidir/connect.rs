@@ -4,12 +4,13 @@
 
 use super::camera_path::record;
 use super::radius_layers::{camera_qs, connection_radii, light_q, light_sample_radii};
+use super::selection::camera_main;
 use super::Pass;
 use crate::geometry::Ray;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{shadow, Owner};
 use crate::integrator::paths::partial::{Mis, Partial, Site};
-use crate::integrator::paths::parts::{Parts, RadiusLayer};
+use crate::integrator::paths::parts::{Candidate, Parts, Scale};
 use crate::integrator::paths::vertex::{Media, Vertex};
 use crate::integrator::paths::walk::Walk;
 use crate::integrator::transport::nee::pick_light;
@@ -32,7 +33,8 @@ fn camera_merges<M: Media>(mis: &Mis, walk: &Walk, v: &Vertex<M>, other: Vec3) -
 /// Light vertex `y`'s partial weights and M(y) (`merges`, evaluated only if needed)
 /// in a connection whose camera side holds a medium vertex when `camera_medium`, as
 /// `merge_depth: first` has them ([`Mis::cuts`]): y too is on the camera side of
-/// the light's earlier vertices.
+/// the light's earlier vertices. With `other` (y's parts, and the factors and MIS of
+/// a radius layer or candidate), under that MIS.
 ///
 /// [`Mis::cuts`]: crate::integrator::paths::partial::Mis::cuts
 #[inline(always)]
@@ -41,15 +43,15 @@ pub(super) fn light_side(
     y: &LightVertex,
     camera_medium: bool,
     merges: impl FnOnce(&Mis) -> f64,
-    layer: Option<(&Parts, &RadiusLayer)>,
+    other: Option<(&Parts, &Scale, &Mis)>,
 ) -> (Partial, f64) {
     let mis = &pass.mis;
     let medium = y.site() == Site::Medium;
     let cut = mis.cuts(camera_medium || medium);
-    let (q, own) = match layer {
+    let (q, own) = match other {
         None if cut => (mis.cut(y.q, y.vol()), mis),
         None => (y.q, mis),
-        Some((parts, l)) => (light_q(pass, (y.q, y.vol(), parts), cut, l), &l.mis),
+        Some((parts, scale, own)) => (light_q(pass, (y.q, y.vol(), parts), cut, scale), own),
     };
     (
         q,
@@ -68,7 +70,7 @@ pub(super) fn light_side(
 #[inline(always)]
 pub(super) fn light_sample<M: Media, const RADII: bool>(
     pass: &Pass,
-    walk: &Walk,
+    (walk, cand): (&Walk, Option<&Candidate>),
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
@@ -127,7 +129,8 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
             e.pdf_rev * cont,
         )
     };
-    let w = weight(&pass.mis, walk.q);
+    let (mis, q) = camera_main(pass, cand, walk);
+    let w = weight(mis, q);
     let c = e.f * ls.li() * tr;
     if !RADII {
         return (c * (w / (pick * ls.pdf)), untraced);
@@ -146,7 +149,7 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
 pub(super) fn connect<M: Media, const RADII: bool>(
     pass: &Pass,
     (light, light_parts): (&[LightVertex], &[Parts]),
-    walk: &Walk,
+    (walk, cand): (&Walk, Option<&Candidate>),
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
@@ -161,6 +164,7 @@ pub(super) fn connect<M: Media, const RADII: bool>(
         true => camera_qs(pass, walk),
         false => Vec::new(),
     };
+    let (mis, q) = camera_main(pass, cand, walk);
     for (i, y) in light.iter().enumerate() {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
@@ -197,9 +201,10 @@ pub(super) fn connect<M: Media, const RADII: bool>(
             ec.pdf_rev * cont,
         ];
         let [a, b, c, d] = densities;
-        let w = pass.mis.weight_connection(
-            light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), None),
-            (walk.q, camera_merges(&pass.mis, walk, v, dir)),
+        let other = cand.map(|c| (&light_parts[i], &c.scale, &c.mis));
+        let w = mis.weight_connection(
+            light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), other),
+            (q, camera_merges(mis, walk, v, dir)),
             a,
             b,
             c,

@@ -108,6 +108,13 @@ impl Workspace {
 }
 
 impl MergeSet {
+    /// The parts of `y`, a merging copy the grid handed back: its storage order
+    /// indexes the copies and their parts alike.
+    #[inline(always)]
+    pub(super) fn parts_of(&self, y: &MergeVertex) -> &Parts {
+        &self.parts[super::radius_layers::index_in(&self.merge, y)]
+    }
+
     /// The merging copies of `vertices` (this set's, in store order), in the grid's
     /// storage order. The store is read in order and the copies written where the grid
     /// ranks them: scattered writes overlap their cache misses, where gathering reads

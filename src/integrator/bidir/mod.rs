@@ -31,6 +31,7 @@ mod connect;
 mod merge;
 pub mod mis;
 mod radius_layers;
+mod selection;
 
 use super::{Integrator, RenderStats};
 use crate::film::Film;
@@ -39,7 +40,7 @@ use crate::integrator::estimators::beams::BeamForm;
 use crate::integrator::paths::layers::Layers;
 use crate::integrator::paths::light_path::trace_light_paths;
 use crate::integrator::paths::partial::{Merge, Merges, Mis};
-use crate::integrator::paths::parts::{RadiusLayer, Scale, ALL};
+use crate::integrator::paths::parts::{RadiusLayer, Scale, Selection, ALL};
 use crate::integrator::paths::store::Store;
 use crate::integrator::paths::vertex::{Media, NoMedia, WithMedia};
 use crate::integrator::transport::light_paths::light_path_count;
@@ -94,6 +95,8 @@ pub struct Bidir {
     layers: Layers,
     keep_segments: bool,
     ws: Mutex<Workspace>,
+    /// Per pixel, its candidate ([`selection`]); empty: the job's weights everywhere.
+    choice: Mutex<Vec<u8>>,
 }
 
 impl Bidir {
@@ -104,10 +107,19 @@ impl Bidir {
             technique,
             keep_segments: technique.uses(Merge::BeamBeam1d),
             ws: Mutex::new(Workspace::default()),
+            choice: Mutex::new(Vec::new()),
         }
     }
 
-    fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64) -> Pass<'a> {
+    /// The same with each pixel's candidate fixed (row-major, indices into
+    /// [`selection::candidates`]).
+    #[cfg(test)]
+    pub(crate) fn with_choice(self, choice: Vec<u8>) -> Self {
+        *self.choice.lock().unwrap() = choice;
+        self
+    }
+
+    fn pass<'a>(&'a self, scene: &'a Scene, iteration: u64, choice: &'a [u8]) -> Pass<'a> {
         let pixels = scene.width() as usize * scene.height() as usize;
         let light_paths = light_path_count(pixels, self.s.light_paths);
         let s = &self.s;
@@ -132,7 +144,7 @@ impl Bidir {
                 }
             })
             .collect();
-        let core = crate::integrator::paths::Pass {
+        let mut core = crate::integrator::paths::Pass {
             scene,
             tracing: self.technique.tracing(),
             max_depth: s.max_depth,
@@ -146,7 +158,15 @@ impl Bidir {
             layers: &self.layers,
             keep_segments: self.keep_segments,
             radius_layers,
+            selection: None,
         };
+        if !choice.is_empty() {
+            core.selection = Some(Selection {
+                candidates: selection::candidates(&core),
+                choice,
+                width: scene.width(),
+            });
+        }
         Pass {
             core,
             s: &self.s,
@@ -225,7 +245,8 @@ impl Bidir {
 
 impl Integrator for Bidir {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
-        let pass = self.pass(scene, iteration);
+        let choice = self.choice.lock().unwrap_or_else(|e| e.into_inner());
+        let pass = self.pass(scene, iteration, &choice);
         let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
         let ws = &mut *guard;
         let mut stats = trace_light_paths(&pass, seed, iteration, &mut ws.store);
@@ -268,7 +289,7 @@ impl Integrator for Bidir {
         if pass.technique != Technique::Lt {
             let (ws, side) = (&*ws, &side[..]);
             let run = (&pass, ws, side, k);
-            stats += match (scene.has_media, !pass.radius_layers.is_empty()) {
+            stats += match (scene.has_media, pass.reweights()) {
                 (true, false) => camera_pass::<WithMedia, false>(run, seed, iteration, film),
                 (false, false) => camera_pass::<NoMedia, false>(run, seed, iteration, film),
                 (true, true) => camera_pass::<WithMedia, true>(run, seed, iteration, film),

@@ -9,7 +9,7 @@ use super::merge::{MergeSet, MergeVertex};
 use super::Pass;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::partial::{Merge, Mis, Partial};
-use crate::integrator::paths::parts::{Parts, RadiusLayer};
+use crate::integrator::paths::parts::{Parts, RadiusLayer, Scale};
 use crate::integrator::paths::walk::Walk;
 use crate::math::Rgb;
 use std::sync::atomic::AtomicU32;
@@ -28,19 +28,19 @@ pub(super) fn camera_qs(pass: &Pass, walk: &Walk) -> Vec<Partial> {
     layers.map(|l| camera_q(pass, walk, l)).collect()
 }
 
-/// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) in
-/// radius layer `l`, from its `parts`.
+/// A light vertex's partial weights `q` (cut if `cut`, its media part `vol`) under
+/// the factors `scale` (a radius layer's, a candidate's), from its `parts`.
 #[inline(always)]
 pub(super) fn light_q(
     pass: &Pass,
     (q, vol, parts): (Partial, f64, &Parts),
     cut: bool,
-    l: &RadiusLayer,
+    scale: &Scale,
 ) -> Partial {
     let mis = &pass.mis;
     match cut {
-        true => mis.rescale(mis.cut(q, vol), &parts.without_media(), &l.scale),
-        false => mis.rescale(q, parts, &l.scale),
+        true => mis.rescale(mis.cut(q, vol), &parts.without_media(), scale),
+        false => mis.rescale(q, parts, scale),
     }
 }
 
@@ -107,7 +107,7 @@ pub(super) fn connection_radii(
 ) {
     for (l, &q) in pass.radius_layers.iter().zip(camera) {
         let (vm_light, vm_camera) = vm(&l.mis);
-        let light = light_side(pass, y, cut, |_| vm_light, Some((parts, l)));
+        let light = light_side(pass, y, cut, |_| vm_light, Some((parts, &l.scale, &l.mis)));
         let w = l.mis.weight_connection(light, (q, vm_camera), a, b, c, d);
         record(slots, Some(l.layer), value * (w / dist2));
     }
@@ -152,11 +152,10 @@ impl<'p, const RADII: bool> RadiusSums<'p, RADII> {
         if !RADII {
             return;
         }
-        // The grid's storage order indexes the merging copies and their parts alike.
-        let parts = &set.parts[index_in(&set.merge, y)];
+        let parts = set.parts_of(y);
         for (l, (q, sum)) in pass.radius_layers.iter().zip(&mut self.layers) {
             if d2 <= l.radii[self.k as usize].powi(2) {
-                let yq = light_q(pass, (y.q, y.vol(), parts), cut, l);
+                let yq = light_q(pass, (y.q, y.vol(), parts), cut, &l.scale);
                 *sum += value(&l.mis, yq, *q);
             }
         }

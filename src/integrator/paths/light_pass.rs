@@ -87,6 +87,7 @@ impl LightPass {
             layers: &self.layers,
             keep_segments: self.keep_segments,
             radius_layers: Vec::new(),
+            selection: None,
         };
         let mut store = self.store.lock().unwrap_or_else(|e| e.into_inner());
         let mut stats = trace_light_paths(&pass, seed, iteration, &mut store);

@@ -96,7 +96,7 @@ impl ChunkTracer for Subpaths<'_, '_> {
     fn trace(&self, index: u64, chunk: &mut Chunk) {
         let pass = self.pass;
         let mut rng = Stream::LightSubpaths.rng(self.seed, self.iteration, index);
-        let (media, radii) = (pass.scene.has_media, !pass.radius_layers.is_empty());
+        let (media, radii) = (pass.scene.has_media, pass.reweights());
         match (media, radii) {
             (true, false) => trace_one::<WithMedia, false>(pass, &mut rng, chunk, self.budget),
             (false, false) => trace_one::<NoMedia, false>(pass, &mut rng, chunk, self.budget),
@@ -503,15 +503,22 @@ fn connect_to_camera<M: Media, const RADII: bool>(
         let vm = vm(mis, tr_mis);
         lens_value((pass, mis), walk, (&e, q, vm), v.cont(), link, tr, tr_mis)
     };
-    push_splat(chunk, raster, value(&pass.mis, q), layer);
-    if RADII {
-        let parts = if cut {
-            walk.parts.without_media()
-        } else {
-            walk.parts
-        };
-        lens_radii(pass, chunk, raster, (q, &parts), &value);
+    if !RADII {
+        push_splat(chunk, raster, value(&pass.mis, q), layer);
+        return None;
     }
+    let parts = if cut {
+        walk.parts.without_media()
+    } else {
+        walk.parts
+    };
+    // Under the per-pixel selection, as the pixel the splat lands in weighs it.
+    let main = match pass.selection.as_ref().and_then(|s| s.at_raster(raster)) {
+        Some(c) => value(&c.mis, pass.mis.rescale(q, &parts, &c.scale)),
+        None => value(&pass.mis, q),
+    };
+    push_splat(chunk, raster, main, layer);
+    lens_radii(pass, chunk, raster, (q, &parts), &value);
     None
 }
 

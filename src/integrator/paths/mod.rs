@@ -79,6 +79,8 @@ pub(crate) struct Pass<'a> {
     pub keep_segments: bool,
     /// The `radii` layers, each weighted from the same subpaths ([`parts`]).
     pub radius_layers: Vec<parts::RadiusLayer>,
+    /// Per-pixel merge estimators (efficiency-aware selection), if any.
+    pub selection: Option<parts::Selection<'a>>,
 }
 
 impl Pass<'_> {
@@ -102,6 +104,14 @@ impl Pass<'_> {
     #[inline(always)]
     pub fn tracks_parts<M: vertex::Media, const RADII: bool>(&self, camera: bool) -> bool {
         RADII || (!camera && M::ON && self.mis.first_medium)
+    }
+
+    /// Whether the subpaths are weighted under more than the pass's own MIS (radius
+    /// layers, per-pixel selection), and so keep their [`parts::Parts`]: decided once
+    /// per pass, as the tracers' `RADII` parameter.
+    #[inline(always)]
+    pub fn reweights(&self) -> bool {
+        !self.radius_layers.is_empty() || self.selection.is_some()
     }
 
     /// Russian-roulette continuation probability at a vertex with material `m`.

@@ -40,7 +40,7 @@ pub const ALL: [Merge; Merge::COUNT] = [
 ];
 
 /// The estimators that sit in media: `merge_depth: first` cuts their parts.
-const MEDIA: [Merge; 3] = [Merge::Point3d, Merge::PointBeam2d, Merge::BeamBeam1d];
+pub const MEDIA: [Merge; 3] = [Merge::Point3d, Merge::PointBeam2d, Merge::BeamBeam1d];
 
 /// The query beams' estimators, whose terms take [`Mis::beam_scale`].
 const BEAMS: [Merge; 2] = [Merge::PointBeam2d, Merge::BeamBeam1d];
@@ -143,6 +143,86 @@ pub(crate) struct RadiusLayer {
     pub layer: usize,
 }
 
+/// A pixel's choice of merge estimators (efficiency-aware selection, Grittmann et
+/// al. 2022): weights as if the estimators outside the choice were off (`scale` 0,
+/// `mis` the job's MIS so scaled), except on the paths that only they sample, which
+/// keep the job's weights. The weights of every path still sum to one: where a kept
+/// technique has density, the dropped merges weigh 0 and the rest are the balance
+/// over the kept ones; where none has, the kept ones never sample the path and the
+/// dropped merges keep the job's weights, which sum to one alone (the limit of
+/// scaling the dropped estimators by epsilon -> 0).
+#[derive(Clone, Debug)]
+pub(crate) struct Candidate {
+    pub scale: Scale,
+    pub mis: Mis,
+    /// Per estimator, `mis` with that estimator's Mis(eta_k) given back: a dropped
+    /// merge's weight under it is 1 exactly where no kept technique samples its path.
+    pub restored: [Mis; Merge::COUNT],
+}
+
+impl Candidate {
+    /// `job`'s MIS keeping the estimators `keep`.
+    pub fn new(job: &Mis, keep: [bool; Merge::COUNT]) -> Candidate {
+        let scale = Scale(keep.map(|k| if k { 1.0 } else { 0.0 }));
+        let mis = job.scaled(&scale);
+        let restored = ALL.map(|k| {
+            let mut m = mis;
+            m.merge[k as usize] = job.merge[k as usize];
+            m
+        });
+        Candidate {
+            scale,
+            mis,
+            restored,
+        }
+    }
+
+    #[inline(always)]
+    pub fn keeps(&self, k: Merge) -> bool {
+        self.scale.0[k as usize] > 0.0
+    }
+}
+
+/// A dropped merge's weight under a [`Candidate`], from its weight under the
+/// candidate's MIS with the estimator given back (`restored`) and under the job's
+/// (`full`, evaluated only where needed): 0 where a kept technique samples the path.
+#[inline(always)]
+pub(crate) fn dropped_weight(restored: f32, full: impl FnOnce() -> f32) -> f32 {
+    // 1 - 2^-20: a kept technique whose density is 10^-6 of the merge's is as good
+    // as none (the bias is below 10^-6 of such paths' share).
+    if restored >= 1.0 - 1.0 / (1u32 << 20) as f32 {
+        full()
+    } else {
+        0.0
+    }
+}
+
+/// Per-pixel candidates of a pass: `choice` (one byte per pixel, row-major) indexes
+/// `candidates`, whose first entry keeps every estimator (the job's own weights).
+pub(crate) struct Selection<'a> {
+    pub candidates: Vec<Candidate>,
+    pub choice: &'a [u8],
+    pub width: u32,
+}
+
+impl Selection<'_> {
+    /// Pixel `pixel`'s candidate, None for the job's own weights.
+    #[inline(always)]
+    pub fn at(&self, pixel: usize) -> Option<&Candidate> {
+        match self.choice.get(pixel).copied().unwrap_or(0) {
+            0 => None,
+            c => self.candidates.get(c as usize),
+        }
+    }
+
+    /// The candidate of the pixel at film position `raster`.
+    #[inline(always)]
+    pub fn at_raster(&self, raster: crate::math::Vec2) -> Option<&Candidate> {
+        let (x, y) = (raster.x.max(0.0) as usize, raster.y.max(0.0) as usize);
+        self.at(y * self.width as usize + x.min(self.width as usize - 1))
+    }
+}
+
 impl Mis {
     /// Each estimator's term Mis(eta_k(x)) of M(x) ([`Mis::merges`], which is their
     /// sum up to rounding), with the same arguments.
@@ -238,15 +318,25 @@ impl Mis {
     #[inline]
     pub fn rescale(&self, q: Partial, parts: &Parts, scale: &Scale) -> Partial {
         let (sum, scaled) = (parts.sum(), parts.dot(scale));
+        // The bases are differences that rounding leaves a residue of about 1e-16 of
+        // the whole in where the parts were all there was: such a residue is 0, so
+        // that a technique without density never seems to have some.
+        let base = |x: f64| {
+            let b = x - sum;
+            if b > 1e-12 * x {
+                b
+            } else {
+                0.0
+            }
+        };
         Partial {
             dvcm: q.dvcm,
-            dvc: (q.dvc - sum).max(0.0) + scaled,
-            dvm: (q.dvm - sum).max(0.0) + scaled,
+            dvc: base(q.dvc) + scaled,
+            dvm: base(q.dvm) + scaled,
         }
     }
 
     /// The same MIS with every estimator's Mis(eta_k) scaled by `scale`.
-    #[cfg(test)]
     pub fn scaled(&self, scale: &Scale) -> Mis {
         let mut m = *self;
         for (c, s) in m.merge.iter_mut().zip(scale.0) {

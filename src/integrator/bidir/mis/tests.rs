@@ -4,11 +4,12 @@
 //! set. Paths may have medium vertices (D = sigma_t from both sides instead of two
 //! cosines) and segments with transmittance T < 1 in the densities of whatever is
 //! sampled along them; the recursive side gets them as the module notes say.
+use super::super::selection::{camera_rules_out, Rule};
 use crate::integrator::paths::full_path::{FullPath as Path, Technique as Tech};
 use crate::integrator::paths::partial::{
     transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH,
 };
-use crate::integrator::paths::parts::{Parts, Scale};
+use crate::integrator::paths::parts::{Candidate, Parts, Scale, MEDIA};
 use crate::integrator::transport::Heuristic;
 use crate::math::Rng;
 
@@ -534,4 +535,103 @@ fn mis_transmittance_is_clamped() {
     assert!(floor > 0.0);
     assert_eq!(transmittance(f32::INFINITY), floor);
     assert_eq!(transmittance(f32::NAN), floor);
+}
+
+impl Path {
+    /// Technique `t`'s weight in a pixel whose candidate is `c` (bidir::selection):
+    /// under the candidate's MIS where it keeps `t`, else by the rule for dropped
+    /// merges; checks that where the camera side rules such merges out (so the
+    /// renderer skips them) the rule gives 0.
+    fn candidate_weight(&self, m: &Mis, c: &Candidate, t: Tech) -> f32 {
+        let Tech::Merge(j, k) = t else {
+            return self.recursive_weight(m, t, Some(&c.scale));
+        };
+        if c.keeps(k) {
+            return self.recursive_weight(m, t, Some(&c.scale));
+        }
+        let (qc, _, seen, cparts) = self.camera_q(m, j);
+        let medium = self.site[j] == Site::Medium;
+        let cuts = if medium { m.first_medium } else { m.cuts(seen) };
+        let (ql, vol, lparts) = self.light_q(m, j);
+        let (ql, lparts) = match cuts {
+            true => (m.cut(ql, vol), lparts.without_media()),
+            false => (ql, lparts),
+        };
+        let weight = |mis: &Mis, ql, qc| {
+            let own = mis.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
+            mis.weight_merge(ql, qc, (own, self.vm(mis, j, None)), self.pc[j], self.pl[j])
+        };
+        let sides = |s: &Scale| (m.rescale(ql, &lparts, s), m.rescale(qc, &cparts, s));
+        let w = Rule::Dropped(c).weight(k, (ql, qc), sides, weight, m);
+        let site: &[Merge] = match self.site[j] {
+            Site::Surface => &[Merge::Surface],
+            Site::Medium => &MEDIA,
+        };
+        let uses = |j: Merge| m.merge[j as usize] > 0.0;
+        let kept_here = site
+            .iter()
+            .any(|&j| j != Merge::BeamBeam1d && uses(j) && c.keeps(j));
+        if camera_rules_out(c, m.rescale(qc, &cparts, &c.scale), kept_here) {
+            assert_eq!(w, 0.0, "{t:?} is skipped but weighs {w}");
+        }
+        w
+    }
+}
+
+/// Per-pixel candidates (efficiency-aware selection): for every upbp estimator set,
+/// with and without connections, and every subset of it kept, the weights of all
+/// techniques sum to one; where a kept technique can sample the path they are the
+/// explicit heuristic over the kept ones (dropped merges 0), and where none can, the
+/// job's own.
+#[test]
+fn candidate_weights_sum_to_one_and_drop_only_what_is_covered() {
+    let mut rng = Rng::new(5, 3, 8);
+    let (mut covered, mut uncovered) = (0, 0);
+    for vc in [true, false] {
+        for mask in 1..(1u32 << Merge::COUNT) {
+            let merges = upbp(mask);
+            let mut m = Mis::new(Heuristic::Balance, 1000.0, vc, merges);
+            m.first_medium = mask % 3 == 0;
+            for keep in 0..(1u32 << Merge::COUNT) {
+                let keep = ALL_MERGES.map(|k| keep & (1 << k as u32) != 0);
+                let c = Candidate::new(&m, keep);
+                for n in 2..6 {
+                    let path = random_path(&mut rng, n, true, n % 2 == 0);
+                    let techs = path.techniques(&merges, vc, true, m.first_medium);
+                    if techs.is_empty() {
+                        continue;
+                    }
+                    let kept = |t: &Tech| !matches!(t, Tech::Merge(_, k) if !keep[*k as usize]);
+                    let p = |t: Tech| m.f(path.density(t, &merges, 1000.0));
+                    let kept_total: f64 = techs.iter().filter(|t| kept(t)).map(|&t| p(t)).sum();
+                    let total: f64 = techs.iter().map(|&t| p(t)).sum();
+                    let mut sum = 0.0;
+                    for &t in &techs {
+                        let got = path.candidate_weight(&m, &c, t);
+                        let expect = match (kept_total > 0.0, kept(&t)) {
+                            (true, true) => p(t) / kept_total,
+                            (true, false) => 0.0,
+                            (false, _) => p(t) / total,
+                        } as f32;
+                        assert!(
+                            (got - expect).abs() <= 1e-4 * expect.max(1e-3),
+                            "vc={vc} {merges:?} keep {keep:?} n={n} {t:?}: {got}, explicit {expect}"
+                        );
+                        sum += got;
+                    }
+                    assert!(
+                        (sum - 1.0).abs() < 1e-4,
+                        "keep {keep:?}: weights sum to {sum}"
+                    );
+                    match kept_total > 0.0 {
+                        true => covered += 1,
+                        false => uncovered += 1,
+                    }
+                }
+            }
+        }
+    }
+    // Both cases occur: paths the kept techniques sample, and paths they cannot.
+    eprintln!("covered {covered}, uncovered {uncovered}");
+    assert!(covered > 100 && uncovered > 100, "{covered} {uncovered}");
 }
