@@ -478,7 +478,7 @@ fn beam_beam<const RADII: bool>(
 /// Both beam estimators along the camera's segments of one flight (`pieces`, each
 /// with the throughput at its start), the camera subpath `camera_len` segments long
 /// and its parts `parts` where the flight began; `out(k, value)` receives each
-/// estimator's part, and with radius layers (`RADII`) their values go to `slots`.
+/// estimator's part and its number of merges, and with radius layers (`RADII`) their values go to `slots`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather<const RADII: bool>(
     pass: &Pass,
@@ -488,7 +488,7 @@ pub(super) fn gather<const RADII: bool>(
     rng: &mut Rng,
     stats: &mut RenderStats,
     slots: &[AtomicU32],
-    mut out: impl FnMut(Merge, Rgb),
+    mut out: impl FnMut(Merge, Rgb, u64),
 ) {
     if camera_len == 1 && !pass.s.merge_first {
         return;
@@ -525,14 +525,16 @@ pub(super) fn gather<const RADII: bool>(
         };
         if let Some(r) = pb_rule {
             q.rule = r;
+            let before = stats.merges;
             let v = point_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
-            out(Merge::PointBeam2d, c.beta * v);
+            out(Merge::PointBeam2d, c.beta * v, stats.merges - before);
             record_layers(pass, slots, Merge::PointBeam2d, c.beta, &mut layers);
         }
         if let Some(r) = bb_rule {
             q.rule = r;
+            let before = stats.merges;
             let v = beam_beam::<RADII>(pass, store, &q, rng, stats, &mut layers);
-            out(Merge::BeamBeam1d, c.beta * v);
+            out(Merge::BeamBeam1d, c.beta * v, stats.merges - before);
             record_layers(pass, slots, Merge::BeamBeam1d, c.beta, &mut layers);
         }
     }

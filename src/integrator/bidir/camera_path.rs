@@ -36,6 +36,8 @@ pub(super) struct CameraPass<'a, M, const RADII: bool> {
     /// of the pass); each pixel's slots are touched only by that pixel's one path.
     side: &'a [AtomicU32],
     layers: usize,
+    /// In a pilot iteration, per pixel, the merges of each estimator (else empty).
+    merges: &'a [AtomicU32],
     media: PhantomData<M>,
 }
 
@@ -43,7 +45,7 @@ impl<'a, M, const RADII: bool> CameraPass<'a, M, RADII> {
     pub fn new(
         pass: &'a Pass<'a>,
         ws: &'a Workspace,
-        side: &'a [AtomicU32],
+        (side, merges): (&'a [AtomicU32], &'a [AtomicU32]),
         layers: usize,
     ) -> Self {
         CameraPass {
@@ -51,7 +53,16 @@ impl<'a, M, const RADII: bool> CameraPass<'a, M, RADII> {
             ws,
             side,
             layers,
+            merges,
             media: PhantomData,
+        }
+    }
+
+    /// Counts `n` merges of estimator `k` in `pixel` (pilot iterations only).
+    #[inline(always)]
+    fn count(&self, pixel: usize, k: Merge, n: u64) {
+        if let Some(c) = self.merges.get(pixel * Merge::COUNT + k as usize) {
+            c.fetch_add(n.min(u32::MAX as u64) as u32, Ordering::Relaxed);
         }
     }
 }
@@ -303,9 +314,10 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         }
         // The walk's parts are still those where the flight began.
         let pieces = (&p.pieces[..], p.walk.parts);
-        let store = (&self.ws.beams, p.cand);
-        beams::gather::<RADII>(pass, store, pieces, len, rng, stats, layers, |k, v| {
+        let (store, pixel) = ((&self.ws.beams, p.cand), p.pixel);
+        beams::gather::<RADII>(pass, store, pieces, len, rng, stats, layers, |k, v, n| {
             add(l, layers, pass.layers.merge(k, len), v);
+            self.count(pixel, k, n);
         });
     }
 
@@ -411,6 +423,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
             p.l += connect::<M, RADII>(pass, light, (walk, cand), v, rng, stats, layers);
         }
         if walk.len > 1 || pass.s.merge_first {
+            let before = stats.merges;
             let (k, e) = match v {
                 Vertex::Surface { it, s: surface, .. } => {
                     let e = merge::<RADII>(pass, ws, (walk, cand), (it, surface), stats, layers);
@@ -423,6 +436,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
                 }
             };
             add(&mut p.l, layers, pass.layers.merge(k, walk.len), e);
+            self.count(p.pixel, k, stats.merges - before);
         }
     }
 }

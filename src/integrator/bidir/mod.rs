@@ -24,6 +24,7 @@
 //! 1 / (4/3 pi r^3) (point x point 3D of Křivánek et al. 2014), a second merge
 //! estimator with its own eta in the MIS.
 
+mod adaptive;
 mod beams;
 mod camera_merge;
 mod camera_path;
@@ -55,8 +56,8 @@ use std::sync::Mutex;
 
 mod settings;
 pub use settings::{
-    radius_layer_name, BidirSettings, Estimators, MergeDepth, Technique, UpbpTechnique,
-    MAX_STRATEGY_LENGTH,
+    radius_layer_name, BidirSettings, Estimators, MergeDepth, PixelSelection, Technique,
+    UpbpTechnique, MAX_STRATEGY_LENGTH,
 };
 
 /// An iteration's constants: the subpaths' ([`crate::integrator::paths::Pass`], which
@@ -97,10 +98,14 @@ pub struct Bidir {
     ws: Mutex<Workspace>,
     /// Per pixel, its candidate ([`selection`]); empty: the job's weights everywhere.
     choice: Mutex<Vec<u8>>,
+    /// With `selection: adaptive`, the pilots' measurements and choices.
+    adaptive: Option<Mutex<adaptive::State>>,
 }
 
 impl Bidir {
     pub fn new(technique: Technique, s: BidirSettings) -> Self {
+        let adaptive = (s.selection == PixelSelection::Adaptive)
+            .then(|| Mutex::new(adaptive::State::default()));
         Bidir {
             layers: Layers::new(&s, technique),
             s,
@@ -108,6 +113,7 @@ impl Bidir {
             keep_segments: technique.uses(Merge::BeamBeam1d),
             ws: Mutex::new(Workspace::default()),
             choice: Mutex::new(Vec::new()),
+            adaptive,
         }
     }
 
@@ -245,8 +251,44 @@ impl Bidir {
 
 impl Integrator for Bidir {
     fn iterate(&self, scene: &Scene, seed: u64, iteration: u64, film: &mut Film) -> RenderStats {
+        if let Some(state) = &self.adaptive {
+            return self.iterate_adaptive(state, scene, (seed, iteration), film);
+        }
         let choice = self.choice.lock().unwrap_or_else(|e| e.into_inner());
-        let pass = self.pass(scene, iteration, &choice);
+        self.render(scene, (seed, iteration), film, &choice, false)
+            .0
+    }
+}
+
+impl Bidir {
+    /// One iteration into `film`, each pixel under its candidate in `choice` (empty:
+    /// the job's weights everywhere); a `pilot` iteration also measures every
+    /// candidate in every pixel ([`adaptive`]).
+    fn render(
+        &self,
+        scene: &Scene,
+        (seed, iteration): (u64, u64),
+        film: &mut Film,
+        choice: &[u8],
+        pilot: bool,
+    ) -> (RenderStats, Option<adaptive::Pilot>) {
+        let mut pass = self.pass(scene, iteration, choice);
+        let k = self.layers.names.len();
+        let candidates = match pilot {
+            true => selection::candidates(&pass),
+            false => Vec::new(),
+        };
+        // A pilot's candidates are layers after the film's, weighted as radius layers.
+        let (radii, norms) = (pass.radii, pass.norms);
+        pass.core
+            .radius_layers
+            .extend(candidates.iter().enumerate().map(|(i, c)| RadiusLayer {
+                mis: c.mis,
+                scale: c.scale,
+                radii,
+                norms,
+                layer: k + i,
+            }));
         let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
         let ws = &mut *guard;
         let mut stats = trace_light_paths(&pass, seed, iteration, &mut ws.store);
@@ -280,15 +322,16 @@ impl Integrator for Bidir {
             .iter()
             .map(|n| film.begin_layer(n))
             .collect();
-        let k = ids.len();
+        let pixels = scene.width() as usize * scene.height() as usize;
+        let slots = k + candidates.len();
         // Per-pixel layer values of the camera pass; each pixel's slots are written by
-        // the one path of that pixel.
-        let side: Vec<AtomicU32> = (0..k * 3 * scene.width() as usize * scene.height() as usize)
-            .map(|_| AtomicU32::new(0))
-            .collect();
+        // the one path of that pixel. A pilot's merges per pixel and estimator too.
+        let atomics = |n: usize| (0..n).map(|_| AtomicU32::new(0)).collect::<Vec<_>>();
+        let side = atomics(slots * 3 * pixels);
+        let merges = atomics(if pilot { pixels * Merge::COUNT } else { 0 });
         if pass.technique != Technique::Lt {
-            let (ws, side) = (&*ws, &side[..]);
-            let run = (&pass, ws, side, k);
+            let (ws, side) = (&*ws, (&side[..], &merges[..]));
+            let run = (&pass, ws, side, slots);
             stats += match (scene.has_media, pass.reweights()) {
                 (true, false) => camera_pass::<WithMedia, false>(run, seed, iteration, film),
                 (false, false) => camera_pass::<NoMedia, false>(run, seed, iteration, film),
@@ -296,28 +339,32 @@ impl Integrator for Bidir {
                 (false, true) => camera_pass::<NoMedia, true>(run, seed, iteration, film),
             };
         }
-        add_layer_values(scene, (seed, iteration), film, &ids, &side);
+        add_layer_values(scene, (seed, iteration), film, (&ids, slots), &side);
         // Splats go in after the camera pass, in chunk order: the sum never depends on
         // which thread traced which chunk.
-        // A radius layer's splats are its own, not the main image's.
+        // A radius layer's splats are its own, not the main image's; a candidate's
+        // are the pilot's.
         let radii = self.layers.radii;
+        let mut measured = adaptive::Pilot::new(&side, (k, candidates.len()), &merges);
         for &(p, v, layer) in ws.store.splats() {
-            match ids.get(layer as usize) {
-                Some(&id) if layer as usize >= radii => {
-                    film.add_layer_splat(&scene.filter, p, v, id)
-                }
+            let layer = layer as usize;
+            match ids.get(layer) {
+                Some(&id) if layer >= radii => film.add_layer_splat(&scene.filter, p, v, id),
+                _ if layer >= k && layer < slots => measured.add_splat(scene, p, v, layer - k),
                 id => film.add_splat(&scene.filter, p, v, id.copied()),
             }
         }
-        stats
+        measured.rays_per_pixel = (stats.rays + stats.shadow_rays) as f64 / pixels as f64;
+        (stats, pilot.then_some(measured))
     }
 }
 
 /// The camera pass, compiled for whether the scene has media (`M`) and the pass has
 /// radius layers (`RADII`): `run` is the pass, its workspace, the per-pixel layer
 /// slots and their number of layers.
+#[allow(clippy::type_complexity)]
 fn camera_pass<M: Media + Sync, const RADII: bool>(
-    (pass, ws, side, k): (&Pass, &Workspace, &[AtomicU32], usize),
+    (pass, ws, side, k): (&Pass, &Workspace, (&[AtomicU32], &[AtomicU32]), usize),
     seed: u64,
     iteration: u64,
     film: &mut Film,
@@ -327,17 +374,21 @@ fn camera_pass<M: Media + Sync, const RADII: bool>(
 }
 
 /// Adds the camera pass's per-pixel layer values (`side`: three f32 bits per layer
-/// and pixel) to the layers `ids`, at each pixel's camera sample (where a wider filter
-/// than the pixel box spreads them from).
+/// and pixel, `stride` layers a pixel) to the film's layers `ids` (the first ones),
+/// at each pixel's camera sample (where a wider filter than the pixel box spreads them
+/// from).
 fn add_layer_values(
     scene: &Scene,
     (seed, iteration): (u64, u64),
     film: &mut Film,
-    ids: &[usize],
+    (ids, stride): (&[usize], usize),
     side: &[AtomicU32],
 ) {
     let (w, k) = (scene.width(), ids.len());
-    for (pixel, slots) in side.chunks_exact(3 * k.max(1)).enumerate() {
+    if k == 0 {
+        return;
+    }
+    for (pixel, slots) in side.chunks_exact(3 * stride).enumerate() {
         let (x, y) = (pixel as u32 % w, pixel as u32 / w);
         let p = match k == 0 || scene.filter.is_pixel_box() {
             true => crate::math::Vec2::ZERO,

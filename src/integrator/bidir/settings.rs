@@ -170,6 +170,7 @@ impl Estimators {
 /// | `radii` | none | `bpm`, `vcm`, `upbp`: more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
 /// | `medium_radii` | none | with `radii`: the layers' initial medium merge radii (as `medium_radius`), one per radius; absent, every layer keeps the job's own |
 /// | `pb2d_radii`, `bb1d_radii` | none | with `radii`: the layers' initial point x beam 2D and beam x beam 1D radii (as `pb2d_radius`, `bb1d_radius`), one per radius; absent, every layer keeps the job's own |
+/// | `selection` | `all` | `bpm`, `vcm`, `upbp`: every pixel merges with every estimator (`all`), or each pixel keeps the estimators that render it most efficiently (`adaptive`: second moments and merge counts measured at iterations 0, 3, 15, 63, ..., choices renewed after 4^j iterations; paths only a dropped estimator finds keep it, so the image stays unbiased); not with `radii` |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -195,6 +196,7 @@ pub struct BidirSettings {
     pub techniques: Vec<UpbpTechnique>,
     pub merge_first: bool,
     pub merge_depth: MergeDepth,
+    pub selection: PixelSelection,
     pub local_media_mis: bool,
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
@@ -240,6 +242,7 @@ impl Default for BidirSettings {
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
             merge_depth: MergeDepth::First,
+            selection: PixelSelection::All,
             local_media_mis: false,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
@@ -263,6 +266,17 @@ pub enum MergeDepth {
     /// Up to the camera's first scattering in a medium.
     #[default]
     First,
+}
+
+/// Which merge estimators each pixel uses (`selection`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelSelection {
+    /// Every estimator of the technique, everywhere.
+    #[default]
+    All,
+    /// Per pixel, chosen by efficiency from pilot iterations (`bidir::adaptive`).
+    Adaptive,
 }
 
 /// `techniques`: a list of names, or one string, `all` or names joined by `+` (for
@@ -457,12 +471,21 @@ impl BidirSettings {
                 return Err(ParamError::new(*name, message));
             }
         }
+        let adaptive = self.selection == PixelSelection::Adaptive;
+        if adaptive && !technique.merges() {
+            let message = "selection: adaptive chooses merge estimators: it needs bpm, vcm or upbp";
+            return Err(ParamError::new("selection", message));
+        }
         if n == 0 {
             return Ok(());
         }
         if !technique.merges() {
             let message = "radii are merge radii: they need bpm, vcm or upbp";
             return Err(ParamError::new("radii", message));
+        }
+        if adaptive {
+            let message = "selection: adaptive renders no radius layers; leave radii out";
+            return Err(ParamError::new("selection", message));
         }
         Ok(())
     }
