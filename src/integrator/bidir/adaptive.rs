@@ -188,6 +188,15 @@ impl State {
         self.rays += p.rays_per_pixel;
         self.pilots += 1;
         let choice = self.choose(candidates, (w, h));
+        let mut counts = vec![0usize; n];
+        for &c in &choice {
+            counts[c as usize] += 1;
+        }
+        tracing::debug!(
+            pilots = self.pilots,
+            ?counts,
+            "selection: pixels per candidate"
+        );
         self.choices.push(choice);
     }
 
@@ -197,7 +206,10 @@ impl State {
     fn choose(&self, candidates: &[Candidate], (w, h): (usize, usize)) -> Vec<u8> {
         let n = candidates.len();
         let m2 = box_filter(&self.m2, n, (w, h));
+        // Merges per pixel, averaged over the neighbourhood (the moments are compared
+        // across candidates only, so their sums serve).
         let merges = box_filter(&self.merges, Merge::COUNT, (w, h));
+        let area = box_filter(&vec![1.0; w * h], 1, (w, h));
         let pilots = self.pilots as f64;
         (0..w * h)
             .map(|p| {
@@ -205,7 +217,8 @@ impl State {
                     let kept = ALL.iter().filter(|&&k| c.keeps(k));
                     let merge: f64 = kept
                         .map(|&k| {
-                            merges[p * Merge::COUNT + k as usize] * MERGE_COST[k as usize] as f64
+                            merges[p * Merge::COUNT + k as usize] / area[p]
+                                * MERGE_COST[k as usize] as f64
                         })
                         .sum();
                     (self.rays + merge) / pilots

@@ -573,7 +573,8 @@ impl BidirSettings {
             let bytes = BeamStore::bytes_for(points, segments, pieces);
             e.add("photon points and beams", &driver, bytes);
         }
-        if !self.radii.is_empty() {
+        let adaptive = self.selection == PixelSelection::Adaptive;
+        if !self.radii.is_empty() || adaptive {
             // Each stored vertex's parts, in the store and again in its merge set;
             // the photon points' again in the beam store; each kept segment's two
             // (its own and pending), in the store and at most as many in the beam store.
@@ -587,7 +588,19 @@ impl BidirSettings {
             let bytes = n * std::mem::size_of::<Parts>() as f64;
             e.add("radius-layer parts", &driver, bytes);
         }
-        let layers = self.layer_count(technique) as f64;
+        let mut layers = self.layer_count(technique) as f64;
+        if adaptive {
+            // A pilot's candidates (at most six) are layers too, with four merge
+            // counts per pixel; the pilots' sums keep a second moment per candidate
+            // and the merges per estimator, and one byte per pixel per choice made.
+            let per_pixel = 6.0 * 8.0 + 4.0 * 8.0 + 4.0 * 4.0 + 32.0;
+            e.add(
+                "adaptive selection",
+                facts.film(),
+                per_pixel * facts.pixels(),
+            );
+            layers += 6.0;
+        }
         let values = array::<AtomicU32>(3.0 * layers * facts.pixels());
         e.add("layer values", facts.film(), values);
         if technique != Technique::Lt {
