@@ -151,14 +151,25 @@ fn submit(s: &TestServer, size: u32, spp: u64) -> String {
 /// Submits a job of `algorithm` over `spp` iterations of the foggy scene, uploaded to
 /// the server at `url`, with a snapshot (and checkpoint) every `every` iterations.
 fn submit_to(url: &str, size: u32, spp: u64, algorithm: &str, every: u64) -> String {
+    submit_with(url, (size, spp), (algorithm, json!({})), every)
+}
+
+/// [`submit_to`] with the algorithm's `params`.
+fn submit_with(
+    url: &str,
+    (size, spp): (u32, u64),
+    (algorithm, params): (&str, Value),
+    every: u64,
+) -> String {
     let upload = ureq::post(&format!("{url}/v1/scenes"))
         .set("Content-Type", "application/json")
         .send_bytes(foggy_scene(size).to_string().as_bytes());
     let (code, info) = respond(upload);
     assert_eq!(code, 201, "{}", String::from_utf8_lossy(&info));
     let info: Value = serde_json::from_slice(&info).unwrap();
-    let spec = json!({"scene": info["id"], "algorithm": algorithm, "halt": {"spp": spp},
-                      "seed": 5, "snapshot_every": {"iterations": every}});
+    let spec = json!({"scene": info["id"], "algorithm": algorithm, "params": params,
+                      "halt": {"spp": spp}, "seed": 5,
+                      "snapshot_every": {"iterations": every}});
     let (code, job) = respond(ureq::post(&format!("{url}/v1/jobs")).send_json(spec));
     assert_eq!(code, 201, "{}", String::from_utf8_lossy(&job));
     let job: Value = serde_json::from_slice(&job).unwrap();
@@ -182,8 +193,12 @@ fn in_process(size: u32, spp: u64) -> Vec<glam::Vec3> {
 }
 
 fn in_process_with(size: u32, spp: u64, algorithm: &str) -> Vec<glam::Vec3> {
+    in_process_params(size, spp, (algorithm, json!({})))
+}
+
+fn in_process_params(size: u32, spp: u64, alg: (&str, Value)) -> Vec<glam::Vec3> {
     let local = TestServer::start(None);
-    let id = submit_to(&local.url, size, spp, algorithm, 1_000_000);
+    let id = submit_with(&local.url, (size, spp), alg, 1_000_000);
     completed(&local, &id);
     final_pixels(&local, &id)
 }
@@ -227,6 +242,21 @@ fn a_pool_of_workers_renders_the_in_process_image_bit_for_bit() {
     );
     // An in-process server has no pool.
     assert!(listed(&TestServer::start(None)).is_empty());
+}
+
+/// `selection: adaptive` chooses each pixel's estimators from pilot iterations (0, 3,
+/// 15): a worker whose range starts past a pilot it has not rendered renders it again
+/// for its choices, so the pool's image is still the in-process one, bit for bit.
+#[test]
+fn an_adaptive_upbp_job_on_the_pool_renders_the_in_process_image_bit_for_bit() {
+    let nats = Nats::start(None);
+    let pool = pool(&nats);
+    let coord = pool.coord;
+    let alg = || ("upbp", json!({"selection": "adaptive", "light_paths": 0.5}));
+    let id = submit_with(&coord.url, (24, 40), alg(), 1_000_000);
+    let job = completed(&coord, &id);
+    assert_eq!(job["iteration"], 40);
+    assert!(final_pixels(&coord, &id) == in_process_params(24, 40, alg()));
 }
 
 /// Waits until the first ranges of job `id` are in: from then on per-iteration times

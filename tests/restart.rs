@@ -77,6 +77,18 @@ fn kill_9_then_restart_resumes_upbp_bit_identically() {
     );
 }
 
+/// `selection: adaptive`: the resumed job renders the pilots before its checkpoint
+/// again, so it makes the same per-pixel choices.
+#[test]
+fn kill_9_then_restart_resumes_adaptive_upbp_bit_identically() {
+    kill_9_then_restart(
+        foggy_scene(24),
+        "upbp",
+        json!({"light_paths": 0.5, "selection": "adaptive"}),
+        400,
+    );
+}
+
 fn kill_9_then_restart(scene: Value, alg: &str, params: Value, spp: u64) {
     let dir = tempfile::tempdir().unwrap();
     let mut p = start(dir.path());
