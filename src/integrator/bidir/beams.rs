@@ -344,13 +344,18 @@ fn point_beam<const RADII: bool>(
             let m = q.meet(pass, at, (yq, y.cont, y.wo), ph);
             let own = d2 <= r * r;
             let wt = if own {
-                let sides = |scale: &_| {
-                    let parts = &store.point_parts[index_in(points, y)];
-                    let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
-                    (ql, q.camera_q(pass, &m, scale))
+                let w = match RADII {
+                    true => {
+                        let sides = |scale: &_| {
+                            let parts = &store.point_parts[index_in(points, y)];
+                            let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
+                            (ql, q.camera_q(pass, &m, scale))
+                        };
+                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                        q.rule.weight(k, m.q, sides, weight, mis)
+                    }
+                    false => m.weight(mis, k, m.q),
                 };
-                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                let w = q.rule.weight(k, m.q, sides, weight, mis);
                 stats.merges += 1;
                 let wt = b.weight_at(q.m, t, rng);
                 sum += y.throughput * wt * (ph * w);
@@ -436,15 +441,21 @@ fn beam_beam<const RADII: bool>(
             let own = cross.map(|x| {
                 let (m, tr_l, value) = estimate(&x, rng);
                 stats.merges += 1;
-                let sides = |scale: &_| {
-                    let parts = &store.segment_parts[b.seg as usize];
-                    let ql = pass
-                        .mis
-                        .rescale(m.q.0, &parts_at(pass, parts, tr_l, m.sigma), scale);
-                    (ql, q.camera_q(pass, &m, scale))
+                let w = match RADII {
+                    true => {
+                        let sides = |scale: &_| {
+                            let parts = &store.segment_parts[b.seg as usize];
+                            let at = parts_at(pass, parts, tr_l, m.sigma);
+                            (
+                                pass.mis.rescale(m.q.0, &at, scale),
+                                q.camera_q(pass, &m, scale),
+                            )
+                        };
+                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                        q.rule.weight(k, m.q, sides, weight, &pass.mis)
+                    }
+                    false => m.weight(&pass.mis, k, m.q),
                 };
-                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                let w = q.rule.weight(k, m.q, sides, weight, &pass.mis);
                 sum += value * (ph * w / (2.0 * r * x.sin));
                 (m, tr_l, value)
             });
@@ -478,7 +489,8 @@ fn beam_beam<const RADII: bool>(
 /// Both beam estimators along the camera's segments of one flight (`pieces`, each
 /// with the throughput at its start), the camera subpath `camera_len` segments long
 /// and its parts `parts` where the flight began; `out(k, value)` receives each
-/// estimator's part and its number of merges, and with radius layers (`RADII`) their values go to `slots`.
+/// estimator's part and its number of merges, and with radius layers (`RADII`) their
+/// values go to `slots`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather<const RADII: bool>(
     pass: &Pass,
@@ -494,6 +506,8 @@ pub(super) fn gather<const RADII: bool>(
         return;
     }
     let (pb, bb) = (pass.uses(Merge::PointBeam2d), pass.uses(Merge::BeamBeam1d));
+    // Without reweighting there is no candidate: the rules below fold away.
+    let cand = if RADII { cand } else { None };
     let mut layers = layer_sums::<RADII>(pass);
     for c in pieces {
         // Decided before the query beam is sampled: a pixel that queries neither

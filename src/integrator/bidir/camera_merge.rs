@@ -71,7 +71,10 @@ pub(super) fn merge<const RADII: bool>(
                 let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
                 (light, pass.mis.rescale(walk.q, &walk.parts, scale))
             };
-            let w = rule.weight(k, (yq, walk.q), sides, weight, &pass.mis);
+            let w = match RADII {
+                true => rule.weight(k, (yq, walk.q), sides, weight, &pass.mis),
+                false => weight(&pass.mis, yq, walk.q),
+            };
             merges += 1;
             sum += c * (w / e.cos);
         },
@@ -152,7 +155,10 @@ pub(super) fn merge_medium<const RADII: bool>(
                 let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
                 (light, pass.mis.rescale(walk.q, &walk.parts, scale))
             };
-            let w = rule.weight(k, (yq, walk.q), sides, weight, &pass.mis);
+            let w = match RADII {
+                true => rule.weight(k, (yq, walk.q), sides, weight, &pass.mis),
+                false => weight(&pass.mis, yq, walk.q),
+            };
             merges += 1;
             sum += y.throughput * (ph * w);
         },

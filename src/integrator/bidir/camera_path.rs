@@ -155,6 +155,17 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
 type Seen = (Ray, Option<u32>, Rgb);
 
 impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
+    /// The path's candidate: always None where the pass reweighs nothing (`RADII`
+    /// false), so that the usual pass compiles without the candidates' branches.
+    #[inline(always)]
+    fn cand<'p>(p: &CameraPath<'p>) -> Option<&'p Candidate> {
+        if RADII {
+            p.cand
+        } else {
+            None
+        }
+    }
+
     /// Pixel `pixel`'s layer slots.
     #[inline(always)]
     fn slots(&self, pixel: usize) -> &[AtomicU32] {
@@ -308,16 +319,18 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) {
+        let (store, pixel) = ((&self.ws.beams, Self::cand(p)), p.pixel);
         let (pass, l, len) = (self.pass, &mut p.l, p.walk.len);
         if pass.mis.cuts(p.walk.medium_seen) {
             return;
         }
         // The walk's parts are still those where the flight began.
         let pieces = (&p.pieces[..], p.walk.parts);
-        let (store, pixel) = ((&self.ws.beams, p.cand), p.pixel);
         beams::gather::<RADII>(pass, store, pieces, len, rng, stats, layers, |k, v, n| {
             add(l, layers, pass.layers.merge(k, len), v);
-            self.count(pixel, k, n);
+            if RADII {
+                self.count(pixel, k, n);
+            }
         });
     }
 
@@ -365,7 +378,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
             p.walk.q = pass.mis.on_hit(p.walk.q, 1.0 / tr, 1.0);
         }
         if !seen {
-            let walk = (&p.walk, p.cand);
+            let walk = (&p.walk, Self::cand(p));
             let v = p.walk.throughput * escaped::<RADII>(pass, walk, p.ray.d, layers);
             add(
                 &mut p.l,
@@ -380,7 +393,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
     /// quantities, and an emitter there counts unless phase 2 found it (`seen`).
     #[inline(always)]
     fn arrive(&self, p: &mut CameraPath, v: &Vertex<M>, tr: f32, seen: bool, layers: &[AtomicU32]) {
-        let (pass, cand) = (self.pass, p.cand);
+        let (pass, cand) = (self.pass, Self::cand(p));
         let walk = &mut p.walk;
         let dist2 = (v.p() - walk.origin).length_squared();
         walk.q = pass.mis.on_hit(walk.q, dist2 / tr, v.d_in());
@@ -410,7 +423,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         stats: &mut RenderStats,
     ) {
         let (pass, ws) = (self.pass, self.ws);
-        let (walk, cand) = (&p.walk, p.cand);
+        let (walk, cand) = (&p.walk, Self::cand(p));
         if pass.technique.connects() {
             let at = (walk, cand);
             let (e, shadow) = light_sample::<M, RADII>(pass, at, v, rng, stats, layers);
@@ -436,7 +449,9 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
                 }
             };
             add(&mut p.l, layers, pass.layers.merge(k, walk.len), e);
-            self.count(p.pixel, k, stats.merges - before);
+            if RADII {
+                self.count(p.pixel, k, stats.merges - before);
+            }
         }
     }
 }
