@@ -2,10 +2,11 @@
 //! light vertices of the same medium (point x point 3D), each weighted by the MIS and,
 //! with radius layers, under every layer's.
 
+use super::merge::{MergeSet, MergeVertex};
 use super::radius_layers::{light_q, RadiusSums};
-use super::selection::rule;
+use super::selection::{rule, Rule};
 use super::{Pass, Workspace};
-use crate::integrator::paths::partial::{Merge, Mis, Site};
+use crate::integrator::paths::partial::{Merge, Mis, Partial, Site};
 use crate::integrator::paths::parts::{Candidate, MEDIA};
 use crate::integrator::paths::vertex::MediumPoint;
 use crate::integrator::paths::walk::{Surface, Walk, MIN_COS};
@@ -66,15 +67,7 @@ pub(super) fn merge<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let sides = |scale: &_| {
-                let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
-                (light, pass.mis.rescale(walk.q, &walk.parts, scale))
-            };
-            let w = match RADII {
-                true => rule.weight(k, (yq, walk.q), sides, weight, &pass.mis),
-                false => weight(&pass.mis, yq, walk.q),
-            };
+            let w = point_weight::<RADII>(pass, (rule, k), (set, y, cut), walk, weight);
             merges += 1;
             sum += c * (w / e.cos);
         },
@@ -150,15 +143,7 @@ pub(super) fn merge_medium<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-            let sides = |scale: &_| {
-                let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
-                (light, pass.mis.rescale(walk.q, &walk.parts, scale))
-            };
-            let w = match RADII {
-                true => rule.weight(k, (yq, walk.q), sides, weight, &pass.mis),
-                false => weight(&pass.mis, yq, walk.q),
-            };
+            let w = point_weight::<RADII>(pass, (rule, k), (set, y, cut), walk, weight);
             merges += 1;
             sum += y.throughput * (ph * w);
         },
@@ -166,4 +151,26 @@ pub(super) fn merge_medium<const RADII: bool>(
     stats.merges += merges;
     radii.record(beta, slots);
     beta * sum * pass.norms[Merge::Point3d as usize]
+}
+
+/// A merge's weight at a camera vertex with light vertex `y` of `set` (its partial
+/// weights cut if `cut`): the job's, or the pixel's `rule` for estimator `k`, from
+/// `weight(mis, light, camera)`.
+#[inline(always)]
+fn point_weight<const RADII: bool>(
+    pass: &Pass,
+    (rule, k): (Rule, Merge),
+    (set, y, cut): (&MergeSet, &MergeVertex, bool),
+    walk: &Walk,
+    weight: impl Fn(&Mis, Partial, Partial) -> f32,
+) -> f32 {
+    let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
+    if !RADII {
+        return weight(&pass.mis, yq, walk.q);
+    }
+    let sides = |scale: &_| {
+        let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
+        (light, pass.mis.rescale(walk.q, &walk.parts, scale))
+    };
+    rule.weight(k, (yq, walk.q), sides, weight, &pass.mis)
 }
