@@ -28,9 +28,10 @@ use crate::scene::Scene;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
-/// Merges cost this many traced rays each (measured on gbs_p and fog-cornell by
-/// `caustic bench`: a surface or point x point merge, a photon point along a query
-/// beam, a photon beam crossing one; see the README's upbp section).
+/// Merges cost this many traced rays each: a surface or point x point merge, a photon
+/// point along a query beam, a photon beam crossing one. Rough guesses, not measured
+/// (an intersection walks a BVH, a merge evaluates one kernel and one weight); a
+/// benchmark that fits them is still to do.
 const MERGE_COST: [f32; Merge::COUNT] = [0.05, 0.05, 0.1, 0.2];
 
 /// The neighbourhood of a pixel whose moments and costs its choice reads: (2 R + 1)^2.
