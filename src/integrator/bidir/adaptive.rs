@@ -54,6 +54,7 @@ pub(super) fn pilots_before(i: u64) -> impl Iterator<Item = u64> {
 /// (the mean of its three channels), the merges of each estimator, and the rays per
 /// pixel of the whole iteration (light paths included).
 pub(super) struct Pilot {
+    pub candidates: Vec<Candidate>,
     pub values: Vec<f32>,
     pub merges: Vec<u32>,
     pub rays_per_pixel: f64,
@@ -63,7 +64,12 @@ impl Pilot {
     /// The camera pass's part: candidate `c`'s value in slot `k + c` of each pixel's
     /// `side` (three f32 bit patterns per slot, `k + n` slots a pixel), and the
     /// merge counts `merges`.
-    pub fn new(side: &[AtomicU32], (k, n): (usize, usize), merges: &[AtomicU32]) -> Pilot {
+    pub fn new(
+        side: &[AtomicU32],
+        (k, candidates): (usize, Vec<Candidate>),
+        merges: &[AtomicU32],
+    ) -> Pilot {
+        let n = candidates.len();
         let mut values = Vec::new();
         if n > 0 {
             for slots in side.chunks_exact(3 * (k + n)) {
@@ -76,6 +82,7 @@ impl Pilot {
             }
         }
         Pilot {
+            candidates,
             values,
             merges: merges.iter().map(|m| m.load(Ordering::Relaxed)).collect(),
             rays_per_pixel: 0.0,
@@ -86,7 +93,7 @@ impl Pilot {
     /// that holds it.
     pub fn add_splat(&mut self, scene: &Scene, p: Vec2, v: Rgb, c: usize) {
         let (w, h) = (scene.width() as usize, scene.height() as usize);
-        let n = self.values.len() / (w * h).max(1);
+        let n = self.candidates.len();
         let (x, y) = (
             (p.x.max(0.0) as usize).min(w - 1),
             (p.y.max(0.0) as usize).min(h - 1),
@@ -115,12 +122,12 @@ impl Bidir {
         for &p in before.iter().skip(st.pilots) {
             let mut scratch = Film::new(scene.width(), scene.height());
             let (_, pilot) = self.render(scene, (seed, p), &mut scratch, &[], true);
-            st.add_pilot(pilot, self, scene, p, size);
+            st.add(&pilot.expect("a pilot measures"), size);
         }
         if is_pilot(iteration) {
             let (stats, pilot) = self.render(scene, (seed, iteration), film, &[], true);
             if st.pilots == before.len() {
-                st.add_pilot(pilot, self, scene, iteration, size);
+                st.add(&pilot.expect("a pilot measures"), size);
             }
             return stats;
         }
@@ -158,24 +165,9 @@ impl State {
         }
     }
 
-    /// Adds pilot iteration `i`'s measurements, with the candidates of its pass.
-    fn add_pilot(
-        &mut self,
-        pilot: Option<Pilot>,
-        bidir: &Bidir,
-        scene: &Scene,
-        i: u64,
-        size: (usize, usize),
-    ) {
-        let pass = bidir.pass(scene, i, &[]);
-        let candidates = super::selection::candidates(&pass);
-        if let Some(p) = pilot {
-            self.add(&p, &candidates, size);
-        }
-    }
-
     /// Adds the next pilot and chooses again.
-    pub fn add(&mut self, p: &Pilot, candidates: &[Candidate], (w, h): (usize, usize)) {
+    pub fn add(&mut self, p: &Pilot, (w, h): (usize, usize)) {
+        let candidates = &p.candidates;
         let n = candidates.len();
         let pixels = w * h;
         self.m2.resize(pixels * n, 0.0);
@@ -224,17 +216,15 @@ impl State {
                         .sum();
                     (self.rays + merge) / pilots
                 };
-                let score = |i: usize| {
-                    (
-                        m2[p * n + i] / pilots * cost(&candidates[i]),
-                        cost(&candidates[i]),
-                    )
-                };
-                let best = (0..n).min_by(|&a, &b| {
-                    let (sa, sb) = (score(a), score(b));
-                    sa.partial_cmp(&sb).unwrap_or(std::cmp::Ordering::Equal)
+                let scores = candidates.iter().enumerate().map(|(i, c)| {
+                    let cost = cost(c);
+                    (m2[p * n + i] / pilots * cost, cost)
                 });
-                best.unwrap_or(0) as u8
+                // min_by keeps the first of equals.
+                let best = scores
+                    .enumerate()
+                    .min_by(|(_, a), (_, b)| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+                best.map_or(0, |(i, _)| i) as u8
             })
             .collect()
     }

@@ -344,18 +344,13 @@ fn point_beam<const RADII: bool>(
             let m = q.meet(pass, at, (yq, y.cont, y.wo), ph);
             let own = d2 <= r * r;
             let wt = if own {
-                let w = match RADII {
-                    true => {
-                        let sides = |scale: &_| {
-                            let parts = &store.point_parts[index_in(points, y)];
-                            let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
-                            (ql, q.camera_q(pass, &m, scale))
-                        };
-                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                        q.rule.weight(k, m.q, sides, weight, mis)
-                    }
-                    false => m.weight(mis, k, m.q),
+                let sides = |scale: &_| {
+                    let parts = &store.point_parts[index_in(points, y)];
+                    let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
+                    (ql, q.camera_q(pass, &m, scale))
                 };
+                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                let w = q.rule.weight(k, m.q, sides, weight, mis);
                 stats.merges += 1;
                 let wt = b.weight_at(q.m, t, rng);
                 sum += y.throughput * wt * (ph * w);
@@ -441,21 +436,16 @@ fn beam_beam<const RADII: bool>(
             let own = cross.map(|x| {
                 let (m, tr_l, value) = estimate(&x, rng);
                 stats.merges += 1;
-                let w = match RADII {
-                    true => {
-                        let sides = |scale: &_| {
-                            let parts = &store.segment_parts[b.seg as usize];
-                            let at = parts_at(pass, parts, tr_l, m.sigma);
-                            (
-                                pass.mis.rescale(m.q.0, &at, scale),
-                                q.camera_q(pass, &m, scale),
-                            )
-                        };
-                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                        q.rule.weight(k, m.q, sides, weight, &pass.mis)
-                    }
-                    false => m.weight(&pass.mis, k, m.q),
+                let sides = |scale: &_| {
+                    let parts = &store.segment_parts[b.seg as usize];
+                    let at = parts_at(pass, parts, tr_l, m.sigma);
+                    (
+                        pass.mis.rescale(m.q.0, &at, scale),
+                        q.camera_q(pass, &m, scale),
+                    )
                 };
+                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                let w = q.rule.weight(k, m.q, sides, weight, &pass.mis);
                 sum += value * (ph * w / (2.0 * r * x.sin));
                 (m, tr_l, value)
             });
@@ -506,8 +496,6 @@ pub(super) fn gather<const RADII: bool>(
         return;
     }
     let (pb, bb) = (pass.uses(Merge::PointBeam2d), pass.uses(Merge::BeamBeam1d));
-    // Without reweighting there is no candidate: the rules below fold away.
-    let cand = if RADII { cand } else { None };
     let mut layers = layer_sums::<RADII>(pass);
     for c in pieces {
         // Decided before the query beam is sampled: a pixel that queries neither

@@ -34,6 +34,7 @@ pub(super) fn merge<const RADII: bool>(
     let Some(rule) = rule(pass, cand, at, k, &[k]) else {
         return Rgb::ZERO;
     };
+    let qc = rule.camera(pass, walk.q, &walk.parts);
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
     let cut = pass.mis.cuts(walk.medium_seen);
@@ -67,7 +68,7 @@ pub(super) fn merge<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = point_weight::<RADII>(pass, (rule, k), (set, y, cut), walk, weight);
+            let w = point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight);
             merges += 1;
             sum += c * (w / e.cos);
         },
@@ -102,6 +103,7 @@ pub(super) fn merge_medium<const RADII: bool>(
     let Some(rule) = rule(pass, cand, (walk.q, &walk.parts), k, &MEDIA) else {
         return Rgb::ZERO;
     };
+    let qc = rule.camera(pass, walk.q, &walk.parts);
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
     let beta = Rgb::select(
         sigma_s.cmpgt(Rgb::ZERO),
@@ -143,7 +145,7 @@ pub(super) fn merge_medium<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = point_weight::<RADII>(pass, (rule, k), (set, y, cut), walk, weight);
+            let w = point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight);
             merges += 1;
             sum += y.throughput * (ph * w);
         },
@@ -155,22 +157,20 @@ pub(super) fn merge_medium<const RADII: bool>(
 
 /// A merge's weight at a camera vertex with light vertex `y` of `set` (its partial
 /// weights cut if `cut`): the job's, or the pixel's `rule` for estimator `k`, from
-/// `weight(mis, light, camera)`.
+/// `weight(mis, light, camera)`; `q` is the camera side's partial weights, as the job
+/// and as the rule has them.
 #[inline(always)]
-fn point_weight<const RADII: bool>(
+fn point_weight(
     pass: &Pass,
     (rule, k): (Rule, Merge),
     (set, y, cut): (&MergeSet, &MergeVertex, bool),
-    walk: &Walk,
+    (q, qc): (Partial, Partial),
     weight: impl Fn(&Mis, Partial, Partial) -> f32,
 ) -> f32 {
     let yq = if cut { pass.mis.cut(y.q, y.vol()) } else { y.q };
-    if !RADII {
-        return weight(&pass.mis, yq, walk.q);
-    }
     let sides = |scale: &_| {
         let light = light_q(pass, (y.q, y.vol(), set.parts_of(y)), cut, scale);
-        (light, pass.mis.rescale(walk.q, &walk.parts, scale))
+        (light, qc)
     };
-    rule.weight(k, (yq, walk.q), sides, weight, &pass.mis)
+    rule.weight(k, (yq, q), sides, weight, &pass.mis)
 }

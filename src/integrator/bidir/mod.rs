@@ -345,7 +345,7 @@ impl Bidir {
         // A radius layer's splats are its own, not the main image's; a candidate's
         // are the pilot's.
         let radii = self.layers.radii;
-        let mut measured = adaptive::Pilot::new(&side, (k, candidates.len()), &merges);
+        let mut measured = adaptive::Pilot::new(&side, (k, candidates), &merges);
         for &(p, v, layer) in ws.store.splats() {
             let layer = layer as usize;
             match ids.get(layer) {

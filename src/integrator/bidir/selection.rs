@@ -72,6 +72,15 @@ pub(super) fn camera_rules_out(c: &Candidate, qc: Partial, kept_here: bool) -> b
 }
 
 impl Rule<'_> {
+    /// The camera side's partial weights `q` (with `parts`) as this rule weighs them.
+    #[inline(always)]
+    pub fn camera(&self, pass: &Pass, q: Partial, parts: &Parts) -> Partial {
+        match *self {
+            Rule::Job => q,
+            Rule::Kept(c) | Rule::Dropped(c) => pass.mis.rescale(q, parts, &c.scale),
+        }
+    }
+
     /// A merge's weight by estimator `k`: `weight(mis, light, camera)` under a MIS and
     /// both sides' partial weights, `job` the job's (light, camera) and `sides(scale)`
     /// theirs under other factors.
