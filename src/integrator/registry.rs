@@ -369,6 +369,36 @@ mod tests {
         }
     }
 
+    /// `selection: adaptive` where it cannot apply, or a value it does not know, is
+    /// refused naming the field.
+    #[test]
+    fn a_bad_selection_is_named() {
+        let cases = [
+            (
+                "bpt",
+                json!({"selection": "adaptive"}),
+                "chooses merge estimators: it needs bpm",
+            ),
+            (
+                "vcm",
+                json!({"selection": "adaptive", "radii": [0.01]}),
+                "renders no radius layers",
+            ),
+            (
+                "upbp",
+                json!({"selection": "sometimes"}),
+                "unknown variant `sometimes`",
+            ),
+        ];
+        for (alg, params, words) in cases {
+            let e = Settings::resolve(Some(alg), None, &map(params)).unwrap_err();
+            assert_eq!(e.field(), Some("params.selection"), "{alg}: {e}");
+            assert!(e.to_string().contains(words), "{alg}: {e}");
+        }
+        let fine = map(json!({"selection": "adaptive"}));
+        Settings::resolve(Some("upbp"), None, &fine).unwrap();
+    }
+
     /// A bad parameter that a scene's defaults gave is named where the scene says it
     /// (`integrator.<name>`); a job's own, as the job wrote it.
     #[test]
