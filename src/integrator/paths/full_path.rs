@@ -16,20 +16,21 @@
 //! camera vertices x_{n-1} .. x_j of min(1, p_camera(x_i) A), and light_j the same
 //! for the light subpath's vertices x_0 .. x_j. A is a disc of radius d tan(1 deg), d
 //! the distance from the camera to the path's first camera vertex (a pixel's
-//! footprint grows with it). Merges at the first camera vertex are not correlated
-//! this way (rho = 1). rho depends on both whole subpaths, which is why the recursion
-//! cannot carry it: each weight needs the explicit sum here.
-//!
-//! For now the MIS unit tests (bidir/mis/tests.rs) are its users: they check the
-//! recursion against it and define rho's behaviour on it; the renderer's O(n)
-//! evaluator for correlation-aware weights is to gather these densities along both
-//! subpaths and call it.
+//! footprint grows with it), and at a medium vertex the ball of that radius (its
+//! densities are per volume). Merges at the first camera vertex are not correlated
+//! this way (rho = 1), and rho is at least 1 / N for N light subpaths (as in the
+//! paper's implementation: a merge keeps at least one light subpath's worth of
+//! samples). rho depends on both whole subpaths, which is why the recursion cannot
+//! carry it: the renderer's O(n) evaluator ([`super::correlation`]) walks both
+//! subpaths' stored links, and the MIS unit tests check it against the explicit
+//! weights here.
 //!
 //! Conventions, as in [`super::partial`]: x_0 is on the light (a direction for a light
 //! at infinity), x_{n-1} the first camera vertex, x_n the camera; densities are in
 //! area measure with the segment's MIS transmittance, and a medium vertex's "cosine"
 //! is its sigma_t from both sides.
 
+use super::correlation::{rho, Footprint};
 use super::partial::{Merge, Merges, Site, MIN_BEAM_SIN};
 use crate::integrator::transport::Heuristic;
 
@@ -77,10 +78,6 @@ pub(crate) enum Technique {
     Connect(usize),
     Merge(usize, Merge),
 }
-
-/// tan(1 degree): the surrogate acceptance radius per unit of the first camera
-/// segment's length (the module notes).
-const FOOTPRINT: f64 = 0.017_455_064_928_217_585;
 
 impl FullPath {
     /// Density of x_i sampled from the light side (area measure, or the direction
@@ -153,24 +150,21 @@ impl FullPath {
     }
 
     /// Grittmann et al.'s correlation factor rho_j of a merge at x_j (the module
-    /// notes), with the surrogate acceptance area from the first camera segment.
-    pub fn correlation(&self, j: usize) -> f64 {
+    /// notes), with the surrogate footprint from the first camera segment (a disc at
+    /// surfaces, a ball in media) and at least 1 / `light_paths`.
+    pub fn correlation(&self, j: usize, light_paths: f32) -> f64 {
         let n = self.n;
         if j + 1 >= n {
             return 1.0; // the first camera vertex: no correlation
         }
-        let r = FOOTPRINT * (self.d2[n - 1] as f64).sqrt();
-        let area = std::f64::consts::PI * r * r;
-        let accept = |p: f32| (p as f64 * area).min(1.0);
-        let cam: f64 = (j..n).map(|i| accept(self.bwd(i))).product();
+        let fp = Footprint::new(self.d2[n - 1].sqrt());
+        let accept = |i: usize, p: f32| fp.accept(p, self.site[i] == Site::Medium);
+        let cam: f64 = (j..n).map(|i| accept(i, self.bwd(i))).product();
         // A light at infinity has no position to accept: its direction's density
         // is not an area density.
         let first = usize::from(self.infinite);
-        let light: f64 = (first..=j).map(|i| accept(self.fwd(i))).product();
-        if cam == 0.0 && light == 0.0 {
-            return 1.0;
-        }
-        cam / (cam + light - cam * light)
+        let light: f64 = (first..=j).map(|i| accept(i, self.fwd(i))).product();
+        rho(cam, light, light_paths as f64)
     }
 
     /// The techniques that can sample this path: connections where `connects`, and
@@ -220,7 +214,7 @@ impl FullPath {
         let p = |t: Technique| {
             let mut p = self.density(t, merges, light_paths);
             if let (Technique::Merge(j, _), true) = (t, correlated) {
-                p *= self.correlation(j);
+                p *= self.correlation(j, light_paths);
             }
             match heuristic {
                 Heuristic::Balance => p,

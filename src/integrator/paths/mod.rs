@@ -14,6 +14,7 @@
 //! mappers gather [`photons`] with the estimators.
 
 #[cfg(test)]
+pub(crate) mod correlation;
 pub(crate) mod full_path;
 pub(crate) mod layers;
 pub(crate) mod light_pass;

@@ -12,6 +12,9 @@ use crate::integrator::paths::partial::{
 use crate::integrator::paths::parts::{Candidate, Parts, Scale, MEDIA};
 use crate::integrator::transport::Heuristic;
 use crate::math::Rng;
+use crate::integrator::paths::correlation::Fix;
+
+mod correlated;
 
 fn random_path(rng: &mut Rng, n: usize, media: bool, infinite: bool) -> Path {
     let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
@@ -167,10 +170,19 @@ impl Path {
     /// weight under every estimator's Mis(eta_k) scaled so, from the same unscaled
     /// subpaths and their [`Parts`].
     fn recursive_weight(&self, m: &Mis, t: Tech, scale: Option<&Scale>) -> f32 {
+        self.fixed_weight(m, t, scale, (Fix::NONE, Fix::NONE))
+    }
+
+    /// The same with the light's and the camera's side fixed by correlation-aware
+    /// MIS ([`Fix`]).
+    fn fixed_weight(&self, m: &Mis, t: Tech, scale: Option<&Scale>, fix: (Fix, Fix)) -> f32 {
         let n = self.n;
         // A subpath's partial weights and a vertex's M(x) as `scale` has them.
         let q = |q: Partial, parts: Parts| scale.map_or(q, |s| m.rescale(q, &parts, s));
         let vm = |plain: f64, terms: Parts| scale.map_or(plain, |s| terms.dot(s));
+        let (fl, fc) = fix;
+        let ql = |x: Partial, parts: Parts| fl.apply(q(x, parts));
+        let qc = |x: Partial, parts: Parts| fc.apply(q(x, parts));
         // The light side cut by `merge_depth: first` ([`Mis::cut`]).
         let cut = |(ql, vol, parts): (Partial, f64, Parts), cut: bool| {
             if cut {
@@ -181,11 +193,11 @@ impl Path {
         };
         match t {
             Tech::Connect(0) => {
-                let (qc, _, _, parts) = self.camera_q(m, 0);
-                m.weight_emitter_hit(q(qc, parts), self.pick * self.a_direct, self.emission())
+                let (cq, _, _, parts) = self.camera_q(m, 0);
+                m.weight_emitter_hit(qc(cq, parts), self.pick * self.a_direct, self.emission())
             }
             Tech::Connect(1) => {
-                let (qc, len, seen, parts) = self.camera_q(m, 1);
+                let (cq, len, seen, parts) = self.camera_q(m, 1);
                 // Light sampling's solid-angle density, with the segment's T.
                 let (direct_w, cos_light) = if self.infinite {
                     (self.a_direct, 1.0)
@@ -197,8 +209,8 @@ impl Path {
                     self.camera_terms(m, 1, len, seen),
                 );
                 m.weight_light_sample(
-                    q(qc, parts),
-                    vm1,
+                    qc(cq, parts),
+                    vm1 * fc.rho,
                     self.pick,
                     direct_w / self.tr[0],
                     self.e_pos * self.e_dir,
@@ -211,19 +223,19 @@ impl Path {
             Tech::Connect(s) if s == n => {
                 // x_{n-1} is on the camera side of the light's earlier vertices.
                 let medium = self.site[n - 1] == Site::Medium;
-                let (ql, parts) = cut(self.light_q(m, n - 1), m.cuts(medium));
+                let (lq, parts) = cut(self.light_q(m, n - 1), m.cuts(medium));
                 let camera_a = self.camera * self.cf[n - 1] / self.seg(n - 1);
                 let vm1 = vm(self.vm(m, n - 1, Some(1)), self.terms(m, n - 1, Some(1)));
-                m.weight_camera_connection((q(ql, parts), vm1), camera_a, self.pc[n - 1])
+                m.weight_camera_connection((ql(lq, parts), vm1), camera_a, self.pc[n - 1])
             }
             Tech::Connect(s) => {
-                let (qc, len, seen, cparts) = self.camera_q(m, s);
+                let (cq, len, seen, cparts) = self.camera_q(m, s);
                 let seg = self.seg(s - 1);
                 // x_{s-1}, x_s and the camera vertices before it are the camera
                 // side of the light's earlier vertices; x_s and those of x_{s-1}.
                 let camera_medium = seen || self.site[s] == Site::Medium;
                 let y_medium = self.site[s - 1] == Site::Medium;
-                let (ql, lparts) = cut(self.light_q(m, s - 1), m.cuts(camera_medium || y_medium));
+                let (lq, lparts) = cut(self.light_q(m, s - 1), m.cuts(camera_medium || y_medium));
                 let vm_y = if y_medium && m.cuts(camera_medium) {
                     0.0
                 } else {
@@ -234,8 +246,8 @@ impl Path {
                     self.camera_terms(m, s, len, seen),
                 );
                 m.weight_connection(
-                    (q(ql, lparts), vm_y),
-                    (q(qc, cparts), vm_x),
+                    (ql(lq, lparts), vm_y * fl.rho),
+                    (qc(cq, cparts), vm_x * fc.rho),
                     self.pc[s] * self.cf[s - 1] / seg,
                     self.pl[s - 1] * self.cb[s] / seg,
                     self.pc[s - 1],
@@ -243,19 +255,19 @@ impl Path {
                 )
             }
             Tech::Merge(j, k) => {
-                let (qc, _, seen, cparts) = self.camera_q(m, j);
+                let (cq, _, seen, cparts) = self.camera_q(m, j);
                 // A merge in a medium is on the camera side of the light's vertices.
                 let medium = self.site[j] == Site::Medium;
                 assert!(!(medium && m.cuts(seen)), "{t:?} is no technique");
                 let cuts = if medium { m.first_medium } else { m.cuts(seen) };
-                let (ql, lparts) = cut(self.light_q(m, j), cuts);
+                let (lq, lparts) = cut(self.light_q(m, j), cuts);
                 let own = m.eta(k, self.sigma(j), self.sin[j], self.tr[j]);
                 let own = own * scale.map_or(1.0, |s| s.0[k as usize]);
                 let all = vm(self.vm(m, j, None), self.terms(m, j, None));
                 m.weight_merge(
-                    q(ql, lparts),
-                    q(qc, cparts),
-                    (own, all),
+                    ql(lq, lparts),
+                    qc(cq, cparts),
+                    (own * fc.rho, all * fc.rho),
                     self.pc[j],
                     self.pl[j],
                 )
@@ -474,7 +486,7 @@ fn correlation_aware_weights_sum_to_one_and_never_favour_merges() {
             for k in 0..40 {
                 let path = random_path(&mut rng, n, media, k % 2 == 1);
                 for j in 0..n {
-                    let rho = path.correlation(j);
+                    let rho = path.correlation(j, 1000.0);
                     assert!(rho > 0.0 && rho <= 1.0 + 1e-12, "rho_{j} = {rho}");
                     if j == n - 1 {
                         assert_eq!(rho, 1.0);
@@ -514,7 +526,7 @@ fn correlation_factor_limits() {
     path.camera = 1e9;
     path.pc = vec![1e9; 5];
     path.pl = vec![1e-9; 5];
-    assert!((path.correlation(1) - 1.0).abs() < 1e-12);
+    assert!((path.correlation(1, 1e30) - 1.0).abs() < 1e-12);
     // Light-side densities huge: light = 1, rho = cam.
     path.pc = vec![1e-3; 5];
     path.pl = vec![1e9; 5];
@@ -523,7 +535,7 @@ fn correlation_factor_limits() {
         .map(|i| (path.bwd(i) as f64 * area).min(1.0))
         .product();
     assert!(cam < 1.0);
-    let rho = path.correlation(1);
+    let rho = path.correlation(1, 1e30);
     assert!((rho - cam).abs() <= 1e-9 * cam, "rho {rho}, cam {cam}");
 }
 
