@@ -399,6 +399,32 @@ mod tests {
         Settings::resolve(Some("upbp"), None, &fine).unwrap();
     }
 
+    #[test]
+    fn correlation_aware_is_refused_where_its_evaluator_does_not_reach() {
+        let on = |extra: serde_json::Value| {
+            let mut p = json!({"correlation_aware": true, "merge_depth": "all"});
+            for (k, v) in extra.as_object().unwrap() {
+                p[k] = v.clone();
+            }
+            p
+        };
+        let cases = [
+            ("bpt", on(json!({})), "needs bpm, vcm or upbp"),
+            ("vcm", json!({"correlation_aware": true}), "set merge_depth: all"),
+            ("upbp", on(json!({})), "without pb2d and bb1d"),
+            ("vcm", on(json!({"radii": [0.01]})), "not combined with radii"),
+            ("bpm", on(json!({"selection": "adaptive"})), "selection: adaptive"),
+        ];
+        for (alg, params, words) in cases {
+            let e = Settings::resolve(Some(alg), None, &map(params)).unwrap_err();
+            assert_eq!(e.field(), Some("params.correlation_aware"), "{alg}: {e}");
+            assert!(e.to_string().contains(words), "{alg}: {e}");
+        }
+        let fine = on(json!({"techniques": "bpt+surf+pp3d"}));
+        Settings::resolve(Some("upbp"), None, &map(fine)).unwrap();
+        Settings::resolve(Some("vcm"), None, &map(on(json!({})))).unwrap();
+    }
+
     /// A bad parameter that a scene's defaults gave is named where the scene says it
     /// (`integrator.<name>`); a job's own, as the job wrote it.
     #[test]

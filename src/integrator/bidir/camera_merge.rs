@@ -6,6 +6,7 @@ use super::merge::{MergeSet, MergeVertex};
 use super::radius_layers::{light_q, RadiusSums};
 use super::selection::{rule, Rule};
 use super::{Pass, Workspace};
+use crate::integrator::paths::correlation::{CameraSide, Chain, Fix, Link};
 use crate::integrator::paths::partial::{Merge, Mis, Partial, Site};
 use crate::integrator::paths::parts::{Candidate, MEDIA};
 use crate::integrator::paths::vertex::MediumPoint;
@@ -21,7 +22,7 @@ use std::sync::atomic::AtomicU32;
 pub(super) fn merge<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
-    (walk, cand): (&Walk, Option<&Candidate>),
+    (walk, cand, side): (&Walk, Option<&Candidate>, Option<CameraSide>),
     (it, surface): (&crate::geometry::Interaction, &Surface),
     stats: &mut RenderStats,
     slots: &[AtomicU32],
@@ -58,17 +59,24 @@ pub(super) fn merge<const RADII: bool>(
             let (dir, rev) = (e.pdf_dir * surface.cont, e.pdf_rev * y.cont);
             // The photon's flux already holds the cosine at its surface: f without it.
             let c = y.throughput * e.f;
-            let weight = |mis: &Mis, yq, q| {
-                let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0);
+            let weighted = |mis: &Mis, yq, q, rho: f64| {
+                let eta = mis.eta(Merge::Surface, 1.0, 0.0, 1.0) * rho;
                 mis.weight_merge(yq, q, (eta, eta), dir, rev)
             };
+            let weight = |mis: &Mis, yq, q| weighted(mis, yq, q, 1.0);
             radii.add(set, y, d2, cut, |mis, yq, q| {
                 c * (weight(mis, yq, q) / e.cos)
             });
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight);
+            let w = match side {
+                None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
+                Some(s) => {
+                    let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
+                    weighted(&pass.mis, fl.apply(y.q), fc.apply(walk.q), fc.rho)
+                }
+            };
             merges += 1;
             sum += c * (w / e.cos);
         },
@@ -88,7 +96,7 @@ pub(super) fn merge<const RADII: bool>(
 pub(super) fn merge_medium<const RADII: bool>(
     pass: &Pass,
     ws: &Workspace,
-    (walk, cand): (&Walk, Option<&Candidate>),
+    (walk, cand, side): (&Walk, Option<&Candidate>, Option<CameraSide>),
     (x, m): (Vec3, &MediumPoint),
     stats: &mut RenderStats,
     slots: &[AtomicU32],
@@ -134,18 +142,25 @@ pub(super) fn merge_medium<const RADII: bool>(
             }
             let (dir, rev) = (ph * m.cont, ph * y.cont);
             let sin = pass.mis.sine(m.wo, y.wo);
-            let weight = |mis: &Mis, yq, q| {
-                let own = mis.eta(Merge::Point3d, m.sigma, sin, walk.tr);
-                let all = mis.merges(Site::Medium, m.sigma, sin, None, walk.tr);
+            let weighted = |mis: &Mis, yq, q, rho: f64| {
+                let own = mis.eta(Merge::Point3d, m.sigma, sin, walk.tr) * rho;
+                let all = mis.merges(Site::Medium, m.sigma, sin, None, walk.tr) * rho;
                 mis.weight_merge(yq, q, (own, all), dir, rev)
             };
+            let weight = |mis: &Mis, yq, q| weighted(mis, yq, q, 1.0);
             radii.add(set, y, d2, cut, |mis, yq, q| {
                 y.throughput * (ph * weight(mis, yq, q))
             });
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight);
+            let w = match side {
+                None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
+                Some(s) => {
+                    let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
+                    weighted(&pass.mis, fl.apply(y.q), fc.apply(walk.q), fc.rho)
+                }
+            };
             merges += 1;
             sum += y.throughput * (ph * w);
         },
@@ -153,6 +168,26 @@ pub(super) fn merge_medium<const RADII: bool>(
     stats.merges += merges;
     radii.record(beta, slots);
     beta * sum * pass.norms[Merge::Point3d as usize]
+}
+
+/// Correlation-aware fixes of a merge at the camera's last vertex with the light
+/// vertex whose subpath's links end in `links`: the merge point is both sides' own,
+/// so each side's acceptance at it is the other's whole product; `camera_dir` and
+/// `camera_rev` as [`Mis::weight_merge`] takes them.
+#[inline(always)]
+fn merge_fixes(
+    pass: &Pass,
+    side: CameraSide,
+    links: &[Link],
+    (camera_dir, camera_rev): (f32, f32),
+) -> (Fix, Fix) {
+    let (lc, cc) = (
+        Chain::light(links, camera_dir),
+        side.chain(None, camera_rev),
+    );
+    let (lt, ct) = (lc.total(&side.fp), cc.total(&side.fp));
+    let mis = &pass.mis;
+    (lc.fix(mis, &side.fp, ct), cc.fix(mis, &side.fp, lt))
 }
 
 /// A merge's weight at a camera vertex with light vertex `y` of `set` (its partial

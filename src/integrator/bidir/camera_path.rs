@@ -10,6 +10,7 @@ use super::selection::camera_main;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
+use crate::integrator::paths::correlation::{CameraSide, Carry, Footprint, Link};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, Event, Owner};
 use crate::integrator::paths::partial::Mis;
@@ -74,6 +75,7 @@ pub(super) struct CameraPath<'a> {
     /// radius layers their [`Parts`].
     light: &'a [LightVertex],
     light_parts: &'a [Parts],
+    light_links: &'a [Link],
     ray: Ray,
     walk: Walk,
     l: Rgb,
@@ -84,6 +86,9 @@ pub(super) struct CameraPath<'a> {
     pieces: Vec<LightSegment>,
     /// The pixel's candidate under per-pixel selection (None: the job's weights).
     cand: Option<&'a Candidate>,
+    /// With correlation-aware MIS, the stored vertices' links and the footprint.
+    links: Vec<Link>,
+    fp: Footprint,
 }
 
 impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RADII> {
@@ -106,6 +111,11 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
             } else {
                 ws.store.light_path_parts(pixel % ws.store.paths)
             },
+            light_links: if ws.store.paths == 0 || !self.pass.mis.correlated {
+                &[]
+            } else {
+                ws.store.light_path_links(pixel % ws.store.paths)
+            },
             walk: Walk {
                 origin: ray.o,
                 throughput: Rgb::ONE,
@@ -117,11 +127,14 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
                 tr: 1.0,
                 specular: true,
                 medium: if M::ON { scene.camera_medium } else { None },
+                carry: Carry::start(scene.camera.pdf_dir(ray.d), 1.0, f32::INFINITY),
             },
             ray,
             l: Rgb::ZERO,
             pending: None,
             pieces: Vec::new(),
+            links: Vec::new(),
+            fp: Footprint::new(1.0),
             cand: match RADII {
                 true => self.pass.selection.as_ref().and_then(|s| s.at(pixel)),
                 false => None,
@@ -155,6 +168,12 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
 type Seen = (Ray, Option<u32>, Rgb);
 
 impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
+    /// The path's side of correlation-aware weights (None without them).
+    #[inline(always)]
+    fn side<'p>(&self, (links, fp): (&'p [Link], Footprint)) -> Option<CameraSide<'p>> {
+        self.pass.mis.correlated.then_some(CameraSide { links, fp })
+    }
+
     /// The path's candidate: always None where the pass reweighs nothing (`RADII`
     /// false), so that the usual pass compiles without the candidates' branches.
     #[inline(always)]
@@ -224,6 +243,11 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         let Some(next) = v.scatter(pass, rng, &mut p.walk, Mode::Radiance, Some(len), track) else {
             return false;
         };
+        if pass.mis.correlated && !v.skips_connections() {
+            if let Some(l) = p.links.last_mut() {
+                l.back_pdf = p.walk.carry.rev;
+            }
+        }
         p.ray = next;
         stats.rays += 1;
         true
@@ -379,7 +403,11 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         }
         if !seen {
             let walk = (&p.walk, Self::cand(p));
-            let v = p.walk.throughput * escaped::<RADII>(pass, walk, p.ray.d, layers);
+            let hit = (1.0 / tr, tr, 1.0);
+            let side = self
+                .side((&p.links, p.fp))
+                .map(|s| (s, pass.mis.carry_hit(p.walk.carry, 0.0, hit, false)));
+            let v = p.walk.throughput * escaped::<RADII>(pass, walk, (p.ray.d, side), layers);
             add(
                 &mut p.l,
                 layers,
@@ -402,10 +430,33 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
             walk.parts = pass.mis.hit_parts(walk.parts, none, 1.0, v.d_in());
         }
         walk.tr = tr;
+        let link = pass.mis.correlated.then(|| {
+            if walk.len == 1 {
+                p.fp = Footprint::new(dist2.sqrt());
+            }
+            let medium = matches!(v, Vertex::Medium { .. });
+            pass.mis
+                .carry_hit(walk.carry, 0.0, (dist2 / tr, tr, v.d_in()), medium)
+        });
         if let (Vertex::Surface { it, .. }, false) = (v, seen) {
             let ray = (p.ray.d, dist2);
-            let e = walk.throughput * emitter_hit::<RADII>(pass, (walk, cand), it, ray, layers);
-            add(&mut p.l, layers, pass.layers.connection(0, walk.len + 1), e);
+            let side = self.side((&p.links, p.fp)).zip(link);
+            let walk = (&p.walk, cand);
+            let e = p.walk.throughput * emitter_hit::<RADII>(pass, walk, (it, side), ray, layers);
+            add(
+                &mut p.l,
+                layers,
+                pass.layers.connection(0, p.walk.len + 1),
+                e,
+            );
+        }
+        if let Some(link) = link {
+            p.walk.carry = if v.skips_connections() {
+                link.carry_through(&p.walk.carry)
+            } else {
+                p.links.push(link);
+                link.carry_on()
+            };
         }
     }
 
@@ -423,28 +474,31 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         stats: &mut RenderStats,
     ) {
         let (pass, ws) = (self.pass, self.ws);
+        let side = self.side((&p.links, p.fp));
         let (walk, cand) = (&p.walk, Self::cand(p));
         if pass.technique.connects() {
-            let at = (walk, cand);
+            let at = (walk, cand, side);
             let (e, shadow) = light_sample::<M, RADII>(pass, at, v, rng, stats, layers);
             let e = walk.throughput * e;
             match shadow {
                 Some(ray) => p.pending = Some((ray, e)),
                 None => add(&mut p.l, layers, self.light_layer(walk.len), e),
             }
-            let light = (p.light, p.light_parts);
-            p.l += connect::<M, RADII>(pass, light, (walk, cand), v, rng, stats, layers);
+            let light = (p.light, p.light_parts, p.light_links);
+            let e = connect::<M, RADII>(pass, light, (walk, cand, side), v, rng, stats, layers);
+            p.l += e;
         }
         if walk.len > 1 || pass.s.merge_first {
             let before = stats.merges;
             let (k, e) = match v {
                 Vertex::Surface { it, s: surface, .. } => {
-                    let e = merge::<RADII>(pass, ws, (walk, cand), (it, surface), stats, layers);
+                    let at = (walk, cand, side);
+                    let e = merge::<RADII>(pass, ws, at, (it, surface), stats, layers);
                     (Merge::Surface, walk.throughput * e)
                 }
                 Vertex::Medium { p: x, m } => {
                     let x = (*x, M::get(m));
-                    let e = merge_medium::<RADII>(pass, ws, (walk, cand), x, stats, layers);
+                    let e = merge_medium::<RADII>(pass, ws, (walk, cand, side), x, stats, layers);
                     (Merge::Point3d, e)
                 }
             };
@@ -481,8 +535,8 @@ pub(super) fn record(layers: &[AtomicU32], layer: Option<usize>, v: Rgb) {
 fn own_weight(
     pass: &Pass,
     (mis, q): (&Mis, Partial),
-    walk: &Walk,
-    direct: impl Fn() -> (f32, f32),
+    (walk, side): (&Walk, Option<(CameraSide, Link)>),
+    direct: impl Fn() -> Emitted,
 ) -> f32 {
     if walk.len == 1 {
         return 1.0;
@@ -490,8 +544,27 @@ fn own_weight(
     if !pass.technique.connects() {
         return if walk.specular { 1.0 } else { 0.0 };
     }
-    let (direct, emission) = direct();
-    mis.weight_emitter_hit(q, direct, emission)
+    let e = direct();
+    // Correlation-aware: the emitter's point is the camera side's junction, the
+    // light's densities of it and of the camera's last vertex its crossing ones.
+    let q = side.map_or(q, |(side, tail)| {
+        let other = side.fp.accept(e.origin, false);
+        side.chain(Some(tail), e.rev)
+            .fix(mis, &side.fp, other)
+            .apply(q)
+    });
+    mis.weight_emitter_hit(q, e.direct, e.emission)
+}
+
+/// What the emitter-hit weight needs of an emitter: light sampling's and emission's
+/// densities (as [`Mis::weight_emitter_hit`]), and for correlation-aware weights the
+/// density of the emitted direction (a light at infinity: of the position on its
+/// disk) and pick times the position's density (infinite at infinity).
+struct Emitted {
+    direct: f32,
+    emission: f32,
+    rev: f32,
+    origin: f32,
 }
 
 /// An area light reached by the camera subpath ([TR] eqs. 42-43).
@@ -499,7 +572,7 @@ fn own_weight(
 fn emitter_hit<const RADII: bool>(
     pass: &Pass,
     (walk, cand): (&Walk, Option<&Candidate>),
-    it: &crate::geometry::Interaction,
+    (it, side): (&crate::geometry::Interaction, Option<(CameraSide, Link)>),
     (d, dist2): (Vec3, f32),
     slots: &[AtomicU32],
 ) -> Rgb {
@@ -516,12 +589,22 @@ fn emitter_hit<const RADII: bool>(
         let cos = it.ng.dot(d).abs();
         let direct = pick * area.pdf_li(walk.origin, it.p, it.ng) * cos / dist2;
         let (pos, dir) = area.pdf_le(it.ng, -d);
-        (direct, pick * pos * dir)
+        Emitted {
+            direct,
+            emission: pick * pos * dir,
+            rev: dir,
+            origin: pick * pos,
+        }
     };
     record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
-        own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
+        own_weight(
+            pass,
+            (&l.mis, camera_q(pass, walk, l)),
+            (walk, None),
+            direct,
+        )
     });
-    le * own_weight(pass, camera_main(pass, cand, walk), walk, direct)
+    le * own_weight(pass, camera_main(pass, cand, walk), (walk, side), direct)
 }
 
 /// Environment lights seen by a ray that leaves the scene.
@@ -529,7 +612,7 @@ fn emitter_hit<const RADII: bool>(
 fn escaped<const RADII: bool>(
     pass: &Pass,
     (walk, cand): (&Walk, Option<&Candidate>),
-    d: Vec3,
+    (d, side): (Vec3, Option<(CameraSide, Link)>),
     slots: &[AtomicU32],
 ) -> Rgb {
     let scene = pass.scene;
@@ -544,12 +627,22 @@ fn escaped<const RADII: bool>(
             let pick = scene.light_sampler.pmf(li as usize);
             let direct = pick * light.pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO);
             let (pos, dir) = light.pdf_le(&scene.sphere, Vec3::ZERO, -d);
-            (direct, pick * pos * dir)
+            Emitted {
+                direct,
+                emission: pick * pos * dir,
+                rev: pos,
+                origin: f32::INFINITY,
+            }
         };
         record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
-            own_weight(pass, (&l.mis, camera_q(pass, walk, l)), walk, direct)
+            own_weight(
+                pass,
+                (&l.mis, camera_q(pass, walk, l)),
+                (walk, None),
+                direct,
+            )
         });
-        l += le * own_weight(pass, camera_main(pass, cand, walk), walk, direct);
+        l += le * own_weight(pass, camera_main(pass, cand, walk), (walk, side), direct);
     }
     l
 }

@@ -7,6 +7,7 @@ use super::radius_layers::{camera_qs, connection_radii, light_q, light_sample_ra
 use super::selection::camera_main;
 use super::Pass;
 use crate::geometry::Ray;
+use crate::integrator::paths::correlation::{CameraSide, Chain, Link};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{shadow, Owner};
 use crate::integrator::paths::partial::{Mis, Partial, Site};
@@ -70,7 +71,7 @@ pub(super) fn light_side(
 #[inline(always)]
 pub(super) fn light_sample<M: Media, const RADII: bool>(
     pass: &Pass,
-    (walk, cand): (&Walk, Option<&Candidate>),
+    (walk, cand, side): (&Walk, Option<&Candidate>, Option<CameraSide>),
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
@@ -116,10 +117,10 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
     } else {
         e.pdf_dir * cont
     };
-    let weight = |mis: &Mis, q| {
+    let weighted = |mis: &Mis, q, rho: f64| {
         mis.weight_light_sample(
             q,
-            camera_merges(mis, walk, v, ls.wi()),
+            camera_merges(mis, walk, v, ls.wi()) * rho,
             pick,
             direct / tr_mis,
             pos * dir,
@@ -129,8 +130,30 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
             e.pdf_rev * cont,
         )
     };
+    let weight = |mis: &Mis, q| weighted(mis, q, 1.0);
     let (mis, q) = camera_main(pass, cand, walk);
-    let w = weight(mis, q);
+    let w = match side {
+        None => weight(mis, q),
+        Some(s) => {
+            // Correlation-aware: the light's origin and its density of this vertex
+            // are the crossing acceptances of the camera's side.
+            let medium = matches!(v, Vertex::Medium { .. });
+            let (origin, fwd) = match (light.is_infinite(), light.is_delta()) {
+                (true, _) => (1.0, pos * e.cos * tr_mis),
+                (false, delta) => {
+                    let o = if delta {
+                        1.0
+                    } else {
+                        s.fp.accept(pick * pos, false)
+                    };
+                    (o, dir * e.cos * tr_mis / (ls.dist * ls.dist))
+                }
+            };
+            let other = origin * s.fp.accept(fwd, medium);
+            let fix = s.chain(None, e.pdf_rev * cont).fix(mis, &s.fp, other);
+            weighted(mis, fix.apply(q), fix.rho)
+        }
+    };
     let c = e.f * ls.li() * tr;
     if !RADII {
         return (c * (w / (pick * ls.pdf)), untraced);
@@ -148,8 +171,8 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
 #[inline(always)]
 pub(super) fn connect<M: Media, const RADII: bool>(
     pass: &Pass,
-    (light, light_parts): (&[LightVertex], &[Parts]),
-    (walk, cand): (&Walk, Option<&Candidate>),
+    (light, light_parts, links): (&[LightVertex], &[Parts], &[Link]),
+    (walk, cand, side): (&Walk, Option<&Candidate>, Option<CameraSide>),
     v: &Vertex<M>,
     rng: &mut Rng,
     stats: &mut RenderStats,
@@ -165,6 +188,8 @@ pub(super) fn connect<M: Media, const RADII: bool>(
         false => Vec::new(),
     };
     let (mis, q) = camera_main(pass, cand, walk);
+    let v_medium = matches!(v, Vertex::Medium { .. });
+    let cam_total = side.map_or(1.0, |s| s.chain(None, 0.0).total(&s.fp));
     for (i, y) in light.iter().enumerate() {
         // Vertices are stored in order of path length.
         if y.len + 1 + walk.len > pass.s.max_depth {
@@ -202,14 +227,20 @@ pub(super) fn connect<M: Media, const RADII: bool>(
         ];
         let [a, b, c, d] = densities;
         let other = cand.map(|c| (&light_parts[i], &c.scale, &c.mis));
-        let w = mis.weight_connection(
-            light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), other),
-            (q, camera_merges(mis, walk, v, dir)),
-            a,
-            b,
-            c,
-            d,
-        );
+        let (mut yq, mut vm_y) =
+            light_side(pass, y, cut, |m| ys.merges(m, dir, None, tr_mis), other);
+        let (mut xq, mut vm_x) = (q, camera_merges(mis, walk, v, dir));
+        if let Some(s) = side {
+            // Correlation-aware: each side's acceptance at the junction is the
+            // other's whole product times its crossing density's.
+            let (lc, cc) = (Chain::light(&links[..=i], c), s.chain(None, d));
+            let y_medium = y.site() == Site::Medium;
+            let fl = lc.fix(mis, &s.fp, cam_total * s.fp.accept(a, y_medium));
+            let lt = lc.total(&s.fp);
+            let fc = cc.fix(mis, &s.fp, lt * s.fp.accept(b, v_medium));
+            (yq, vm_y, xq, vm_x) = (fl.apply(yq), vm_y * fl.rho, fc.apply(xq), vm_x * fc.rho);
+        }
+        let w = mis.weight_connection((yq, vm_y), (xq, vm_x), a, b, c, d);
         let c = walk.throughput * y.throughput * ec.f * el.f * tr * (w / dist2);
         if RADII {
             let unweighted = walk.throughput * y.throughput * ec.f * el.f * tr;

@@ -3,6 +3,7 @@
 
 use super::Workspace;
 use crate::integrator::estimators::{huge, HashGrid};
+use crate::integrator::paths::correlation::Link;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::partial::{Merge, Partial, Site};
 use crate::integrator::paths::parts::Parts;
@@ -19,6 +20,9 @@ pub(super) struct MergeSet {
     pub merge: Vec<MergeVertex>,
     /// With `radii` layers, each vertex's [`Parts`] in the same order (else empty).
     pub parts: Vec<Parts>,
+    /// With correlation-aware MIS, each vertex's chunk and index in it, in the same
+    /// order (else empty): where its links are.
+    pub origins: Vec<(u32, u32)>,
 }
 
 /// The part of a light vertex that merging reads, stored in hash-grid order: a range
@@ -103,7 +107,30 @@ impl Workspace {
             let chunks = self.store.chunks.iter();
             let parts = chunks.flat_map(|c| c.vertices.iter().zip(&c.parts));
             set.fill_parts(parts.filter(|(v, _)| v.site() == site).map(|(_, p)| p));
+            set.origins.clear();
+            if self.store.chunks.iter().any(|c| !c.links.is_empty()) {
+                let chunks = self.store.chunks.iter().enumerate();
+                let at = chunks.flat_map(|(c, chunk)| {
+                    let vs = chunk.vertices.iter().enumerate();
+                    vs.filter(move |(_, v)| v.site() == site)
+                        .map(move |(i, _)| (c as u32, i as u32))
+                });
+                set.origins.resize(set.merge.len(), (0, 0));
+                let rank = set.grid.rank();
+                for (&r, o) in rank.iter().zip(at) {
+                    set.origins[r as usize] = o;
+                }
+            }
         }
+    }
+
+    /// The links of merging copy `y` of `set` and its light subpath's before it.
+    #[inline(always)]
+    pub(super) fn links_of(&self, set: &MergeSet, y: &MergeVertex) -> &[Link] {
+        let (c, i) = set.origins[super::radius_layers::index_in(&set.merge, y)];
+        let links = &self.store.chunks[c as usize].links[..=i as usize];
+        let first = links.iter().rposition(|l| l.first).unwrap_or(0);
+        &links[first..]
     }
 }
 
@@ -155,6 +182,7 @@ impl MergeSet {
         self.positions.capacity() * std::mem::size_of::<Vec3>()
             + self.merge.capacity() * std::mem::size_of::<MergeVertex>()
             + self.parts.capacity() * std::mem::size_of::<Parts>()
+            + self.origins.capacity() * 8
             + self.grid.bytes()
     }
 }

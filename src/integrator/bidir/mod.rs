@@ -54,6 +54,8 @@ use merge::MergeSet;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
+#[cfg(test)]
+mod correlation_tests;
 mod settings;
 pub use settings::{
     radius_layer_name, BidirSettings, Estimators, MergeDepth, PixelSelection, Technique,
@@ -245,6 +247,7 @@ impl Bidir {
         mis.long_query = s.query_beams == BeamForm::Long && s.long_beam_weights;
         mis.first_medium = s.merge_depth == MergeDepth::First;
         mis.local_media = s.local_media_mis;
+        mis.correlated = s.correlation_aware;
         mis
     }
 }

@@ -141,4 +141,4 @@ pub(super) fn candidates(pass: &crate::integrator::paths::Pass) -> Vec<Candidate
 }
 
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;

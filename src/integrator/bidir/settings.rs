@@ -161,6 +161,7 @@ impl Estimators {
 /// | `techniques` | all | `upbp`: any non-empty subset of `bpt`, `surf`, `pp3d`, `pb2d`, `bb1d`: a list, or a string `all` or `surf+pb2d` (SmallUPBP's `-a upbp_surf+pb2d`) |
 /// | `merge_first` | true | merge at the first camera vertex (when false, that technique leaves the MIS too) |
 /// | `merge_depth` | `first` | merges in media (`pp3d`, `pb2d`, `bb1d`; also `vcm`'s in media) at every camera segment and vertex (`all`), or only up to the camera's first scattering in a medium (`first`: where the path has no medium vertex between the merge and the camera, as a `vpm`-like first-segment estimate; those techniques also leave the MIS, so every path keeps the others) |
+/// | `correlation_aware` | false | `bpm`, `vcm`, `upbp`: correlation-aware MIS (Grittmann et al. 2021): each merge's density scaled by rho = cam / (cam + light - cam light) from both subpaths' acceptance probabilities in a footprint of tan(1 deg) times the first camera segment (a disc at surfaces, a ball in media), so merges that reuse one light subpath for many pixels weigh less at deep camera vertices; weights evaluated in O(path length); needs `merge_depth: all` (rho is what `first` approximates); not yet with `pb2d`, `bb1d`, `radii` or `selection: adaptive` |
 /// | `local_media_mis` | false | in heterogeneous media, MIS takes D = the grey sigma_t at each vertex and T from a 4-point quadrature of each segment's optical depth (deterministic, so unbiased), instead of 1 for both |
 /// | `russian_roulette` | true | continue with probability max(albedo) at every vertex, as SmallVCM |
 /// | `heuristic` | `balance` | MIS weights: `balance` or `power` |
@@ -197,6 +198,7 @@ pub struct BidirSettings {
     pub merge_first: bool,
     pub merge_depth: MergeDepth,
     pub selection: PixelSelection,
+    pub correlation_aware: bool,
     pub local_media_mis: bool,
     pub russian_roulette: bool,
     pub heuristic: Heuristic,
@@ -243,6 +245,7 @@ impl Default for BidirSettings {
             merge_first: true,
             merge_depth: MergeDepth::First,
             selection: PixelSelection::All,
+            correlation_aware: false,
             local_media_mis: false,
             russian_roulette: true,
             heuristic: Heuristic::Balance,
@@ -433,6 +436,7 @@ impl BidirSettings {
             ));
         }
         self.check_radii(technique)?;
+        self.check_correlation(technique)?;
         if upbp {
             self.check_techniques()?;
         } else if self.techniques != UpbpTechnique::ALL {
@@ -488,6 +492,28 @@ impl BidirSettings {
             return Err(ParamError::new("selection", message));
         }
         Ok(())
+    }
+
+    /// `correlation_aware`: with a merging technique and what its evaluator covers.
+    fn check_correlation(&self, technique: Technique) -> Result<(), ParamError> {
+        if !self.correlation_aware {
+            return Ok(());
+        }
+        let beams = [UpbpTechnique::Pb2d, UpbpTechnique::Bb1d];
+        let problem = if !technique.merges() {
+            "correlation_aware scales merges' weights: it needs bpm, vcm or upbp"
+        } else if self.merge_depth != MergeDepth::All {
+            "correlation_aware weighs merges at every camera vertex (what merge_depth: first approximates): set merge_depth: all"
+        } else if matches!(technique, Technique::Upbp(_))
+            && self.techniques.iter().any(|t| beams.contains(t))
+        {
+            "correlation_aware does not weigh the beam estimators yet: choose techniques without pb2d and bb1d"
+        } else if !self.radii.is_empty() || self.selection == PixelSelection::Adaptive {
+            "correlation_aware is not combined with radii or selection: adaptive yet"
+        } else {
+            return Ok(());
+        };
+        Err(ParamError::new("correlation_aware", problem))
     }
 
     /// Layer `i`'s initial radius of each estimator, where its lists set one (else

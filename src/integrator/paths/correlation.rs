@@ -66,6 +66,9 @@ pub(crate) struct Carry {
     pub cos_out: f32,
     /// Whether the vertex the segment leaves is specular.
     pub delta: bool,
+    /// That vertex's density of sampling its predecessor (for its link's
+    /// `back_pdf`; infinite when specular).
+    pub rev: f32,
     pub origin: f32,
     pub first: bool,
 }
@@ -80,6 +83,7 @@ impl Carry {
             dir,
             cos_out,
             delta: false,
+            rev: f32::INFINITY,
             origin,
             first: true,
         }
@@ -109,6 +113,7 @@ impl Mis {
             dir: if delta { f32::INFINITY } else { pdf_dir },
             cos_out,
             delta,
+            rev: if delta { f32::INFINITY } else { pdf_rev },
             ..c
         }
     }
@@ -150,6 +155,7 @@ impl Link {
             dir: f32::INFINITY,
             cos_out: 1.0,
             delta: false,
+            rev: f32::INFINITY,
             origin: f32::INFINITY,
             first: false,
         }
@@ -229,6 +235,7 @@ pub(crate) struct Fix {
 }
 
 impl Fix {
+    #[cfg(test)]
     pub const NONE: Fix = Fix { d: 0.0, rho: 1.0 };
 
     /// The side's partial weights as the correlation-aware weights take them.
@@ -298,7 +305,11 @@ impl Chain<'_> {
         let (mut d, mut mult, mut q) = (0.0, 1.0, other);
         for k in (1..n).rev() {
             let l = self.at(k);
-            let pdf = if k == n - 1 { self.last_rev } else { l.back_pdf };
+            let pdf = if k == n - 1 {
+                self.last_rev
+            } else {
+                l.back_pdf
+            };
             q *= fp.accept(pdf * l.back_geo, self.at(k - 1).medium);
             let t = mult * l.term;
             if t > 0.0 {
@@ -307,5 +318,38 @@ impl Chain<'_> {
             mult *= l.step;
         }
         Fix { d, rho: junction }
+    }
+}
+
+/// A camera subpath's side of correlation-aware weights: its stored links (the
+/// current vertex's last, if it is stored) and its footprint.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CameraSide<'a> {
+    pub links: &'a [Link],
+    pub fp: Footprint,
+}
+
+impl<'a> CameraSide<'a> {
+    /// The chain to a junction vertex (`tail` when not stored), whose density of
+    /// sampling its predecessor is `last_rev`.
+    pub fn chain(&self, tail: Option<Link>, last_rev: f32) -> Chain<'a> {
+        Chain {
+            links: self.links,
+            tail,
+            last_rev,
+            camera: true,
+        }
+    }
+}
+
+impl<'a> Chain<'a> {
+    /// A light subpath's chain to its vertex `links.last()`.
+    pub fn light(links: &'a [Link], last_rev: f32) -> Self {
+        Chain {
+            links,
+            tail: None,
+            last_rev,
+            camera: false,
+        }
     }
 }

@@ -2,6 +2,7 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
+use super::correlation::{Carry, Chain, Fix, Footprint, Link};
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::partial::{Mis, Partial};
@@ -82,6 +83,7 @@ impl ChunkTracer for Subpaths<'_, '_> {
         }
         chunk.vertices.clear();
         chunk.parts.clear();
+        chunk.links.clear();
         chunk.ends.clear();
         chunk.segments.clear();
         chunk.segment_ends.clear();
@@ -158,6 +160,7 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
         tr: 1.0,
         specular: true,
         medium: None,
+        carry: carry_start(pass, light, (pick, es)),
     };
     let st = Start {
         ray: ls.ray,
@@ -166,6 +169,26 @@ fn start(pass: &Pass, rng: &mut Rng) -> Option<(Start, LightStart)> {
         area,
     };
     Some((st, ls))
+}
+
+/// The carry of a light subpath leaving light `light` (picked with probability
+/// `pick`) by emission sample `es` (see [`Carry`]).
+#[inline(always)]
+fn carry_start(
+    pass: &Pass,
+    light: &Light,
+    (pick, es): (f32, &crate::light::EmissionSample),
+) -> Carry {
+    if !pass.mis.correlated {
+        return Carry::start(0.0, 0.0, 0.0);
+    }
+    let inf = f32::INFINITY;
+    match (light.is_infinite(), light.is_delta()) {
+        // The position's density on the light's disk is the first hit's.
+        (true, _) => Carry::start(es.pdf_pos, 1.0, inf),
+        (false, true) => Carry::start(es.pdf_dir, es.cos, inf),
+        (false, false) => Carry::start(es.pdf_dir, es.cos, pick * es.pdf_pos),
+    }
 }
 
 /// One light subpath; `M` (whether the scene has media) and `RADII` (whether the pass
@@ -239,13 +262,27 @@ fn trace_one<M: Media, const RADII: bool>(
         let d2 = if walk.len > 1 || finite { dist2 } else { 1.0 };
         let mis = &pass.mis;
         walk.q = mis.light_hit(walk.q, walk.pending.sum(), d2 / tr, tr, v.d_in());
+        let medium = matches!(v, Vertex::Medium { .. });
+        let link = mis.correlated.then(|| {
+            let hit = (d2 / tr, tr, v.d_in());
+            mis.carry_hit(walk.carry, walk.pending.sum(), hit, medium)
+        });
         let track = pass.tracks_parts::<M, RADII>(false);
         if track {
             walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
         }
         (walk.pending, walk.tr) = (Parts::default(), tr);
+        let stored = chunk.vertices.len();
         if !v.skips_connections() {
-            lens = keep_vertex::<M, RADII>(pass, rng, chunk, budget, &walk, v, ray.d);
+            let at = (&walk, link);
+            lens = keep_vertex::<M, RADII>(pass, rng, chunk, budget, at, v, ray.d);
+        }
+        let stored = chunk.vertices.len() > stored;
+        if let Some(link) = link {
+            walk.carry = match stored {
+                true => link.carry_on(),
+                false => link.carry_through(&walk.carry),
+            };
         }
         if walk.len + 2 > pass.max_depth {
             break;
@@ -253,6 +290,9 @@ fn trace_one<M: Media, const RADII: bool>(
         let Some(next) = v.scatter(pass, rng, &mut walk, Mode::Importance, None, track) else {
             break;
         };
+        if let (Some(l), true) = (chunk.links.last_mut(), stored) {
+            l.back_pdf = walk.carry.rev;
+        }
         ray = next;
     }
     // A path that ends at a vertex with a lens connection traces its shadow ray alone.
@@ -344,10 +384,13 @@ fn keep_vertex<M: Media, const RADII: bool>(
     rng: &mut Rng,
     chunk: &mut Chunk,
     budget: Budget,
-    walk: &Walk,
+    (walk, link): (&Walk, Option<Link>),
     v: &Vertex<M>,
     d: Vec3,
 ) -> Option<LensShadow> {
+    // The path's links before this vertex's (with correlation-aware MIS).
+    let start = chunk.ends.last().map_or(0, |&e| e as usize);
+    let before = start..chunk.links.len();
     if pass.tracing.stores {
         if chunk.vertices.len() >= budget.vertices {
             chunk.over_budget = true;
@@ -356,10 +399,14 @@ fn keep_vertex<M: Media, const RADII: bool>(
             if RADII {
                 chunk.parts.push(walk.parts);
             }
+            if let Some(link) = link {
+                chunk.links.push(link);
+            }
         }
     }
     if pass.tracing.splats {
-        connect_to_camera::<M, RADII>(pass, rng, chunk, walk, v)
+        let link = link.map(|l| (before, l));
+        connect_to_camera::<M, RADII>(pass, rng, chunk, (walk, link), v)
     } else {
         None
     }
@@ -453,7 +500,7 @@ fn connect_to_camera<M: Media, const RADII: bool>(
     pass: &Pass,
     rng: &mut Rng,
     chunk: &mut Chunk,
-    walk: &Walk,
+    (walk, link): (&Walk, Option<(std::ops::Range<usize>, Link)>),
     v: &Vertex<M>,
 ) -> Option<LensShadow> {
     let LensLink {
@@ -468,7 +515,27 @@ fn connect_to_camera<M: Media, const RADII: bool>(
     chunk.stats.shadow_rays += 1;
     let (ray, medium) = v.ray_to(pass, walk.medium, lens, Vec3::ZERO, Vec3::ZERO);
     let layer = pass.layers.connection(walk.len + 1, 1);
-    let link = (camera_pdf, dist2);
+    let lens_at = (camera_pdf, dist2);
+    // The light side's fix for correlation-aware weights, its chain ending at this
+    // vertex. The vertex stands where the first camera vertex would, so the camera's
+    // acceptance is that of its density there (and rho there is 1).
+    let lens_fix = |tr_mis: f32| {
+        link.as_ref().map(|(before, tail)| {
+            let chain = Chain {
+                links: &chunk.links[before.clone()],
+                tail: Some(*tail),
+                last_rev: e.pdf_rev * v.cont(),
+                camera: false,
+            };
+            let fp = Footprint::new(dist2.sqrt());
+            let camera_a = camera_pdf * e.cos / (dist2 / tr_mis);
+            chain.fix(
+                &pass.mis,
+                &fp,
+                fp.accept(camera_a, matches!(v, Vertex::Medium { .. })),
+            )
+        })
+    };
     // Seen from the lens, the vertex would be the first camera vertex, with the
     // connection as its camera-side segment.
     let vm = |mis: &Mis, tc| v.merges(mis, dir, Some(1), tc);
@@ -480,8 +547,8 @@ fn connect_to_camera<M: Media, const RADII: bool>(
                 (pass, &pass.mis),
                 walk,
                 (&e, walk.q, vm(&pass.mis, 1.0)),
-                v.cont(),
-                link,
+                (v.cont(), lens_fix(1.0)),
+                lens_at,
                 Rgb::ONE,
                 1.0,
             ),
@@ -492,6 +559,7 @@ fn connect_to_camera<M: Media, const RADII: bool>(
     let rays = &mut chunk.stats.shadow_rays;
     let at = (pass.scene, pass.mis.local_media);
     let (tr, tr_mis) = shadow::<M>(at, &ray, medium, rng, rays)?;
+    let fix = lens_fix(tr_mis);
     // A medium vertex is on the camera side of the light's earlier vertices.
     let cut = matches!(v, Vertex::Medium { .. }) && pass.mis.first_medium;
     let q = if cut {
@@ -501,10 +569,12 @@ fn connect_to_camera<M: Media, const RADII: bool>(
     };
     let value = |mis: &Mis, q| {
         let vm = vm(mis, tr_mis);
-        lens_value((pass, mis), walk, (&e, q, vm), v.cont(), link, tr, tr_mis)
+        let at = (v.cont(), fix);
+        lens_value((pass, mis), walk, (&e, q, vm), at, lens_at, tr, tr_mis)
     };
     if !RADII {
-        push_splat(chunk, raster, value(&pass.mis, q), layer);
+        let v = value(&pass.mis, q);
+        push_splat(chunk, raster, v, layer);
         return None;
     }
     let parts = if cut {
@@ -530,12 +600,13 @@ fn lens_value(
     (pass, mis): (&Pass, &Mis),
     walk: &Walk,
     (e, q, vm): (&Eval, Partial, f64),
-    cont: f32,
+    (cont, fix): (f32, Option<Fix>),
     (camera_pdf, dist2): (f32, f32),
     tr: Rgb,
     tr_mis: f32,
 ) -> Rgb {
     let camera_a = camera_pdf * e.cos / (dist2 / tr_mis);
+    let q = fix.map_or(q, |f| f.apply(q));
     let w = if pass.tracing.lt {
         1.0
     } else {

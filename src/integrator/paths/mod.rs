@@ -13,8 +13,8 @@
 //! many-light methods and photon beams take the store of [`light_pass`]; the photon
 //! mappers gather [`photons`] with the estimators.
 
-#[cfg(test)]
 pub(crate) mod correlation;
+#[cfg(test)]
 pub(crate) mod full_path;
 pub(crate) mod layers;
 pub(crate) mod light_pass;

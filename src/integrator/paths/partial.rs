@@ -154,6 +154,9 @@ pub struct Mis {
     /// `local_media_mis`: heterogeneous media's D and T proxies from their density
     /// (see the module notes), else 1.
     pub local_media: bool,
+    /// `correlation_aware`: merges' densities scaled by Grittmann et al.'s rho
+    /// ([`super::correlation`]).
+    pub correlated: bool,
 }
 
 /// Optical depth beyond which the MIS transmittance of a segment stops falling.
@@ -189,6 +192,7 @@ impl Mis {
             long_query: false,
             first_medium: false,
             local_media: false,
+            correlated: false,
         };
         m.merge = merges.eta.map(|eta| eta.map_or(0.0, |eta| m.f(eta)));
         m

@@ -71,6 +71,10 @@ pub(crate) struct Chunk {
     pub(crate) vertices: Vec<LightVertex>,
     /// With `radii` layers, each vertex's [`Parts`] (else empty).
     pub(crate) parts: Vec<Parts>,
+    /// With correlation-aware MIS, each vertex's [`Link`] (else empty).
+    ///
+    /// [`Link`]: super::correlation::Link
+    pub(crate) links: Vec<super::correlation::Link>,
     /// Per light path of the chunk, the end of its vertices within `vertices`.
     pub(crate) ends: Vec<u32>,
     /// Segments through media, when the pass keeps them, and per light path their end.
@@ -116,6 +120,18 @@ impl Store {
         &chunk.vertices[begin as usize..chunk.ends[i] as usize]
     }
 
+    /// Their links (empty without correlation-aware MIS).
+    #[inline(always)]
+    pub(crate) fn light_path_links(&self, path: usize) -> &[super::correlation::Link] {
+        let chunk = &self.chunks[path / PATHS_PER_TASK];
+        if chunk.links.is_empty() {
+            return &[];
+        }
+        let i = path % PATHS_PER_TASK;
+        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
+        &chunk.links[begin as usize..chunk.ends[i] as usize]
+    }
+
     /// Their [`Parts`] (empty without `radii` layers).
     #[inline(always)]
     pub(crate) fn light_path_parts(&self, path: usize) -> &[Parts] {
@@ -143,6 +159,7 @@ impl Store {
             .map(|c| {
                 c.vertices.capacity() * std::mem::size_of::<LightVertex>()
                     + c.parts.capacity() * std::mem::size_of::<Parts>()
+                    + c.links.capacity() * std::mem::size_of::<super::correlation::Link>()
                     + c.segments.capacity() * std::mem::size_of::<LightSegment>()
             })
             .sum();

@@ -1,6 +1,7 @@
 //! The state a subpath carries between vertices and the scattering move both subpaths
 //! make at surfaces: what the light and camera walks of the bidirectional core share.
 
+use super::correlation::Carry;
 use super::partial::{Merge, Partial, Site};
 use super::parts::Parts;
 use super::Pass;
@@ -98,6 +99,10 @@ pub(crate) struct Walk {
     pub specular: bool,
     /// The medium the path travels in (always None in scenes without media).
     pub medium: Option<u32>,
+    /// With correlation-aware MIS, what fills the next stored vertex's [`Link`].
+    ///
+    /// [`Link`]: super::correlation::Link
+    pub carry: Carry,
 }
 
 /// Samples the next direction and updates throughput and MIS state; None ends the
@@ -136,6 +141,9 @@ pub(crate) fn scatter(
     let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     let cos_out = s.wi.z.abs();
     walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
+    if mis.correlated {
+        walk.carry = mis.carry_scatter(walk.carry, vm, cos_out, pdf_dir, pdf_rev, s.delta);
+    }
     if track {
         let terms = Parts::one(Merge::Surface, vm);
         walk.parts = mis.scatter_parts(walk.parts, terms, cos_out, pdf_dir, pdf_rev, s.delta);

@@ -5,6 +5,7 @@
 //! cosines) and segments with transmittance T < 1 in the densities of whatever is
 //! sampled along them; the recursive side gets them as the module notes say.
 use super::super::selection::{camera_rules_out, Rule};
+use crate::integrator::paths::correlation::Fix;
 use crate::integrator::paths::full_path::{FullPath as Path, Technique as Tech};
 use crate::integrator::paths::partial::{
     transmittance, Merge, Merges, Mis, Partial, Site, MAX_MIS_DEPTH,
@@ -12,7 +13,6 @@ use crate::integrator::paths::partial::{
 use crate::integrator::paths::parts::{Candidate, Parts, Scale, MEDIA};
 use crate::integrator::transport::Heuristic;
 use crate::math::Rng;
-use crate::integrator::paths::correlation::Fix;
 
 mod correlated;
 

@@ -11,7 +11,7 @@ use crate::scene::load::{parse_scene, read_scene_file};
 use crate::scene::Scene;
 use std::path::Path;
 
-fn scene(file: &str, size: u32) -> Scene {
+pub(in crate::integrator::bidir) fn scene(file: &str, size: u32) -> Scene {
     let mut f = read_scene_file(Path::new(file)).unwrap();
     f.film.width = size;
     f.film.height = size;
@@ -21,7 +21,7 @@ fn scene(file: &str, size: u32) -> Scene {
     Scene::compile(&f, Some(dir)).unwrap()
 }
 
-fn bidir(alg: &str, params: serde_json::Value) -> Bidir {
+pub(in crate::integrator::bidir) fn bidir(alg: &str, params: serde_json::Value) -> Bidir {
     let map = params.as_object().cloned().unwrap_or_default();
     let settings = Settings::resolve(Some(alg), None, &map).unwrap();
     let s = match settings {
@@ -31,7 +31,12 @@ fn bidir(alg: &str, params: serde_json::Value) -> Bidir {
     Bidir::new(s.technique_of(alg), s)
 }
 
-fn image(scene: &Scene, integ: &dyn Integrator, seed: u64, n: u64) -> Image {
+pub(in crate::integrator::bidir) fn image(
+    scene: &Scene,
+    integ: &dyn Integrator,
+    seed: u64,
+    n: u64,
+) -> Image {
     let halt = Halt {
         iterations: Some(n),
         time: None,
@@ -181,7 +186,7 @@ fn z(a: &[f64], b: &[f64]) -> f64 {
 /// The Cornell box seen from inside a glass sphere and lit by a point light inside
 /// another: every path to a wall is specular at both ends of its diffuse part, so only
 /// merges find it (bpt renders the glass alone).
-fn glass_lamp_box(size: u32) -> Scene {
+pub(in crate::integrator::bidir) fn glass_lamp_box(size: u32) -> Scene {
     let text = std::fs::read_to_string("scenes/cornell-box.json").unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
     v["film"] = serde_json::json!({"width": size, "height": size, "filter": "box"});

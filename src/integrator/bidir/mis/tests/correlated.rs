@@ -83,7 +83,11 @@ impl Path {
             Tech::Connect(0) => {
                 let mut links = self.camera_links(m, 0);
                 let tail = links.pop();
-                let rev = if self.infinite { self.e_pos } else { self.e_dir };
+                let rev = if self.infinite {
+                    self.e_pos
+                } else {
+                    self.e_dir
+                };
                 let chain = Chain {
                     tail,
                     ..cam_chain(&links, rev)
@@ -93,7 +97,10 @@ impl Path {
             Tech::Connect(1) => {
                 let links = self.camera_links(m, 1);
                 let chain = cam_chain(&links, self.pl[1]);
-                (Fix::NONE, chain.fix(m, &fp, origin * accept(1, self.fwd(1))))
+                (
+                    Fix::NONE,
+                    chain.fix(m, &fp, origin * accept(1, self.fwd(1))),
+                )
             }
             Tech::Connect(s) if s == n => {
                 let links = self.light_links(m, n - 1);
