@@ -410,10 +410,22 @@ mod tests {
         };
         let cases = [
             ("bpt", on(json!({})), "needs bpm, vcm or upbp"),
-            ("vcm", json!({"correlation_aware": true}), "set merge_depth: all"),
+            (
+                "vcm",
+                json!({"correlation_aware": true}),
+                "set merge_depth: all",
+            ),
             ("upbp", on(json!({})), "without pb2d and bb1d"),
-            ("vcm", on(json!({"radii": [0.01]})), "not combined with radii"),
-            ("bpm", on(json!({"selection": "adaptive"})), "selection: adaptive"),
+            (
+                "vcm",
+                on(json!({"radii": [0.01]})),
+                "not combined with radii",
+            ),
+            (
+                "bpm",
+                on(json!({"selection": "adaptive"})),
+                "selection: adaptive",
+            ),
         ];
         for (alg, params, words) in cases {
             let e = Settings::resolve(Some(alg), None, &map(params)).unwrap_err();

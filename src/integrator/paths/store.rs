@@ -111,37 +111,34 @@ impl Store {
         self.chunks.iter().flat_map(|c| c.splats.iter())
     }
 
-    /// The stored vertices of light path `path`, in order of length.
+    /// Light path `path`'s chunk and the range of its vertices there.
     #[inline(always)]
-    pub(crate) fn light_path(&self, path: usize) -> &[LightVertex] {
+    fn path_range(&self, path: usize) -> (&Chunk, std::ops::Range<usize>) {
         let chunk = &self.chunks[path / PATHS_PER_TASK];
         let i = path % PATHS_PER_TASK;
         let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
-        &chunk.vertices[begin as usize..chunk.ends[i] as usize]
+        (chunk, begin as usize..chunk.ends[i] as usize)
+    }
+
+    /// The stored vertices of light path `path`, in order of length.
+    #[inline(always)]
+    pub(crate) fn light_path(&self, path: usize) -> &[LightVertex] {
+        let (chunk, range) = self.path_range(path);
+        &chunk.vertices[range]
     }
 
     /// Their links (empty without correlation-aware MIS).
     #[inline(always)]
     pub(crate) fn light_path_links(&self, path: usize) -> &[super::correlation::Link] {
-        let chunk = &self.chunks[path / PATHS_PER_TASK];
-        if chunk.links.is_empty() {
-            return &[];
-        }
-        let i = path % PATHS_PER_TASK;
-        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
-        &chunk.links[begin as usize..chunk.ends[i] as usize]
+        let (chunk, range) = self.path_range(path);
+        chunk.links.get(range).unwrap_or(&[])
     }
 
     /// Their [`Parts`] (empty without `radii` layers).
     #[inline(always)]
     pub(crate) fn light_path_parts(&self, path: usize) -> &[Parts] {
-        let chunk = &self.chunks[path / PATHS_PER_TASK];
-        if chunk.parts.is_empty() {
-            return &[];
-        }
-        let i = path % PATHS_PER_TASK;
-        let begin = if i == 0 { 0 } else { chunk.ends[i - 1] };
-        &chunk.parts[begin as usize..chunk.ends[i] as usize]
+        let (chunk, range) = self.path_range(path);
+        chunk.parts.get(range).unwrap_or(&[])
     }
 
     /// The segments light path `path` kept, in the order it traced them (empty unless
