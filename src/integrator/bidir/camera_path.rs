@@ -99,6 +99,7 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
         let scene = self.pass.scene;
         let pixel = index as usize;
         let ws = self.ws;
+        let camera_pdf = scene.camera.pdf_dir(ray.d);
         CameraPath {
             pixel,
             light: if ws.store.paths == 0 {
@@ -111,7 +112,7 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
             } else {
                 ws.store.light_path_parts(pixel % ws.store.paths)
             },
-            light_links: if ws.store.paths == 0 || !self.pass.mis.correlated {
+            light_links: if ws.store.paths == 0 || !self.pass.correlates::<RADII>() {
                 &[]
             } else {
                 ws.store.light_path_links(pixel % ws.store.paths)
@@ -120,14 +121,14 @@ impl<'a, M: Media + Sync, const RADII: bool> PathKernel for CameraPass<'a, M, RA
                 origin: ray.o,
                 throughput: Rgb::ONE,
                 len: 1,
-                q: self.pass.mis.camera_start(scene.camera.pdf_dir(ray.d)),
+                q: self.pass.mis.camera_start(camera_pdf),
                 pending: Parts::default(),
                 parts: Parts::default(),
                 medium_seen: false,
                 tr: 1.0,
                 specular: true,
                 medium: if M::ON { scene.camera_medium } else { None },
-                carry: Carry::start(scene.camera.pdf_dir(ray.d), 1.0, f32::INFINITY),
+                carry: Carry::start(camera_pdf, 1.0, f32::INFINITY),
             },
             ray,
             l: Rgb::ZERO,
@@ -171,7 +172,9 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
     /// The path's side of correlation-aware weights (None without them).
     #[inline(always)]
     fn side<'p>(&self, (links, fp): (&'p [Link], Footprint)) -> Option<CameraSide<'p>> {
-        self.pass.mis.correlated.then_some(CameraSide { links, fp })
+        self.pass
+            .correlates::<RADII>()
+            .then_some(CameraSide { links, fp })
     }
 
     /// The path's candidate: always None where the pass reweighs nothing (`RADII`
@@ -243,7 +246,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         let Some(next) = v.scatter(pass, rng, &mut p.walk, Mode::Radiance, Some(len), track) else {
             return false;
         };
-        if pass.mis.correlated && !v.skips_connections() {
+        if pass.correlates::<RADII>() && !v.skips_connections() {
             if let Some(l) = p.links.last_mut() {
                 l.back_pdf = p.walk.carry.rev;
             }
@@ -430,7 +433,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
             walk.parts = pass.mis.hit_parts(walk.parts, none, 1.0, v.d_in());
         }
         walk.tr = tr;
-        let link = pass.mis.correlated.then(|| {
+        let link = pass.correlates::<RADII>().then(|| {
             if walk.len == 1 {
                 p.fp = Footprint::new(dist2.sqrt());
             }

@@ -53,23 +53,33 @@ fn agrees(scene: &Scene, alg: &str, params: serde_json::Value, seeds: u64) -> f6
 
 /// vcm and bpm on the Cornell box seen through glass and lit through glass (caustic
 /// paths that only merges find, at every camera depth).
+///
+/// Both weightings are unbiased only as the radius shrinks: a merge evaluates each
+/// side at its own vertex (the photon and the camera point, up to r apart), so at a
+/// fixed radius the merge kernel's blur is weighed differently, and the images differ
+/// by O(r). Measured with 3000 paired seeds: at radius_factor 0.05 vcm's quarters
+/// differ by up to 1.3% of their mean (12.6 standard errors), at 0.0125 by at most
+/// 0.3% (2.2), while plain vcm itself moves 2.6% between the two radii. Hence the
+/// small radius here, where that difference is below the noise of 300 seeds.
 #[test]
 fn correlation_aware_vcm_and_bpm_keep_their_expectation() {
     let scene = glass_lamp_box(16);
-    let params = serde_json::json!({"max_depth": 8, "radius_factor": 0.05, "merge_depth": "all"});
+    let params = serde_json::json!({"max_depth": 8, "radius_factor": 0.0125, "merge_depth": "all"});
     for alg in ["vcm", "bpm"] {
-        let moved = agrees(&scene, alg, params.clone(), 12);
+        let moved = agrees(&scene, alg, params.clone(), 300);
         assert!(moved > 1e-4, "{alg}: the weights did not move ({moved})");
     }
 }
 
-/// upbp with surface and point x point merges in fog, and vcm there: merges in media
-/// at every camera vertex, their rho from volume footprints.
+/// upbp with surface and point x point merges in fog: merges in media at every camera
+/// vertex, their rho from volume footprints (small radii, as above).
 #[test]
 fn correlation_aware_upbp_keeps_its_expectation_in_media() {
     let scene = scene("scenes/media/fog-cornell.json", 16);
-    let params =
-        serde_json::json!({"max_depth": 6, "merge_depth": "all", "techniques": "bpt+surf+pp3d"});
-    let moved = agrees(&scene, "upbp", params, 10);
+    let params = serde_json::json!({
+        "max_depth": 6, "merge_depth": "all", "techniques": "bpt+surf+pp3d",
+        "radius_factor": 0.0125, "medium_radius_factor": 0.01
+    });
+    let moved = agrees(&scene, "upbp", params, 100);
     assert!(moved > 1e-4, "upbp: the weights did not move ({moved})");
 }

@@ -600,7 +600,13 @@ impl BidirSettings {
             e.add("photon points and beams", &driver, bytes);
         }
         let adaptive = self.selection == PixelSelection::Adaptive;
-        if !self.radii.is_empty() || adaptive {
+        if self.correlation_aware {
+            // Each stored vertex's link, and in its merge set where it sits.
+            let n = stored.surface + stored.medium;
+            let link = std::mem::size_of::<crate::integrator::paths::correlation::Link>() as f64;
+            e.add("correlation links", &driver, n * (link + 8.0));
+        }
+        if !self.radii.is_empty() || adaptive || self.correlation_aware {
             // Each stored vertex's parts, in the store and again in its merge set;
             // the photon points' again in the beam store; each kept segment's two
             // (its own and pending), in the store and at most as many in the beam store.

@@ -263,7 +263,7 @@ fn trace_one<M: Media, const RADII: bool>(
         let mis = &pass.mis;
         walk.q = mis.light_hit(walk.q, walk.pending.sum(), d2 / tr, tr, v.d_in());
         let medium = matches!(v, Vertex::Medium { .. });
-        let link = mis.correlated.then(|| {
+        let link = pass.correlates::<RADII>().then(|| {
             let hit = (d2 / tr, tr, v.d_in());
             mis.carry_hit(walk.carry, walk.pending.sum(), hit, medium)
         });
@@ -272,12 +272,12 @@ fn trace_one<M: Media, const RADII: bool>(
             walk.parts = mis.hit_parts(walk.parts, walk.pending, tr, v.d_in());
         }
         (walk.pending, walk.tr) = (Parts::default(), tr);
-        let stored = chunk.vertices.len();
+        let count = chunk.vertices.len();
         if !v.skips_connections() {
             let at = (&walk, link);
             lens = keep_vertex::<M, RADII>(pass, rng, chunk, budget, at, v, ray.d);
         }
-        let stored = chunk.vertices.len() > stored;
+        let stored = link.is_some() && chunk.vertices.len() > count;
         if let Some(link) = link {
             walk.carry = match stored {
                 true => link.carry_on(),
@@ -389,8 +389,7 @@ fn keep_vertex<M: Media, const RADII: bool>(
     d: Vec3,
 ) -> Option<LensShadow> {
     // The path's links before this vertex's (with correlation-aware MIS).
-    let start = chunk.ends.last().map_or(0, |&e| e as usize);
-    let before = start..chunk.links.len();
+    let before = link.map(|_| chunk.ends.last().map_or(0, |&e| e as usize)..chunk.links.len());
     if pass.tracing.stores {
         if chunk.vertices.len() >= budget.vertices {
             chunk.over_budget = true;
@@ -405,7 +404,7 @@ fn keep_vertex<M: Media, const RADII: bool>(
         }
     }
     if pass.tracing.splats {
-        let link = link.map(|l| (before, l));
+        let link = link.zip(before).map(|(l, before)| (before, l));
         connect_to_camera::<M, RADII>(pass, rng, chunk, (walk, link), v)
     } else {
         None

@@ -108,11 +108,18 @@ impl Pass<'_> {
     }
 
     /// Whether the subpaths are weighted under more than the pass's own MIS (radius
-    /// layers, per-pixel selection), and so keep their [`parts::Parts`]: decided once
-    /// per pass, as the tracers' `RADII` parameter.
+    /// layers, per-pixel selection, correlation-aware weights), and so keep their
+    /// [`parts::Parts`]: decided once per pass, as the tracers' `RADII` parameter.
     #[inline(always)]
     pub fn reweights(&self) -> bool {
-        !self.radius_layers.is_empty() || self.selection.is_some()
+        !self.radius_layers.is_empty() || self.selection.is_some() || self.mis.correlated
+    }
+
+    /// Whether the subpaths keep [`correlation::Link`]s: only in the reweighting pass
+    /// (`RADII`), so that the usual one compiles without them.
+    #[inline(always)]
+    pub fn correlates<const RADII: bool>(&self) -> bool {
+        RADII && self.mis.correlated
     }
 
     /// Russian-roulette continuation probability at a vertex with material `m`.

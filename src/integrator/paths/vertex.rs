@@ -392,7 +392,7 @@ fn scatter_medium(
         }
     };
     walk.q = mis.on_scatter(walk.q, vm, m.sigma, pdf_dir, pdf_dir, false);
-    if mis.correlated {
+    if track && mis.correlated {
         walk.carry = mis.carry_scatter(walk.carry, vm, m.sigma, pdf_dir, pdf_dir, false);
     }
     walk.medium_seen = true;

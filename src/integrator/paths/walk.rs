@@ -141,7 +141,7 @@ pub(crate) fn scatter(
     let vm = mis.merges(Site::Surface, 1.0, 0.0, camera_len, 1.0);
     let cos_out = s.wi.z.abs();
     walk.q = mis.on_scatter(walk.q, vm, cos_out, pdf_dir, pdf_rev, s.delta);
-    if mis.correlated {
+    if track && mis.correlated {
         walk.carry = mis.carry_scatter(walk.carry, vm, cos_out, pdf_dir, pdf_rev, s.delta);
     }
     if track {
