@@ -36,6 +36,8 @@ pub(super) fn merge<const RADII: bool>(
         return Rgb::ZERO;
     };
     let qc = rule.camera(pass, walk.q, &walk.parts);
+    // The camera side's acceptance product, the same for every light vertex.
+    let sided = side.map(|s| (s, s.chain(None, 0.0).total(&s.fp)));
     let mut sum = Rgb::ZERO;
     let mut merges = 0u64;
     let cut = pass.mis.cuts(walk.medium_seen);
@@ -70,7 +72,7 @@ pub(super) fn merge<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = match side {
+            let w = match sided {
                 None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
                 Some(s) => {
                     let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
@@ -112,6 +114,8 @@ pub(super) fn merge_medium<const RADII: bool>(
         return Rgb::ZERO;
     };
     let qc = rule.camera(pass, walk.q, &walk.parts);
+    // The camera side's acceptance product, the same for every light vertex.
+    let sided = side.map(|s| (s, s.chain(None, 0.0).total(&s.fp)));
     let sigma_s = pass.scene.media[medium as usize].sigma_s_at(x);
     let beta = Rgb::select(
         sigma_s.cmpgt(Rgb::ZERO),
@@ -154,7 +158,7 @@ pub(super) fn merge_medium<const RADII: bool>(
             if d2 > r2 {
                 return; // within a radius layer's radius only
             }
-            let w = match side {
+            let w = match sided {
                 None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
                 Some(s) => {
                     let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
@@ -177,7 +181,7 @@ pub(super) fn merge_medium<const RADII: bool>(
 #[inline(always)]
 fn merge_fixes(
     pass: &Pass,
-    side: CameraSide,
+    (side, ct): (CameraSide, f64),
     links: &[Link],
     (camera_dir, camera_rev): (f32, f32),
 ) -> (Fix, Fix) {
@@ -185,9 +189,9 @@ fn merge_fixes(
         Chain::light(links, camera_dir),
         side.chain(None, camera_rev),
     );
-    let (lt, ct) = (lc.total(&side.fp), cc.total(&side.fp));
     let mis = &pass.mis;
-    (lc.fix(mis, &side.fp, ct), cc.fix(mis, &side.fp, lt))
+    let (fl, lt) = lc.fix_total(mis, &side.fp, ct);
+    (fl, cc.fix(mis, &side.fp, lt))
 }
 
 /// A merge's weight at a camera vertex with light vertex `y` of `set` (its partial

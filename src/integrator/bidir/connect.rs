@@ -235,8 +235,7 @@ pub(super) fn connect<M: Media, const RADII: bool>(
             // other's whole product times its crossing density's.
             let (lc, cc) = (Chain::light(&links[..=i], c), s.chain(None, d));
             let y_medium = y.site() == Site::Medium;
-            let fl = lc.fix(mis, &s.fp, cam_total * s.fp.accept(a, y_medium));
-            let lt = lc.total(&s.fp);
+            let (fl, lt) = lc.fix_total(mis, &s.fp, cam_total * s.fp.accept(a, y_medium));
             let fc = cc.fix(mis, &s.fp, lt * s.fp.accept(b, v_medium));
             (yq, vm_y, xq, vm_x) = (fl.apply(yq), vm_y * fl.rho, fc.apply(xq), vm_x * fc.rho);
         }

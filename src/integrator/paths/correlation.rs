@@ -280,6 +280,11 @@ impl Chain<'_> {
     /// junction vertex (the camera's for the light side and the converse, each with
     /// the crossing density of the junction vertex where the technique connects).
     pub fn fix(&self, mis: &Mis, fp: &Footprint, other: f64) -> Fix {
+        self.fix_total(mis, fp, other).0
+    }
+
+    /// [`Chain::fix`] and [`Chain::total`] from one pass over the links.
+    pub fn fix_total(&self, mis: &Mis, fp: &Footprint, other: f64) -> (Fix, f64) {
         let n = self.len();
         let rho_at = |k: usize, own: f64, other: f64| -> f64 {
             if self.camera && k == 0 {
@@ -317,7 +322,7 @@ impl Chain<'_> {
             }
             mult *= l.step;
         }
-        Fix { d, rho: junction }
+        (Fix { d, rho: junction }, own(n - 1))
     }
 }
 
