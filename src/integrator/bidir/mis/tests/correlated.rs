@@ -137,7 +137,9 @@ fn chain(links: &[Link], last_rev: f32, camera: bool) -> Chain<'_> {
 
 /// Every technique's weight from the recursion and the fixes equals the explicit
 /// correlation-aware weight, for surface and media estimators, short and long query
-/// beams, with and without connections and merges at the first camera vertex.
+/// beams, with and without connections and merges at the first camera vertex; on
+/// paths of 2 to 7 vertices and of 36 (beyond the 32 links whose acceptance
+/// products the evaluator keeps at hand).
 #[test]
 fn fixed_recursive_weights_are_the_explicit_correlation_aware_ones() {
     let mut rng = Rng::new(5, 3, 2);
@@ -155,7 +157,7 @@ fn fixed_recursive_weights_are_the_explicit_correlation_aware_ones() {
             for (long, merge_first) in [(false, true), (true, true), (false, false)] {
                 let mut m = Mis::new(h, light_paths, vc, merges);
                 (m.long_query, m.merge_first) = (long, merge_first);
-                for n in 2..8 {
+                for n in (2..8).chain([36]) {
                     for k in 0..30 {
                         let mut path = random_path(&mut rng, n, media, k % 2 == 1);
                         path.long = long;
