@@ -6,7 +6,7 @@ use super::merge::{MergeSet, MergeVertex};
 use super::radius_layers::{light_q, RadiusSums};
 use super::selection::{rule, Rule};
 use super::{Pass, Workspace};
-use crate::integrator::paths::correlation::{CameraSide, Chain, Fix, Link};
+use crate::integrator::paths::correlation::{CameraSide, Chain, Link};
 use crate::integrator::paths::partial::{Merge, Mis, Partial, Site};
 use crate::integrator::paths::parts::{Candidate, MEDIA};
 use crate::integrator::paths::vertex::MediumPoint;
@@ -75,8 +75,8 @@ pub(super) fn merge<const RADII: bool>(
             let w = match sided {
                 None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
                 Some(s) => {
-                    let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
-                    weighted(&pass.mis, fl.apply(y.q), fc.apply(walk.q), fc.rho)
+                    let links = ws.links_of(set, y);
+                    correlated_weight(pass, s, links, (dir, rev), (y.q, walk.q), weighted)
                 }
             };
             merges += 1;
@@ -161,8 +161,8 @@ pub(super) fn merge_medium<const RADII: bool>(
             let w = match sided {
                 None => point_weight(pass, (rule, k), (set, y, cut), (walk.q, qc), weight),
                 Some(s) => {
-                    let (fl, fc) = merge_fixes(pass, s, ws.links_of(set, y), (dir, rev));
-                    weighted(&pass.mis, fl.apply(y.q), fc.apply(walk.q), fc.rho)
+                    let links = ws.links_of(set, y);
+                    correlated_weight(pass, s, links, (dir, rev), (y.q, walk.q), weighted)
                 }
             };
             merges += 1;
@@ -174,24 +174,28 @@ pub(super) fn merge_medium<const RADII: bool>(
     beta * sum * pass.norms[Merge::Point3d as usize]
 }
 
-/// Correlation-aware fixes of a merge at the camera's last vertex with the light
-/// vertex whose subpath's links end in `links`: the merge point is both sides' own,
-/// so each side's acceptance at it is the other's whole product; `camera_dir` and
-/// `camera_rev` as [`Mis::weight_merge`] takes them.
+/// The correlation-aware weight of a merge at the camera's last vertex with the light
+/// vertex whose subpath's links end in `links`, from `weighted(mis, light, camera,
+/// rho)`: the merge point is both sides' own, so each side's acceptance at it is the
+/// other's whole product (`ct`, the camera's); `camera_dir`, `camera_rev` and the
+/// partial weights `(yq, q)` as [`Mis::weight_merge`] takes them.
 #[inline(always)]
-fn merge_fixes(
+fn correlated_weight(
     pass: &Pass,
     (side, ct): (CameraSide, f64),
     links: &[Link],
     (camera_dir, camera_rev): (f32, f32),
-) -> (Fix, Fix) {
+    (yq, q): (Partial, Partial),
+    weighted: impl Fn(&Mis, Partial, Partial, f64) -> f32,
+) -> f32 {
     let (lc, cc) = (
         Chain::light(links, camera_dir),
         side.chain(None, camera_rev),
     );
     let mis = &pass.mis;
     let (fl, lt) = lc.fix_total(mis, &side.fp, ct);
-    (fl, cc.fix(mis, &side.fp, lt))
+    let fc = cc.fix(mis, &side.fp, lt);
+    weighted(mis, fl.apply(yq), fc.apply(q), fc.rho)
 }
 
 /// A merge's weight at a camera vertex with light vertex `y` of `set` (its partial

@@ -10,7 +10,7 @@ use super::selection::camera_main;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
-use crate::integrator::paths::correlation::{CameraSide, Carry, Footprint, Link};
+use crate::integrator::paths::correlation::{light_origin, CameraSide, Carry, Footprint, Link};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, Event, Owner};
 use crate::integrator::paths::partial::Mis;
@@ -592,11 +592,12 @@ fn emitter_hit<const RADII: bool>(
         let cos = it.ng.dot(d).abs();
         let direct = pick * area.pdf_li(walk.origin, it.p, it.ng) * cos / dist2;
         let (pos, dir) = area.pdf_le(it.ng, -d);
+        let (origin, rev) = light_origin(false, false, pick, (pos, dir));
         Emitted {
             direct,
             emission: pick * pos * dir,
-            rev: dir,
-            origin: pick * pos,
+            rev,
+            origin,
         }
     };
     record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {
@@ -630,11 +631,12 @@ fn escaped<const RADII: bool>(
             let pick = scene.light_sampler.pmf(li as usize);
             let direct = pick * light.pdf_li(Vec3::ZERO, d, Vec3::ZERO, Vec3::ZERO);
             let (pos, dir) = light.pdf_le(&scene.sphere, Vec3::ZERO, -d);
+            let (origin, rev) = light_origin(true, light.is_delta(), pick, (pos, dir));
             Emitted {
                 direct,
                 emission: pick * pos * dir,
-                rev: pos,
-                origin: f32::INFINITY,
+                rev,
+                origin,
             }
         };
         record_radii::<RADII>(pass, slots, walk.throughput * le, |l| {

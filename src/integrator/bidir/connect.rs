@@ -7,7 +7,7 @@ use super::radius_layers::{camera_qs, connection_radii, light_q, light_sample_ra
 use super::selection::camera_main;
 use super::Pass;
 use crate::geometry::Ray;
-use crate::integrator::paths::correlation::{CameraSide, Chain, Link};
+use crate::integrator::paths::correlation::{light_origin, CameraSide, Chain, Link};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{shadow, Owner};
 use crate::integrator::paths::partial::{Mis, Partial, Site};
@@ -138,18 +138,14 @@ pub(super) fn light_sample<M: Media, const RADII: bool>(
             // Correlation-aware: the light's origin and its density of this vertex
             // are the crossing acceptances of the camera's side.
             let medium = matches!(v, Vertex::Medium { .. });
-            let (origin, fwd) = match (light.is_infinite(), light.is_delta()) {
-                (true, _) => (1.0, pos * e.cos * tr_mis),
-                (false, delta) => {
-                    let o = if delta {
-                        1.0
-                    } else {
-                        s.fp.accept(pick * pos, false)
-                    };
-                    (o, dir * e.cos * tr_mis / (ls.dist * ls.dist))
-                }
+            let infinite = light.is_infinite();
+            let (origin, first) = light_origin(infinite, light.is_delta(), pick, (pos, dir));
+            // The first segment's density converted to this vertex's measure.
+            let geo = match infinite {
+                true => e.cos * tr_mis,
+                false => e.cos * tr_mis / (ls.dist * ls.dist),
             };
-            let other = origin * s.fp.accept(fwd, medium);
+            let other = s.fp.accept(origin, false) * s.fp.accept(first * geo, medium);
             let fix = s.chain(None, e.pdf_rev * cont).fix(mis, &s.fp, other);
             weighted(mis, fix.apply(q), fix.rho)
         }

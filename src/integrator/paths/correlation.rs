@@ -204,6 +204,25 @@ impl Footprint {
     }
 }
 
+/// A light's origin as the acceptance probabilities see it: pick times its
+/// position's density (infinite, i.e. always accepted, for a light at infinity or with
+/// a delta position), and the density that samples the first segment (the emitted
+/// direction's, or at infinity the position's on the light's disk), from the
+/// emission's densities `pos` and `dir`.
+#[inline]
+pub(crate) fn light_origin(
+    infinite: bool,
+    delta: bool,
+    pick: f32,
+    (pos, dir): (f32, f32),
+) -> (f32, f32) {
+    match (infinite, delta) {
+        (true, _) => (f32::INFINITY, pos),
+        (false, true) => (f32::INFINITY, dir),
+        (false, false) => (pick * pos, dir),
+    }
+}
+
 /// The correlation factor from the camera's and the light's acceptance probabilities,
 /// at least 1 / N (a merge has at least one light subpath's worth of samples).
 #[inline]

@@ -2,7 +2,7 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
-use super::correlation::{Carry, Chain, Fix, Footprint, Link};
+use super::correlation::{light_origin, Carry, Chain, Fix, Footprint, Link};
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::partial::{Mis, Partial};
@@ -182,13 +182,10 @@ fn carry_start(
     if !pass.mis.correlated {
         return Carry::start(0.0, 0.0, 0.0);
     }
-    let inf = f32::INFINITY;
-    match (light.is_infinite(), light.is_delta()) {
-        // The position's density on the light's disk is the first hit's.
-        (true, _) => Carry::start(es.pdf_pos, 1.0, inf),
-        (false, true) => Carry::start(es.pdf_dir, es.cos, inf),
-        (false, false) => Carry::start(es.pdf_dir, es.cos, pick * es.pdf_pos),
-    }
+    let infinite = light.is_infinite();
+    let (origin, first) = light_origin(infinite, light.is_delta(), pick, (es.pdf_pos, es.pdf_dir));
+    // No cosine leaves a light at infinity: the disk's density is the first hit's.
+    Carry::start(first, if infinite { 1.0 } else { es.cos }, origin)
 }
 
 /// One light subpath; `M` (whether the scene has media) and `RADII` (whether the pass
@@ -546,7 +543,7 @@ fn connect_to_camera<M: Media, const RADII: bool>(
                 (pass, &pass.mis),
                 walk,
                 (&e, walk.q, vm(&pass.mis, 1.0)),
-                (v.cont(), lens_fix(1.0)),
+                (v.cont(), None),
                 lens_at,
                 Rgb::ONE,
                 1.0,
