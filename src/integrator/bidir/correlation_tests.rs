@@ -71,15 +71,18 @@ fn correlation_aware_vcm_and_bpm_keep_their_expectation() {
     }
 }
 
-/// upbp with surface and point x point merges in fog: merges in media at every camera
-/// vertex, their rho from volume footprints (small radii, as above).
+/// upbp with surface and point x point merges in fog, a lit shaft and heterogeneous
+/// smoke: merges in media at every camera vertex, their rho from volume footprints
+/// (small radii, as above).
 #[test]
 fn correlation_aware_upbp_keeps_its_expectation_in_media() {
-    let scene = scene("scenes/media/fog-cornell.json", 16);
-    let params = serde_json::json!({
-        "max_depth": 6, "merge_depth": "all", "techniques": "bpt+surf+pp3d",
-        "radius_factor": 0.0125, "medium_radius_factor": 0.01
-    });
-    let moved = agrees(&scene, "upbp", params, 100);
-    assert!(moved > 1e-4, "upbp: the weights did not move ({moved})");
+    for file in ["fog-cornell", "spot-shaft", "smoke-room"] {
+        let scene = scene(&format!("scenes/media/{file}.json"), 16);
+        let params = serde_json::json!({
+            "max_depth": 6, "merge_depth": "all", "techniques": "bpt+surf+pp3d",
+            "radius_factor": 0.0125, "medium_radius_factor": 0.01
+        });
+        let moved = agrees(&scene, "upbp", params, 100);
+        assert!(moved > 1e-4, "{file}: the weights did not move ({moved})");
+    }
 }
