@@ -129,6 +129,28 @@ fn upbp_agrees_with_volpath_in_heterogeneous_smoke() {
     agree_with(&shipped("smoke-room"), &[ALL], 150, local);
 }
 
+/// Photon beams from a light at infinity: on a light subpath's first segment the MIS
+/// has no distance, only the transmittance ([TR] sec. 5.1), at a beam's points as at
+/// its first vertex (a fog cube over a floor under a constant sky).
+#[test]
+fn photon_beams_from_a_light_at_infinity_agree_with_volpath() {
+    let scene = common::compile(json!({
+        "format": 1,
+        "camera": {"look_at": {"origin": [0, 1, 4], "target": [0, 0, 0], "up": [0, 1, 0]}, "fov": 40},
+        "film": {"width": SIZE, "height": SIZE},
+        "materials": {"white": {"type": "diffuse", "reflectance": [0.7, 0.7, 0.7]},
+                      "boundary": {"type": "null"}},
+        "media": {"fog": {"type": "homogeneous", "sigma_t": [1.5, 1.5, 1.5], "albedo": [0.9, 0.9, 0.9]}},
+        "shapes": [
+            {"type": "rectangle", "corners": [[-3, -1, 3], [3, -1, 3], [3, -1, -3], [-3, -1, -3]], "material": "white"},
+            {"type": "cube", "material": "boundary", "interior": "fog"}
+        ],
+        "lights": [{"type": "constant", "radiance": [1, 1, 1]}]
+    }));
+    let sets: &[&[&str]] = &[&["bpt", "bb1d"], ALL];
+    agree_with(&scene, sets, 600, json!({ "merge_depth": "all" }));
+}
+
 /// Without surface photons or connections the volume techniques render only light
 /// that scattered in the medium last; point x point, point x beam and beam x beam
 /// each estimate that same part.

@@ -415,7 +415,6 @@ mod tests {
                 json!({"correlation_aware": true}),
                 "set merge_depth: all",
             ),
-            ("upbp", on(json!({})), "without pb2d and bb1d"),
             (
                 "vcm",
                 on(json!({"radii": [0.01]})),
@@ -432,7 +431,8 @@ mod tests {
             assert_eq!(e.field(), Some("params.correlation_aware"), "{alg}: {e}");
             assert!(e.to_string().contains(words), "{alg}: {e}");
         }
-        let fine = on(json!({"techniques": "bpt+surf+pp3d"}));
+        // Every upbp estimator, beams included.
+        let fine = on(json!({"techniques": "bpt+surf+pp3d+pb2d+bb1d"}));
         Settings::resolve(Some("upbp"), None, &map(fine)).unwrap();
         Settings::resolve(Some("vcm"), None, &map(on(json!({})))).unwrap();
     }

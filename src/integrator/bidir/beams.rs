@@ -33,12 +33,18 @@ use crate::integrator::estimators::beam_estimate::{meet, Meeting};
 use crate::integrator::estimators::beams::{collect, Beam, BeamForm};
 use crate::integrator::estimators::{Lbvh, Point, PointBvh};
 use crate::integrator::memory::{array, refilled};
+use crate::integrator::paths::correlation::{
+    merge_fixes, CameraSide, Carry, Chain, FlightLinks, Footprint, Link,
+};
 use crate::integrator::paths::light_vertex::{LightVertex, MEDIUM_VERTEX};
 use crate::integrator::paths::partial::{self as mis, Merge, Mis, Partial, Site, MIN_BEAM_SIN};
 use crate::integrator::paths::parts::{Candidate, Parts, Scale, MEDIA};
-use crate::integrator::paths::segments::{LightSegment, NO_AREA};
-use crate::integrator::paths::store::{path_segment_parts, path_segments, Chunk};
+use crate::integrator::paths::segments::{FlightOrigin, LightSegment};
+use crate::integrator::paths::store::{
+    links_to, path_segment_links, path_segment_parts, path_segments, Chunk,
+};
 use crate::integrator::paths::vertex::{mis_sigma, MediumPoint};
+use crate::integrator::transport::PATHS_PER_TASK;
 use crate::integrator::RenderStats;
 use crate::math::{Rgb, Rng, Vec3};
 use crate::medium::Medium;
@@ -67,6 +73,10 @@ pub(super) struct BeamStore {
     /// segment the pending ones of its start), in `points`' and `segments`' order.
     point_parts: Vec<Parts>,
     segment_parts: Vec<[Parts; 2]>,
+    /// With correlation-aware MIS, where the points' links are (chunk, vertex) and
+    /// the segments' flights began (chunk, start), in the same orders.
+    point_origins: Vec<(u32, u32)>,
+    segment_links: Vec<(u32, FlightLinks)>,
 }
 
 impl BeamStore {
@@ -77,7 +87,9 @@ impl BeamStore {
         self.beams.clear();
         self.point_parts.clear();
         self.segment_parts.clear();
-        let radii = pass.reweights();
+        self.point_origins.clear();
+        self.segment_links.clear();
+        let (radii, correlated) = (pass.reweights(), pass.mis.correlated);
         if pass.technique.uses(Merge::PointBeam2d) {
             let all = chunks.iter().flat_map(|c| c.vertices.iter());
             let medium = all.filter(|v| v.material == MEDIUM_VERTEX);
@@ -87,13 +99,20 @@ impl BeamStore {
                 let medium = all.filter(|(v, _)| v.material == MEDIUM_VERTEX);
                 self.point_parts.extend(medium.map(|(_, p)| *p));
             }
+            if correlated {
+                let at = chunks.iter().enumerate().flat_map(|(c, chunk)| {
+                    let vs = chunk.vertices.iter().enumerate();
+                    vs.filter(|(_, v)| v.material == MEDIUM_VERTEX)
+                        .map(move |(i, _)| (c as u32, i as u32))
+                });
+                self.point_origins.extend(at);
+            }
         }
         self.point_bvh.build(&mut self.points);
-        if radii && !self.points.is_empty() {
-            // The BVH reordered the points: their parts follow.
-            let parts = std::mem::take(&mut self.point_parts);
-            let order = self.point_bvh.order();
-            self.point_parts.extend(order.map(|i| parts[i]));
+        if !self.points.is_empty() {
+            // The BVH reordered the points: their side arrays follow.
+            reorder(&mut self.point_parts, &self.point_bvh);
+            reorder(&mut self.point_origins, &self.point_bvh);
         }
         if pass.technique.uses(Merge::BeamBeam1d) {
             let n = pass.beam_paths.min(pass.light_paths);
@@ -102,6 +121,11 @@ impl BeamStore {
                 if radii {
                     let parts = path_segment_parts(chunks, path);
                     self.segment_parts.extend_from_slice(parts);
+                }
+                if correlated {
+                    let chunk = (path / PATHS_PER_TASK) as u32;
+                    let links = path_segment_links(chunks, path).iter();
+                    self.segment_links.extend(links.map(|l| (chunk, *l)));
                 }
             }
             let scene = pass.scene;
@@ -126,6 +150,8 @@ impl BeamStore {
 
     pub fn bytes(&self) -> usize {
         self.point_parts.capacity() * std::mem::size_of::<Parts>()
+            + self.point_origins.capacity() * 8
+            + self.segment_links.capacity() * std::mem::size_of::<(u32, FlightLinks)>()
             + self.segment_parts.capacity() * std::mem::size_of::<[Parts; 2]>()
             + self.points.capacity() * std::mem::size_of::<LightVertex>()
             + self.segments.capacity() * std::mem::size_of::<LightSegment>()
@@ -135,21 +161,35 @@ impl BeamStore {
     }
 }
 
+/// A side array of the points (empty, or one item per point) put in the order the
+/// BVH gave the points.
+fn reorder<T: Copy>(side: &mut Vec<T>, bvh: &PointBvh<LightVertex>) {
+    if side.is_empty() {
+        return;
+    }
+    let all = std::mem::take(side);
+    side.extend(bvh.order().map(|i| all[i]));
+}
+
 /// A subpath's partial weights completed at the point x, `u` along segment `s` from its
 /// start, where a vertex with MIS factor D = `sigma` would be (as `on_hit` at a vertex
 /// reached along the segment's flight), without the merges in media of the light's
-/// earlier vertices under `merge_depth: first` (x is on their camera side), and the
-/// MIS transmittance from the segment's vertex to x.
-fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Partial, f32) {
+/// earlier vertices under `merge_depth: first` (x is on their camera side); the MIS
+/// transmittance from the segment's vertex to x, and the squared distance the MIS
+/// gives the flight (1 from a light at infinity, as at the subpath's first vertex).
+fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Partial, f32, f32) {
     let scene = pass.scene;
-    let dist2 = (x - s.from).length_squared();
+    let dist2 = match s.origin {
+        FlightOrigin::Infinite => 1.0,
+        _ => (x - s.from).length_squared(),
+    };
     let piece = scene.media[s.medium as usize].mis_depth(s.o, s.d, 0.0, u, pass.mis.local_media);
     let tr = mis::transmittance(s.depth0 + piece);
     let mut q = s.q;
-    if s.area != NO_AREA {
+    if let FlightOrigin::Area(li, n0) = s.origin {
         // The first segment from an area light: its light-sampling density at x
         // completes dvcm, as the light subpath does at its first vertex.
-        let (li, n0) = (s.area.0 as usize, s.area.1);
+        let li = li as usize;
         let light = &scene.lights[li];
         let pick = scene.light_sampler.pmf(li) as f64;
         let (pos, dir) = light.pdf_le(&scene.sphere, n0, s.d);
@@ -161,10 +201,14 @@ fn partial_at(pass: &Pass, s: &LightSegment, x: Vec3, u: f32, sigma: f32) -> (Pa
     let mis = &pass.mis;
     let q = mis.light_hit(q, s.pending, dist2 / tr, tr, sigma);
     if !mis.first_medium {
-        return (q, tr);
+        return (q, tr, dist2);
     }
     // The pending terms are the query beams', all in media.
-    (mis.cut(q, mis.hit_share(s.vol, s.pending, tr, sigma)), tr)
+    (
+        mis.cut(q, mis.hit_share(s.vol, s.pending, tr, sigma)),
+        tr,
+        dist2,
+    )
 }
 
 /// The parts of [`partial_at`]'s partial weights, from the segment's start's
@@ -199,6 +243,17 @@ struct Query<'a> {
     parts: Parts,
     /// How the main image weighs this estimator's merges (per-pixel selection).
     rule: Rule<'a>,
+    corr: Option<Correlated<'a>>,
+}
+
+/// With correlation-aware MIS, what a query's merges read for their correlation
+/// factors: the camera subpath's side, its carry where the flight began, and the
+/// light store's chunks, which hold the light subpaths' links.
+#[derive(Clone, Copy)]
+pub(super) struct Correlated<'a> {
+    pub side: CameraSide<'a>,
+    pub carry: Carry,
+    pub chunks: &'a [Chunk],
 }
 
 /// Where the two sides of a beam estimate meet, as its MIS reads it: the merged
@@ -208,6 +263,8 @@ struct Query<'a> {
 struct Meet {
     sigma: f32,
     tr: f32,
+    /// The camera flight's squared distance to the meeting.
+    dist2: f32,
     sin: f32,
     q: (Partial, Partial),
     cont: (f32, f32),
@@ -217,11 +274,45 @@ struct Meet {
 impl Meet {
     /// Estimator `k`'s weight under `mis`, the sides' partial weights being `q`.
     #[inline(always)]
-    fn weight(&self, mis: &Mis, k: Merge, (ql, qc): (Partial, Partial)) -> f32 {
-        let own = mis.eta(k, self.sigma, self.sin, self.tr);
-        let all = mis.merges(Site::Medium, self.sigma, self.sin, None, self.tr);
+    fn weight(&self, mis: &Mis, k: Merge, q: (Partial, Partial)) -> f32 {
+        self.weight_rho(mis, k, q, 1.0)
+    }
+
+    /// [`Meet::weight`] with the meeting's merge densities scaled by `rho`.
+    #[inline(always)]
+    fn weight_rho(&self, mis: &Mis, k: Merge, (ql, qc): (Partial, Partial), rho: f64) -> f32 {
+        let own = mis.eta(k, self.sigma, self.sin, self.tr) * rho;
+        let all = mis.merges(Site::Medium, self.sigma, self.sin, None, self.tr) * rho;
         let (cont_c, cont_l) = self.cont;
         mis.weight_merge(ql, qc, (own, all), self.ph * cont_c, self.ph * cont_l)
+    }
+
+    /// Estimator `k`'s correlation-aware weight, the light side's links ending in
+    /// `links` and, where the light point is on a segment, `tail`.
+    #[inline(always)]
+    fn correlated(
+        &self,
+        (pass, q, c): (&Pass, &Query, &Correlated),
+        k: Merge,
+        (links, tail): (&[Link], Option<Link>),
+    ) -> f32 {
+        let mis = &pass.mis;
+        let hit = (self.dist2 / self.tr, self.tr, self.sigma);
+        let camera_tail = mis.carry_hit(c.carry, 0.0, hit, true);
+        // On the camera's first segment the footprint is the meeting's own.
+        let fp = match q.camera_len {
+            1 => Footprint::new(self.dist2.sqrt()),
+            _ => c.side.fp,
+        };
+        let (cont_c, cont_l) = self.cont;
+        let lc = Chain {
+            tail,
+            ..Chain::light(links, self.ph * cont_c)
+        };
+        let cc = c.side.chain(Some(camera_tail), self.ph * cont_l);
+        let ct = cc.total(&fp);
+        let (fl, fc) = merge_fixes(mis, &fp, lc, (cc, ct));
+        self.weight_rho(mis, k, (fl.apply(self.q.0), fc.apply(self.q.1)), fc.rho)
     }
 }
 
@@ -248,11 +339,12 @@ impl Query<'_> {
         ph: f32,
     ) -> Meet {
         let sin = pass.mis.sine(self.beam.d, wl);
-        let (qc, tr) = partial_at(pass, self.c, xc, tc, sigma);
+        let (qc, tr, dist2) = partial_at(pass, self.c, xc, tc, sigma);
         let cont_c = self.continuation(pass, xc);
         Meet {
             sigma,
             tr,
+            dist2,
             sin,
             q: (ql, qc),
             cont: (cont_c, cont_l),
@@ -344,13 +436,21 @@ fn point_beam<const RADII: bool>(
             let m = q.meet(pass, at, (yq, y.cont, y.wo), ph);
             let own = d2 <= r * r;
             let wt = if own {
-                let sides = |scale: &_| {
-                    let parts = &store.point_parts[index_in(points, y)];
-                    let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
-                    (ql, q.camera_q(pass, &m, scale))
+                let w = match &q.corr {
+                    Some(c) => {
+                        let links = links_to(c.chunks, store.point_origins[index_in(points, y)]);
+                        m.correlated((pass, q, c), k, (links, None))
+                    }
+                    None => {
+                        let sides = |scale: &_| {
+                            let parts = &store.point_parts[index_in(points, y)];
+                            let ql = light_q(pass, (y.q, y.vol(), parts), mis.first_medium, scale);
+                            (ql, q.camera_q(pass, &m, scale))
+                        };
+                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                        q.rule.weight(k, m.q, sides, weight, mis)
+                    }
                 };
-                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                let w = q.rule.weight(k, m.q, sides, weight, mis);
                 stats.merges += 1;
                 let wt = b.weight_at(q.m, t, rng);
                 sum += y.throughput * wt * (ph * w);
@@ -371,6 +471,14 @@ fn point_beam<const RADII: bool>(
             }
         });
     sum * pass.norms[k as usize]
+}
+
+/// A light segment's subpath's links before its flight, from its [`FlightLinks`] in
+/// chunk `c` of `chunks`.
+#[inline(always)]
+fn flight_links<'a>((c, f): &(u32, FlightLinks), chunks: &'a [Chunk]) -> &'a [Link] {
+    let (begin, end) = f.links;
+    &chunks[*c as usize].links[begin as usize..end as usize]
 }
 
 /// Where a photon beam crosses the query beam within a radius: the closest points,
@@ -421,31 +529,44 @@ fn beam_beam<const RADII: bool>(
                 return;
             }
             let s = &store.segments[b.seg as usize];
-            // The meeting and its value (all but the phase function, the MIS weight
-            // and 1 / (2 r sin)).
+            // The meeting, the light flight's MIS transmittance and squared distance to
+            // it, and its value (all but the phase function, the MIS weight and
+            // 1 / (2 r sin)).
             let estimate = |x: &Crossing, rng: &mut Rng| {
                 let (xc, xl) = (c.o + c.d * x.tc, b.o + b.d * x.tb);
                 let sigma = q.sigma_at(pass, xc);
-                let (ql, tr_l) = partial_at(pass, s, xl, b.start + x.tb, sigma);
+                let (ql, tr_l, dist2_l) = partial_at(pass, s, xl, b.start + x.tb, sigma);
                 let cont_l = q.continuation(pass, xl);
                 let m = q.meet(pass, (xc, x.tc, sigma), (ql, cont_l, -b.d), ph);
                 let wc = c.weight_at(q.m, x.tc, rng);
                 let value = b.beta * b.weight_at(q.m, x.tb, rng) * wc * q.sigma_s(xc);
-                (m, tr_l, value)
+                (m, (tr_l, dist2_l), value)
             };
             let own = cross.map(|x| {
-                let (m, tr_l, value) = estimate(&x, rng);
+                let (m, (tr_l, dist2_l), value) = estimate(&x, rng);
                 stats.merges += 1;
-                let sides = |scale: &_| {
-                    let parts = &store.segment_parts[b.seg as usize];
-                    let at = parts_at(pass, parts, tr_l, m.sigma);
-                    (
-                        pass.mis.rescale(m.q.0, &at, scale),
-                        q.camera_q(pass, &m, scale),
-                    )
+                let w = match &q.corr {
+                    Some(corr) => {
+                        let flight = &store.segment_links[b.seg as usize];
+                        let links = flight_links(flight, corr.chunks);
+                        // The light point's link, as the subpath would store it.
+                        let hit = (dist2_l / tr_l, tr_l, m.sigma);
+                        let tail = pass.mis.carry_hit(flight.1.carry, s.pending, hit, true);
+                        m.correlated((pass, q, corr), k, (links, Some(tail)))
+                    }
+                    None => {
+                        let sides = |scale: &_| {
+                            let parts = &store.segment_parts[b.seg as usize];
+                            let at = parts_at(pass, parts, tr_l, m.sigma);
+                            (
+                                pass.mis.rescale(m.q.0, &at, scale),
+                                q.camera_q(pass, &m, scale),
+                            )
+                        };
+                        let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
+                        q.rule.weight(k, m.q, sides, weight, &pass.mis)
+                    }
                 };
-                let weight = |mis: &Mis, ql, qc| m.weight(mis, k, (ql, qc));
-                let w = q.rule.weight(k, m.q, sides, weight, &pass.mis);
                 sum += value * (ph * w / (2.0 * r * x.sin));
                 (m, tr_l, value)
             });
@@ -464,7 +585,7 @@ fn beam_beam<const RADII: bool>(
                     Some((m, tr_l, value)) => (m, *tr_l, *value),
                     None => {
                         fresh = estimate(&x, &mut spare);
-                        (&fresh.0, fresh.1, fresh.2)
+                        (&fresh.0, fresh.1 .0, fresh.2)
                     }
                 };
                 let parts = parts_at(pass, &store.segment_parts[b.seg as usize], tr_l, m.sigma);
@@ -484,7 +605,7 @@ fn beam_beam<const RADII: bool>(
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather<const RADII: bool>(
     pass: &Pass,
-    (store, cand): (&BeamStore, Option<&Candidate>),
+    (store, cand, corr): (&BeamStore, Option<&Candidate>, Option<Correlated>),
     (pieces, parts): (&[LightSegment], Parts),
     camera_len: u32,
     rng: &mut Rng,
@@ -524,6 +645,7 @@ pub(super) fn gather<const RADII: bool>(
             uniform,
             parts,
             rule: Rule::Job,
+            corr,
         };
         if let Some(r) = pb_rule {
             q.rule = r;

@@ -6,7 +6,7 @@ use super::merge::{MergeSet, MergeVertex};
 use super::radius_layers::{light_q, RadiusSums};
 use super::selection::{rule, Rule};
 use super::{Pass, Workspace};
-use crate::integrator::paths::correlation::{CameraSide, Chain, Link};
+use crate::integrator::paths::correlation::{merge_fixes, CameraSide, Chain, Link};
 use crate::integrator::paths::partial::{Merge, Mis, Partial, Site};
 use crate::integrator::paths::parts::{Candidate, MEDIA};
 use crate::integrator::paths::vertex::MediumPoint;
@@ -176,9 +176,8 @@ pub(super) fn merge_medium<const RADII: bool>(
 
 /// The correlation-aware weight of a merge at the camera's last vertex with the light
 /// vertex whose subpath's links end in `links`, from `weighted(mis, light, camera,
-/// rho)`: the merge point is both sides' own, so each side's acceptance at it is the
-/// other's whole product (`ct`, the camera's); `camera_dir`, `camera_rev` and the
-/// partial weights `(yq, q)` as [`Mis::weight_merge`] takes them.
+/// rho)`; `camera_dir`, `camera_rev` and the partial weights `(yq, q)` as
+/// [`Mis::weight_merge`] takes them.
 #[inline(always)]
 fn correlated_weight(
     pass: &Pass,
@@ -193,8 +192,7 @@ fn correlated_weight(
         side.chain(None, camera_rev),
     );
     let mis = &pass.mis;
-    let (fl, lt) = lc.fix_total(mis, &side.fp, ct);
-    let fc = cc.fix(mis, &side.fp, lt);
+    let (fl, fc) = merge_fixes(mis, &side.fp, lc, (cc, ct));
     weighted(mis, fl.apply(yq), fc.apply(q), fc.rho)
 }
 

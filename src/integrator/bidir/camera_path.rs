@@ -2,7 +2,7 @@
 //! subpath ([`super::connect`]), and merging with all stored light vertices
 //! ([`super::camera_merge`]), each weighted by [`super::mis`].
 
-use super::beams;
+use super::beams::{self, Correlated};
 use super::camera_merge::{merge, merge_medium};
 use super::connect::{connect, light_sample};
 use super::radius_layers::{camera_q, record_radii};
@@ -10,13 +10,15 @@ use super::selection::camera_main;
 use super::{Pass, Workspace};
 use crate::geometry::Ray;
 use crate::integrator::drive::pixels::PathKernel;
-use crate::integrator::paths::correlation::{light_origin, CameraSide, Carry, Footprint, Link};
+use crate::integrator::paths::correlation::{
+    light_origin, CameraSide, Carry, FlightLinks, Footprint, Link,
+};
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::media::{next_event, next_event_with, Event, Owner};
 use crate::integrator::paths::partial::Mis;
 use crate::integrator::paths::partial::{Merge, Partial};
 use crate::integrator::paths::parts::{Candidate, Parts};
-use crate::integrator::paths::segments::{FlightStart, LightSegment, SegmentSink, NO_AREA};
+use crate::integrator::paths::segments::{FlightOrigin, FlightStart, LightSegment, SegmentSink};
 use crate::integrator::paths::vertex::{Media, Vertex};
 use crate::integrator::paths::walk::Walk;
 use crate::integrator::transport::medium_walk::{seen_emission, sees_emission};
@@ -319,6 +321,7 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         let mut sink = SegmentSink {
             out: &mut p.pieces,
             parts: None,
+            links: None,
             budget: usize::MAX,
             over_budget: &mut over,
             start: FlightStart {
@@ -327,9 +330,11 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
                 pending: 0.0,
                 vol: 0.0,
                 from: walk.origin,
-                area: NO_AREA,
+                origin: FlightOrigin::Vertex,
                 // The query segments' parts are the flight's start's (gather_beams).
                 parts: [Parts::default(); 2],
+                // And their links the path's (gather_beams).
+                links: FlightLinks::NONE,
             },
         };
         let scene = self.pass.scene;
@@ -346,7 +351,12 @@ impl<'a, M: Media, const RADII: bool> CameraPass<'a, M, RADII> {
         rng: &mut Rng,
         stats: &mut RenderStats,
     ) {
-        let (store, pixel) = ((&self.ws.beams, Self::cand(p)), p.pixel);
+        let corr = self.side((&p.links, p.fp)).map(|side| Correlated {
+            side,
+            carry: p.walk.carry,
+            chunks: &self.ws.store.chunks,
+        });
+        let (store, pixel) = ((&self.ws.beams, Self::cand(p), corr), p.pixel);
         let (pass, l, len) = (self.pass, &mut p.l, p.walk.len);
         if pass.mis.cuts(p.walk.medium_seen) {
             return;

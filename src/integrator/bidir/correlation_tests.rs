@@ -86,3 +86,25 @@ fn correlation_aware_upbp_keeps_its_expectation_in_media() {
         assert!(moved > 1e-4, "{file}: the weights did not move ({moved})");
     }
 }
+
+/// upbp with every estimator: point x beam 2D and beam x beam 1D take their rho at
+/// points on the query beam and on photon beams, which no stored link stands for (the
+/// links are built there as the subpaths would build them). Short query beams in the
+/// fog and the shaft, long ones (weighted as long beams) in the smoke.
+#[test]
+fn correlation_aware_upbp_with_beams_keeps_its_expectation() {
+    for (file, beams) in [
+        ("fog-cornell", "short"),
+        ("spot-shaft", "short"),
+        ("smoke-room", "long"),
+    ] {
+        let scene = scene(&format!("scenes/media/{file}.json"), 16);
+        let params = serde_json::json!({
+            "max_depth": 6, "merge_depth": "all", "query_beams": beams,
+            "radius_factor": 0.0125, "medium_radius_factor": 0.01,
+            "pb2d_radius_factor": 0.005, "bb1d_radius_factor": 0.0025
+        });
+        let moved = agrees(&scene, "upbp", params, 100);
+        assert!(moved > 1e-4, "{file}: the weights did not move ({moved})");
+    }
+}

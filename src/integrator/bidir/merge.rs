@@ -7,6 +7,7 @@ use crate::integrator::paths::correlation::Link;
 use crate::integrator::paths::light_vertex::LightVertex;
 use crate::integrator::paths::partial::{Merge, Partial, Site};
 use crate::integrator::paths::parts::Parts;
+use crate::integrator::paths::store::links_to;
 use crate::integrator::paths::Pass;
 use crate::math::{Rgb, Vec3};
 
@@ -127,10 +128,8 @@ impl Workspace {
     /// The links of merging copy `y` of `set` and its light subpath's before it.
     #[inline(always)]
     pub(super) fn links_of(&self, set: &MergeSet, y: &MergeVertex) -> &[Link] {
-        let (c, i) = set.origins[super::radius_layers::index_in(&set.merge, y)];
-        let links = &self.store.chunks[c as usize].links[..=i as usize];
-        let first = links.iter().rposition(|l| l.first).unwrap_or(0);
-        &links[first..]
+        let at = set.origins[super::radius_layers::index_in(&set.merge, y)];
+        links_to(&self.store.chunks, at)
     }
 }
 

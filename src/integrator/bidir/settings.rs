@@ -492,15 +492,10 @@ impl BidirSettings {
         if !self.correlation_aware {
             return Ok(());
         }
-        let beams = [UpbpTechnique::Pb2d, UpbpTechnique::Bb1d];
         let problem = if !technique.merges() {
             "correlation_aware scales merges' weights: it needs bpm, vcm or upbp"
         } else if self.merge_depth != MergeDepth::All {
             "correlation_aware weighs merges at every camera vertex (what merge_depth: first approximates): set merge_depth: all"
-        } else if matches!(technique, Technique::Upbp(_))
-            && self.techniques.iter().any(|t| beams.contains(t))
-        {
-            "correlation_aware does not weigh the beam estimators yet: choose techniques without pb2d and bb1d"
         } else if !self.radii.is_empty() || self.selection == PixelSelection::Adaptive {
             "correlation_aware is not combined with radii or selection: adaptive yet"
         } else {

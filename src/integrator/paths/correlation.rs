@@ -174,6 +174,32 @@ impl Link {
     }
 }
 
+/// Where a light segment's flight began, for the correlation factors of a point on
+/// it: the carry after that vertex's scatter, and the range of its subpath's links
+/// stored before the flight, within their chunk.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FlightLinks {
+    pub carry: Carry,
+    pub links: (u32, u32),
+}
+
+impl FlightLinks {
+    /// What flights that need no links carry.
+    pub const NONE: FlightLinks = FlightLinks {
+        carry: Carry {
+            term: 0.0,
+            step: 1.0,
+            dir: 0.0,
+            cos_out: 0.0,
+            delta: false,
+            rev: 0.0,
+            origin: 0.0,
+            first: true,
+        },
+        links: (0, 0),
+    };
+}
+
 /// The surrogate acceptance footprint of a camera subpath whose first segment is
 /// `first_segment` long: a disc at surfaces, a ball in media.
 #[derive(Clone, Copy, Debug)]
@@ -343,6 +369,21 @@ impl Chain<'_> {
         }
         (Fix { d, rho: junction }, own(n - 1))
     }
+}
+
+/// Both sides' fixes of a merge that joins the light chain `lc` and the camera chain
+/// `cc`, whose acceptance product is `ct` ([`Chain::total`]), at one vertex: the
+/// merged point is both sides' own, so each side's acceptance at it is the other
+/// side's whole product.
+#[inline(always)]
+pub(crate) fn merge_fixes(
+    mis: &Mis,
+    fp: &Footprint,
+    lc: Chain,
+    (cc, ct): (Chain, f64),
+) -> (Fix, Fix) {
+    let (fl, lt) = lc.fix_total(mis, fp, ct);
+    (fl, cc.fix(mis, fp, lt))
 }
 
 /// A camera subpath's side of correlation-aware weights: its stored links (the

@@ -2,12 +2,12 @@
 //! when the scene has them), storage of non-specular vertices, and connections to the
 //! camera (splats).
 
-use super::correlation::{light_origin, Carry, Chain, Fix, Footprint, Link};
+use super::correlation::{light_origin, Carry, Chain, Fix, FlightLinks, Footprint, Link};
 use super::light_vertex::{LightVertex, MEDIUM_VERTEX, NO_MEDIUM};
 use super::media::{next_event, next_event_with, shadow, Event, Owner};
 use super::partial::{Mis, Partial};
 use super::parts::Parts;
-use super::segments::{FlightStart, SegmentSink, NO_AREA};
+use super::segments::{FlightOrigin, FlightStart, SegmentSink};
 use super::store::{Budget, Chunk, Store, RESERVED_SPLATS, RESERVED_VERTICES};
 use super::vertex::{Media, NoMedia, Vertex, WithMedia};
 use super::walk::{Eval, Walk};
@@ -88,6 +88,7 @@ impl ChunkTracer for Subpaths<'_, '_> {
         chunk.segments.clear();
         chunk.segment_ends.clear();
         chunk.segment_parts.clear();
+        chunk.segment_links.clear();
         chunk.splats.clear();
         chunk.stats = RenderStats::default();
         chunk.over_budget = false;
@@ -221,9 +222,11 @@ fn trace_one<M: Media, const RADII: bool>(
         chunk.stats.rays += 1;
         let mut owner = Owner::default();
         let (event, tr) = if M::ON {
-            let area = match area {
-                Some((l, _, _, _, n0, _)) if walk.len == 1 => (l as u32, n0),
-                _ => NO_AREA,
+            let origin = match area {
+                _ if walk.len > 1 => FlightOrigin::Vertex,
+                Some((l, _, _, _, n0, _)) => FlightOrigin::Area(l as u32, n0),
+                None if !finite => FlightOrigin::Infinite,
+                None => FlightOrigin::Vertex,
             };
             flight::<M, RADII>(
                 pass,
@@ -231,7 +234,7 @@ fn trace_one<M: Media, const RADII: bool>(
                 chunk,
                 budget,
                 (&mut ray, &mut walk),
-                area,
+                origin,
                 &mut owner,
             )
         } else {
@@ -309,12 +312,25 @@ fn flight<'a, 's, M: Media, const RADII: bool>(
     chunk: &mut Chunk,
     budget: Budget,
     (ray, walk): (&mut Ray, &mut Walk),
-    area: (u32, Vec3),
+    origin: FlightOrigin,
     owner: &'a mut Owner<'s>,
 ) -> (Event<'a>, f32) {
+    let correlates = pass.correlates::<RADII>();
+    let links = match correlates {
+        // The subpath's links so far: its vertices' (stored in parallel).
+        true => FlightLinks {
+            carry: walk.carry,
+            links: (
+                chunk.ends.last().map_or(0, |&e| e),
+                chunk.links.len() as u32,
+            ),
+        },
+        false => FlightLinks::NONE,
+    };
     let Chunk {
         segments,
         segment_parts,
+        segment_links,
         over_budget,
         stats,
         ..
@@ -322,6 +338,7 @@ fn flight<'a, 's, M: Media, const RADII: bool>(
     let mut sink = SegmentSink {
         out: segments,
         parts: RADII.then_some(segment_parts),
+        links: correlates.then_some(segment_links),
         budget: budget.segments,
         over_budget,
         start: FlightStart {
@@ -330,8 +347,9 @@ fn flight<'a, 's, M: Media, const RADII: bool>(
             pending: walk.pending.sum(),
             vol: walk.parts.media(),
             from: walk.origin,
-            area,
+            origin,
             parts: [walk.parts, walk.pending],
+            links,
         },
     };
     let keep = pass.keep_segments.then_some(&mut sink);

@@ -8,6 +8,7 @@
 //! weighted by transmittance). Kept in path order per chunk, like the vertices, so the
 //! store never depends on the thread count.
 
+use super::correlation::FlightLinks;
 use super::partial::Partial;
 use super::parts::Parts;
 use crate::integrator::transport::medium_walk::Segment;
@@ -46,14 +47,22 @@ pub(crate) struct LightSegment {
     pub vol: f64,
     pub from: Vec3,
     pub depth0: f32,
-    /// On a light subpath's first segment from an area light: the light and its
-    /// normal at `from` (the light-sampling density of a point depends on where it
-    /// is); else NO_AREA.
-    pub area: (u32, Vec3),
+    /// What the flight left, where a point's MIS needs more than `from`.
+    pub origin: FlightOrigin,
 }
 
-/// `LightSegment::area` of segments that need no completion.
-pub(crate) const NO_AREA: (u32, Vec3) = (u32::MAX, Vec3::ZERO);
+/// What a flight left, as the MIS of a point on it sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FlightOrigin {
+    /// A vertex (or a light with a delta position): `from` is all a point needs.
+    Vertex,
+    /// An area light, on a light subpath's first segment: the light and its normal
+    /// at `from` (the light-sampling density of a point depends on where it is).
+    Area(u32, Vec3),
+    /// A light at infinity, on a light subpath's first segment: the segment has no
+    /// length for the MIS ([TR] sec. 5.1), only its transmittance.
+    Infinite,
+}
 
 /// Where a subpath's flight began, for the segments it lays down.
 #[derive(Clone, Copy, Debug)]
@@ -63,10 +72,12 @@ pub(crate) struct FlightStart {
     pub pending: f64,
     pub vol: f64,
     pub from: Vec3,
-    pub area: (u32, Vec3),
+    pub origin: FlightOrigin,
     /// With radius layers, the subpath's [`Parts`] and its pending ones where the
     /// flight began (the per-estimator form of `q`'s dvc and dvm, and of `pending`).
     pub parts: [Parts; 2],
+    /// With correlation-aware MIS, the flight's start as its points' links see it.
+    pub links: FlightLinks,
 }
 
 impl LightSegment {
@@ -85,7 +96,7 @@ impl LightSegment {
             vol: start.vol,
             from: start.from,
             depth0,
-            area: start.area,
+            origin: start.origin,
         }
     }
 
@@ -127,10 +138,13 @@ pub(crate) fn extent(m: &Medium, o: Vec3, d: Vec3, tmax: f32, xi: f32) -> Option
 }
 
 /// Where a subpath's walk puts its segments, and how many it may still add; with
-/// radius layers, where it puts each segment's `start.parts`, in the same order.
+/// radius layers (and correlation-aware MIS), where it puts each segment's
+/// `start.parts` (`start.links`), in the same order.
 pub(crate) struct SegmentSink<'a> {
     pub out: &'a mut Vec<LightSegment>,
     pub parts: Option<&'a mut Vec<[Parts; 2]>>,
+    /// With correlation-aware MIS, where it puts each segment's `start.links`.
+    pub links: Option<&'a mut Vec<FlightLinks>>,
     pub budget: usize,
     pub over_budget: &'a mut bool,
     pub start: FlightStart,
@@ -145,6 +159,9 @@ impl SegmentSink<'_> {
                 .push(LightSegment::new(seg, t, &self.start, depth0));
             if let Some(parts) = self.parts.as_mut() {
                 parts.push(self.start.parts);
+            }
+            if let Some(links) = self.links.as_mut() {
+                links.push(self.start.links);
             }
         } else {
             *self.over_budget = true;

@@ -3,6 +3,7 @@
 //! splats, in path order, so that the store never depends on the thread count; and
 //! what it costs in memory.
 
+use super::correlation::{FlightLinks, Link};
 use super::light_vertex::LightVertex;
 use super::parts::Parts;
 use super::segments::LightSegment;
@@ -31,15 +32,37 @@ pub(crate) fn path_segments(chunks: &[Chunk], path: usize) -> &[LightSegment] {
     &chunk.segments[begin as usize..chunk.segment_ends[i] as usize]
 }
 
-/// The [`Chunk::segment_parts`] of [`path_segments`]`(chunks, path)`: empty
-/// without radius layers.
-pub(crate) fn path_segment_parts(chunks: &[Chunk], path: usize) -> &[[Parts; 2]] {
+/// What a side array parallel to the segments (`side(chunk)`) holds for
+/// [`path_segments`]`(chunks, path)`: empty where the array is.
+fn path_segment_side<T>(chunks: &[Chunk], path: usize, side: impl Fn(&Chunk) -> &[T]) -> &[T] {
     let (chunk, i) = (&chunks[path / PATHS_PER_TASK], path % PATHS_PER_TASK);
-    if chunk.segment_parts.is_empty() {
+    let all = side(chunk);
+    if all.is_empty() {
         return &[];
     }
     let begin = if i == 0 { 0 } else { chunk.segment_ends[i - 1] };
-    &chunk.segment_parts[begin as usize..chunk.segment_ends[i] as usize]
+    &all[begin as usize..chunk.segment_ends[i] as usize]
+}
+
+/// The [`Chunk::segment_parts`] of [`path_segments`]`(chunks, path)`: empty
+/// without radius layers.
+pub(crate) fn path_segment_parts(chunks: &[Chunk], path: usize) -> &[[Parts; 2]] {
+    path_segment_side(chunks, path, |c| &c.segment_parts)
+}
+
+/// The [`Chunk::segment_links`] of [`path_segments`]`(chunks, path)`: empty
+/// without correlation-aware MIS.
+pub(crate) fn path_segment_links(chunks: &[Chunk], path: usize) -> &[FlightLinks] {
+    path_segment_side(chunks, path, |c| &c.segment_links)
+}
+
+/// The links of vertex `index` of chunk `chunk` and of its light subpath's stored
+/// vertices before it (the chunk's links must be kept).
+#[inline(always)]
+pub(crate) fn links_to(chunks: &[Chunk], (chunk, index): (u32, u32)) -> &[Link] {
+    let links = &chunks[chunk as usize].links[..=index as usize];
+    let first = links.iter().rposition(|l| l.first).unwrap_or(0);
+    &links[first..]
 }
 
 /// How many vertices and segments one chunk may store (`max_vertex_mib` each).
@@ -72,9 +95,7 @@ pub(crate) struct Chunk {
     /// With `radii` layers, each vertex's [`Parts`] (else empty).
     pub(crate) parts: Vec<Parts>,
     /// With correlation-aware MIS, each vertex's [`Link`] (else empty).
-    ///
-    /// [`Link`]: super::correlation::Link
-    pub(crate) links: Vec<super::correlation::Link>,
+    pub(crate) links: Vec<Link>,
     /// Per light path of the chunk, the end of its vertices within `vertices`.
     pub(crate) ends: Vec<u32>,
     /// Segments through media, when the pass keeps them, and per light path their end.
@@ -84,6 +105,10 @@ pub(crate) struct Chunk {
     ///
     /// [`FlightStart::parts`]: super::segments::FlightStart::parts
     pub(crate) segment_parts: Vec<[Parts; 2]>,
+    /// With correlation-aware MIS, each segment's [`FlightStart::links`] (else empty).
+    ///
+    /// [`FlightStart::links`]: super::segments::FlightStart::links
+    pub(crate) segment_links: Vec<FlightLinks>,
     pub splats: Vec<Splat>,
     pub(crate) stats: RenderStats,
     /// A vertex was not stored because the budget was spent.
@@ -129,7 +154,7 @@ impl Store {
 
     /// Their links (empty without correlation-aware MIS).
     #[inline(always)]
-    pub(crate) fn light_path_links(&self, path: usize) -> &[super::correlation::Link] {
+    pub(crate) fn light_path_links(&self, path: usize) -> &[Link] {
         let (chunk, range) = self.path_range(path);
         chunk.links.get(range).unwrap_or(&[])
     }
@@ -156,7 +181,8 @@ impl Store {
             .map(|c| {
                 c.vertices.capacity() * std::mem::size_of::<LightVertex>()
                     + c.parts.capacity() * std::mem::size_of::<Parts>()
-                    + c.links.capacity() * std::mem::size_of::<super::correlation::Link>()
+                    + c.links.capacity() * std::mem::size_of::<Link>()
+                    + c.segment_links.capacity() * std::mem::size_of::<FlightLinks>()
                     + c.segments.capacity() * std::mem::size_of::<LightSegment>()
             })
             .sum();

@@ -63,10 +63,20 @@ impl BidirSettings {
         }
         let adaptive = self.selection == PixelSelection::Adaptive;
         if self.correlation_aware {
-            // Each stored vertex's link, and in its merge set where it sits.
+            // Each stored vertex's link, and in its merge set (or among the photon
+            // points) where it sits; each kept segment's flight start, in the store
+            // and at most once more in the beam store.
+            use crate::integrator::paths::correlation::{FlightLinks, Link};
             let n = stored.surface + stored.medium;
-            let link = std::mem::size_of::<crate::integrator::paths::correlation::Link>() as f64;
-            e.add("correlation links", &driver, n * (link + 8.0));
+            let mut bytes = n * (std::mem::size_of::<Link>() as f64 + 8.0);
+            if has_media && technique.uses(Merge::PointBeam2d) {
+                bytes += stored.medium * 8.0;
+            }
+            if has_media && technique.uses(Merge::BeamBeam1d) {
+                let flight = std::mem::size_of::<FlightLinks>() as f64;
+                bytes += stored.segments * (2.0 * flight + 4.0);
+            }
+            e.add("correlation links", &driver, bytes);
         }
         if !self.radii.is_empty() || adaptive || self.correlation_aware {
             // Each stored vertex's parts, in the store and again in its merge set;
