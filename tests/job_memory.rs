@@ -172,6 +172,11 @@ fn every_algorithm_estimates_what_its_render_allocates() {
         (
             &plain,
             "vcm",
+            json!({"light_paths": 4, "merge_depth": "all", "correlation_aware": true}),
+        ),
+        (
+            &plain,
+            "vcm",
             json!({"light_paths": 1, "strategy_images": 3}),
         ),
         (&plain, "sppm", json!({"light_paths": 4})),
@@ -192,6 +197,12 @@ fn every_algorithm_estimates_what_its_render_allocates() {
         (&fog, "volpath", json!({})),
         (&fog, "vcm", json!({"light_paths": 4})),
         (&fog, "upbp", json!({"light_paths": 4})),
+        (
+            &fog,
+            "upbp",
+            json!({"light_paths": 4, "merge_depth": "all", "correlation_aware": true}),
+        ),
+        (&fog, "upbp", json!({"light_paths": 4, "selection": "adaptive"})),
         (&fog, "sppm", json!({"light_paths": 4})),
         (&fog, "vpm", json!({"light_paths": 4})),
         (&fog, "vpm", json!({"light_paths": 4, "estimate": "point"})),

@@ -16,7 +16,8 @@
 #   [SEEDS=4] deploy/scripts/bench-upbp.sh [OUT] [SECONDS] [REFERENCE] [SCENE...]
 #
 # UPBP is appended to every upbp entry (e.g. UPBP=:light_paths=0.25); ALGS replaces
-# the list of algorithms; REFS=DIR uses DIR/<scene>/reference.exr where it exists (a
+# the list of algorithms; THREADS=N runs every render on N threads (e.g. THREADS=1 under
+# `taskset -c 1` to leave a core free); REFS=DIR uses DIR/<scene>/reference.exr where it exists (a
 # reference already in OUT/<scene>/ is reused too). The two budgets share
 # their references that way:
 #
@@ -40,6 +41,10 @@ done
 algs=${ALGS:-$algs}
 cargo build --release --quiet
 c=./target/release/caustic
+threads=()
+if [ -n "${THREADS:-}" ]; then
+    threads=(--threads "$THREADS")
+fi
 for scene in "${scenes[@]}"; do
     dir=$out/$scene
     mkdir -p "$dir"
@@ -47,11 +52,11 @@ for scene in "${scenes[@]}"; do
         cp "$REFS/$scene/reference.exr" "$dir/reference.exr"
     elif [ ! -f "$dir/reference.exr" ]; then
         "$c" reference "scenes/media/$scene.json" -a "${REF_ALG:-volpath}" --time "$ref" \
-            --seed "${REF_SEED:-1000}" -o "$dir/reference.exr"
+            --seed "${REF_SEED:-1000}" "${threads[@]}" -o "$dir/reference.exr"
     fi
     for seed in $(seq 0 $((seeds - 1))); do
         "$c" bench "scenes/media/$scene.json" --algorithms "$algs" --time "$secs" \
-            --seed "$seed" --reference "$dir/reference.exr" -o "$dir/seed$seed" \
+            --seed "$seed" "${threads[@]}" --reference "$dir/reference.exr" -o "$dir/seed$seed" \
             | tee "$dir/seed$seed.txt"
     done
 done
