@@ -202,7 +202,11 @@ fn every_algorithm_estimates_what_its_render_allocates() {
             "upbp",
             json!({"light_paths": 4, "merge_depth": "all", "correlation_aware": true}),
         ),
-        (&fog, "upbp", json!({"light_paths": 4, "selection": "adaptive"})),
+        (
+            &fog,
+            "upbp",
+            json!({"light_paths": 4, "selection": "adaptive"}),
+        ),
         (&fog, "sppm", json!({"light_paths": 4})),
         (&fog, "vpm", json!({"light_paths": 4})),
         (&fog, "vpm", json!({"light_paths": 4, "estimate": "point"})),

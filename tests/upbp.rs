@@ -199,15 +199,19 @@ fn the_beam_estimators_bias_shrinks_with_their_radius() {
 
 #[test]
 fn extreme_media_render_without_dropped_samples() {
+    // Plain, and with correlation-aware weights (whose footprints are volumes there).
+    let correlated = json!({"max_depth": 12, "merge_depth": "all", "correlation_aware": true});
     for medium in extreme_media() {
         let scene = fog_box(8, medium.clone());
-        let r = run(&scene, &upbp(ALL, json!({"max_depth": 12})), 3, 2, &[]);
-        assert_eq!(r.dropped, 0, "upbp in {medium}");
-        let m = r.whole().mean;
-        assert!(
-            m.iter().all(|c| c.is_finite() && *c >= 0.0),
-            "upbp in {medium}"
-        );
+        for extra in [json!({"max_depth": 12}), correlated.clone()] {
+            let r = run(&scene, &upbp(ALL, extra.clone()), 3, 2, &[]);
+            assert_eq!(r.dropped, 0, "upbp {extra} in {medium}");
+            let m = r.whole().mean;
+            assert!(
+                m.iter().all(|c| c.is_finite() && *c >= 0.0),
+                "upbp {extra} in {medium}"
+            );
+        }
     }
 }
 
