@@ -29,19 +29,18 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 /// Merges cost this many traced rays each: a surface or point x point merge, a photon
-/// point along a query beam, a photon beam crossing one. These are the first guesses,
-/// and they measure better than the all-in costs. Those, the render time an estimator
-/// adds over its merges in units of `bpt`'s time per ray (`caustic render ... --spp 4
-/// --threads 1`, merge_depth all), are 20-50 times higher: surface 1.1-3.2 (fog-cornell,
-/// gbs_p), point x point 1.2-2.6, point x beam 2.9-3.3, beam x beam 4.2-9.4, most of it
-/// in the camera's beam queries (callgrind: `beams::gather` 60-87%). Selection with
-/// those ([1.5, 1.5, 3, 5]) dropped more merges on dense-cornell and did worse:
-/// variance x seconds 1.67e-2 against 1.52e-2 with these (32 iterations, one core;
-/// `pair_variance.py scenes/media/dense-cornell.json upbp 32 --param
-/// selection=adaptive`), the same on fog-cornell (1.03e-2 against 1.01e-2). The pilots'
-/// second moments are noisy, and a query that finds nothing costs time that no merge
-/// count sees, so neither figure is the marginal cost of a merge.
-const MERGE_COST: [f32; Merge::COUNT] = [0.05, 0.05, 0.1, 0.2];
+/// point along a query beam, a photon beam crossing one. Measured all-in: the render
+/// time an estimator adds over its merges, in units of `bpt`'s time per ray
+/// (`caustic render ... --spp 4 --threads 1`, merge_depth all): surface 1.1-3.2
+/// (fog-cornell, gbs_p), point x point 1.2-2.6, point x beam 2.9-3.3, beam x beam
+/// 4.2-9.4, most of it in the camera's beam queries (callgrind: `beams::gather` 60-87%),
+/// which a pixel that drops the estimator saves. The first guesses were 20-50 times
+/// lower ([0.05, 0.05, 0.1, 0.2]). At 60 s on one core, four seeds, these give
+/// fog-cornell a median RMSE of 8.8e-3 against 1.0e-2, and dense-cornell 1.68e-2
+/// against 1.60e-2 (`deploy/scripts/bench-upbp.sh`, scenes/media/bench-upbp-39): fewer
+/// merges kept, faster iterations. A query that finds nothing costs time that no merge
+/// count sees, so neither set is the exact marginal cost of a merge.
+const MERGE_COST: [f32; Merge::COUNT] = [1.5, 1.5, 3.0, 5.0];
 
 /// The neighbourhood of a pixel whose moments and costs its choice reads: (2 R + 1)^2.
 const R: usize = 3;
