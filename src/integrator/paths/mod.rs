@@ -17,6 +17,7 @@ pub(crate) mod correlation;
 #[cfg(test)]
 pub(crate) mod full_path;
 pub(crate) mod layers;
+mod lens;
 pub(crate) mod light_pass;
 pub(crate) mod light_path;
 pub(crate) mod light_vertex;
