@@ -418,7 +418,8 @@ fn upload(body: impl AsRef<[u8]>) -> Req {
 
 /// Class 1: JSON bodies of jobs and sweeps.
 fn json_body_cases(s: &str) -> Vec<Case> {
-    let mut v = vec![
+    let mut v =
+        vec![
         // Syntax: 400.
         case(
             "job: malformed JSON (a key without a value)",
@@ -890,6 +891,18 @@ fn json_body_cases(s: &str) -> Vec<Case> {
             &[400],
         )
         .mentions("target_rmse"),
+        case(
+            "job: halt.noise -1",
+            post_job(spec(s, json!({"halt": {"noise": -1}}))),
+            &[400],
+        )
+        .mentions("halt.noise"),
+        case(
+            "job: halt.noise for sppm, whose iterations are chained",
+            post_job(spec(s, json!({"algorithm": "sppm", "halt": {"noise": 0.01}}))),
+            &[400],
+        )
+        .mentions("halt.noise"),
         case(
             "job: halt.time_s -1",
             post_job(spec(s, json!({"halt": {"time_s": -1}}))),
@@ -3007,7 +3020,7 @@ fn bad_request_battery() {
                 LONG_SEED,
                 caustic::integrator::drive::Halt {
                     iterations: Some(LONG_SPP),
-                    time: None,
+                    ..caustic::integrator::drive::Halt::default()
                 },
                 |_, _| {},
             );

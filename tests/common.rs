@@ -25,7 +25,7 @@ pub fn render(scene: &Scene, s: &Settings, seed: u64, spp: u64) -> (Film, u64) {
         seed,
         Halt {
             iterations: Some(spp),
-            time: None,
+            ..Halt::default()
         },
         |_, _| {},
     );

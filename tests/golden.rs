@@ -62,7 +62,7 @@ fn render(scene: &Scene, algorithm: &str) -> String {
     }
     let halt = Halt {
         iterations: Some(ITERATIONS),
-        time: None,
+        ..Halt::default()
     };
     let out = drive::render(scene, settings.build().as_ref(), SEED, halt, |_, _| {});
     let mut h = Sha256::new();

@@ -271,7 +271,7 @@ fn job_runs_to_completion_with_events_images_and_log() {
         3,
         caustic::integrator::drive::Halt {
             iterations: Some(6),
-            time: None,
+            ..caustic::integrator::drive::Halt::default()
         },
         |_, _| {},
     );
@@ -776,6 +776,54 @@ fn target_rmse_halts_a_job_against_a_reference() {
         &json!({"scene": other, "halt": {"spp": 1}, "reference": {"job": reference}}),
     );
     assert_eq!(c, 400, "{b}");
+}
+
+/// `halt.noise` stops a job by its own estimated error, with no reference; the log
+/// carries the estimate at every snapshot, the status its square root, and the EXRs
+/// a variance layer on request.
+#[test]
+fn a_noise_target_halts_a_job_without_a_reference() {
+    let s = TestServer::start(None);
+    let scene = upload_tiny(&s, 24);
+    let id = submit(
+        &s,
+        json!({"scene": scene, "halt": {"spp": 100000, "noise": 0.02}, "seed": 3,
+               "snapshot_every": {"iterations": 4}, "variance_layer": true}),
+    );
+    let job = s.wait_job(&id);
+    assert_eq!(job["state"], "completed", "{job}");
+    let noise = job["noise"].as_f64().unwrap();
+    let it = job["iteration"].as_u64().unwrap();
+    assert!(noise <= 0.02 && (16..100000).contains(&it), "{job}");
+    let (code, b) = respond(
+        ureq::get(&format!("{}/v1/jobs/{id}/log", s.url))
+            .set("accept", "application/json")
+            .call(),
+    );
+    assert_eq!(code, 200);
+    let rows: Value = serde_json::from_slice(&b).unwrap();
+    let rows = rows.as_array().unwrap();
+    let last = rows.last().unwrap();
+    assert_eq!(last["iteration"].as_u64(), Some(it));
+    let est = last["est_rel_mse"].as_f64().unwrap();
+    // The log holds seven significant digits.
+    assert!(
+        (est.sqrt() - noise).abs() <= 1e-6 * noise,
+        "{last} vs {job}"
+    );
+    // No reference, so no measured error; the estimate falls as iterations add up.
+    assert!(last["rmse"].is_null() && last["est_rmse"].as_f64().unwrap() > 0.0);
+    let first = rows[0]["est_rel_mse"].as_f64().unwrap();
+    assert!(first > est, "{rows:?}");
+    let (code, exr) = s.get(&format!("/v1/jobs/{id}/image.exr"));
+    assert_eq!(code, 200);
+    let variance = caustic::film::decode_exr_layer(&exr, "variance").unwrap();
+    let mean_var = variance.mean().element_sum() as f64 / 3.0;
+    let est_rmse = last["est_rmse"].as_f64().unwrap();
+    assert!(
+        (mean_var / est_rmse.powi(2) - 1.0).abs() < 1e-4,
+        "{mean_var} vs {est_rmse}"
+    );
 }
 
 // ---------------------------------------------------------------------------------

@@ -105,7 +105,7 @@ fn render_peak(scene: &Scene, s: &Settings, iterations: u64) -> u64 {
         1,
         Halt {
             iterations: Some(iterations),
-            time: None,
+            ..Halt::default()
         },
         |_, _| {},
     );

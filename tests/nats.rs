@@ -211,7 +211,13 @@ fn a_pool_of_workers_renders_the_in_process_image_bit_for_bit() {
     let id = submit(&coord, 24, 40);
     let job = completed(&coord, &id);
     assert_eq!(job["iteration"], 40);
-    assert!(final_pixels(&coord, &id) == in_process(24, 40));
+    let local = TestServer::start(None);
+    let alone = submit_with(&local.url, (24, 40), ("bpt", json!({})), 1_000_000);
+    let alone = completed(&local, &alone);
+    assert!(final_pixels(&coord, &id) == final_pixels(&local, alone["id"].as_str().unwrap()));
+    // The second moments of the noise estimate merge exactly too.
+    assert!(job["noise"].as_f64().is_some_and(|n| n > 0.0), "{job}");
+    assert_eq!(job["noise"], alone["noise"]);
     // Both listed, with their threads and the iterations they did (heartbeats come
     // every 2 s).
     std::thread::sleep(Duration::from_millis(2500));

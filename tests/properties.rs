@@ -1210,7 +1210,7 @@ fn render2(scene: &Scene, s: &Settings, seed: u64) -> Result<Film, String> {
             seed,
             Halt {
                 iterations: Some(2),
-                time: None,
+                ..Halt::default()
             },
             |_, _| {},
         )

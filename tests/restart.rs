@@ -6,7 +6,7 @@
 
 mod server_common;
 use serde_json::{json, Value};
-use server_common::{direct_render, foggy_scene, respond, tiny_scene, ServerProcess};
+use server_common::{direct_outcome, foggy_scene, respond, tiny_scene, ServerProcess};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -174,8 +174,16 @@ fn kill_9_then_restart(scene: Value, alg: &str, params: Value, spp: u64) {
 
     let (_, exr) = respond(ureq::get(&format!("{}/v1/jobs/{long}/image.exr", p.url)).call());
     let served = caustic::film::decode_exr(&exr).unwrap();
-    let direct = direct_render(&scene.to_string(), Some(alg), &params, 77, spp);
-    assert_eq!(direct, served.pixels(), "{alg}: resumed image differs");
+    let direct = direct_outcome(&scene.to_string(), Some(alg), &params, 77, spp);
+    assert_eq!(
+        direct.image().pixels(),
+        served.pixels(),
+        "{alg}: resumed image differs"
+    );
+    // The noise estimate's second moments came through the checkpoint too.
+    let noise = direct.noise.map(|n| n.rel_error());
+    assert_eq!(job["noise"].as_f64(), noise, "{alg}: resumed noise differs");
+    assert_eq!(noise.is_none(), alg == "sppm", "{alg}");
 }
 
 /// One server per data directory: a second `caustic serve` on it exits at once with

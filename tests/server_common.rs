@@ -204,6 +204,20 @@ pub fn direct_render(
     seed: u64,
     iterations: u64,
 ) -> Vec<glam::Vec3> {
+    direct_outcome(scene, algorithm, params, seed, iterations)
+        .image()
+        .pixels()
+        .to_vec()
+}
+
+/// [`direct_render`]'s whole outcome (its noise estimate too).
+pub fn direct_outcome(
+    scene: &str,
+    algorithm: Option<&str>,
+    params: &Value,
+    seed: u64,
+    iterations: u64,
+) -> caustic::integrator::drive::RenderOutcome {
     let file = caustic::scene::load::parse_scene(scene).unwrap();
     let compiled = caustic::scene::Scene::compile(&file, None).unwrap();
     let empty = serde_json::Map::new();
@@ -219,13 +233,10 @@ pub fn direct_render(
         seed,
         caustic::integrator::drive::Halt {
             iterations: Some(iterations),
-            time: None,
+            ..caustic::integrator::drive::Halt::default()
         },
         |_, _| {},
     )
-    .image()
-    .pixels()
-    .to_vec()
 }
 
 /// A `caustic serve` process on 127.0.0.1:0 (REST and gRPC) over `data`, killed when

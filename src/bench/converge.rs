@@ -4,7 +4,8 @@
 
 use super::cpu::Stopwatch;
 use super::BenchError;
-use crate::film::{self, Film, Image};
+use crate::film::{self, ExactSums, Film, Image};
+use crate::integrator::drive::{fold_exact, iterate_scratch};
 use crate::integrator::{Integrator, RenderStats};
 use crate::scene::Scene;
 use std::fmt::Write as _;
@@ -21,6 +22,10 @@ pub struct Point {
     pub cpu_s: f64,
     pub rmse: f64,
     pub rel_mse: f64,
+    /// The same two estimated from the run's own iterations, without the reference
+    /// (`film::noise`), where there is an estimate.
+    pub est_rmse: Option<f64>,
+    pub est_rel_mse: Option<f64>,
     pub dropped: u64,
     /// Counters summed over all iterations so far (merge radius and vertex bytes:
     /// the latest iteration's).
@@ -105,15 +110,19 @@ pub fn converge(
     }
     let schedule = geometric_times(budget.as_secs_f64(), plan.points);
     let mut next = 0; // index of the next scheduled time
-    let mut film = Film::new(scene.width(), scene.height());
+                      // Exact sums as jobs keep them, with their second moments for the noise estimate;
+                      // adding an iteration to them is not timed.
+    let (w, h) = (scene.width(), scene.height());
+    let (mut scratch, mut sums) = (Film::new(w, h), ExactSums::new(w, h));
     let mut stats = RenderStats::default();
     let (mut wall, mut cpu) = (Duration::ZERO, Duration::ZERO);
     let mut out = Vec::new();
     let mut i = 0u64;
     loop {
         let sw = Stopwatch::start();
-        stats += integrator.iterate(scene, seed, i, &mut film);
+        stats += iterate_scratch(scene, integrator, seed, i, &mut scratch);
         let (w, c) = sw.elapsed();
+        fold_exact(integrator.chained(), &scratch, &mut sums);
         wall += w;
         cpu += c;
         i += 1;
@@ -124,13 +133,17 @@ pub fn converge(
             while next < schedule.len() && wall.as_secs_f64() >= schedule[next] {
                 next += 1;
             }
+            let film = sums.to_film();
             let m = film::compare(&film.to_image(1.0 / i as f64), reference)?;
+            let noise = sums.noise(&film, i);
             out.push(Point {
                 iteration: i,
                 elapsed_s: wall.as_secs_f64(),
                 cpu_s: cpu.as_secs_f64(),
                 rmse: m.rmse,
                 rel_mse: m.rel_mse,
+                est_rmse: noise.as_ref().map(|n| n.rmse()),
+                est_rel_mse: noise.as_ref().map(|n| n.rel_mse()),
                 dropped: film.dropped(),
                 stats,
             });
@@ -142,23 +155,24 @@ pub fn converge(
     Ok(ConvergenceRun {
         label: label.to_string(),
         points: out,
-        film,
+        film: sums.to_film(),
     })
 }
 
 /// The columns of bench.csv.
-pub const CSV_HEADER: &str = "algorithm,iteration,elapsed_s,cpu_s,rmse,rel_mse,rays_per_s,samples,rays,shadow_rays,light_vertices,connections,merges,merge_radius,vertex_bytes,dropped";
+pub const CSV_HEADER: &str = "algorithm,iteration,elapsed_s,cpu_s,rmse,rel_mse,rays_per_s,samples,rays,shadow_rays,light_vertices,connections,merges,merge_radius,vertex_bytes,dropped,est_rmse,est_rel_mse";
 
 /// bench.csv: one row per measured point of every run, written atomically.
 pub fn write_csv(path: &Path, runs: &[ConvergenceRun]) -> Result<(), BenchError> {
     let mut text = String::from(CSV_HEADER);
     text.push('\n');
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:.6e}")).unwrap_or_default();
     for run in runs {
         for p in &run.points {
             let s = &p.stats;
             let _ = writeln!(
                 text,
-                "{},{},{:.6},{:.6},{:.6e},{:.6e},{:.0},{},{},{},{},{},{},{:.6e},{},{}",
+                "{},{},{:.6},{:.6},{:.6e},{:.6e},{:.0},{},{},{},{},{},{},{:.6e},{},{},{},{}",
                 run.label,
                 p.iteration,
                 p.elapsed_s,
@@ -174,7 +188,9 @@ pub fn write_csv(path: &Path, runs: &[ConvergenceRun]) -> Result<(), BenchError>
                 s.merges,
                 s.merge_radius,
                 s.vertex_bytes,
-                p.dropped
+                p.dropped,
+                opt(p.est_rmse),
+                opt(p.est_rel_mse)
             );
         }
     }

@@ -102,6 +102,13 @@ pub struct JobArgs {
     /// Halt when the RMSE against the reference falls to this value.
     #[arg(long, requires = "any_reference", value_parser = finite)]
     pub target_rmse: Option<f64>,
+    /// Halt when the image's estimated relative error, from its own iterations, falls
+    /// to this value (0.01 for 1 %); needs no reference.
+    #[arg(long, value_name = "REL_ERROR", value_parser = positive)]
+    pub noise: Option<f64>,
+    /// Add a per-pixel variance layer to the EXR snapshots and the final EXR.
+    #[arg(long)]
+    pub variance_layer: bool,
     /// A completed job whose image is the reference for RMSE logs.
     #[arg(long, value_name = "JOB", group = "any_reference")]
     pub reference_job: Option<String>,
@@ -197,7 +204,7 @@ pub struct SweepArgs {
     #[arg(required_unless_present = "file")]
     pub scene: Option<String>,
     /// Grid axis, repeatable: --grid algorithm=pt,albedo --grid params.max_depth=2,4.
-    /// Keys: algorithm, seed, priority, spp, iterations, time, target_rmse (or
+    /// Keys: algorithm, seed, priority, spp, iterations, time, target_rmse, noise (or
     /// halt.<key>), params.<name>. Values are JSON when they parse, else strings.
     #[arg(
         long = "grid",
@@ -335,6 +342,11 @@ pub struct RenderArgs {
     /// Wall-clock budget in seconds.
     #[arg(long, value_parser = finite)]
     pub time: Option<f64>,
+    /// Stop when the image's estimated relative error, from its own iterations, falls
+    /// to this value (0.01 for 1 %), after at least 16 iterations; with --spp or
+    /// --time, whichever comes first.
+    #[arg(long, value_name = "REL_ERROR", value_parser = positive)]
+    pub noise: Option<f64>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads (default: all cores).
@@ -472,5 +484,13 @@ fn finite(text: &str) -> Result<f64, String> {
         Ok(x) if x.is_finite() => Ok(x),
         Ok(_) => Err(format!("{text} is out of range")),
         Err(e) => Err(e.to_string()),
+    }
+}
+
+/// A finite number above zero.
+fn positive(text: &str) -> Result<f64, String> {
+    match finite(text)? {
+        x if x > 0.0 => Ok(x),
+        _ => Err(format!("{text} is not above zero")),
     }
 }

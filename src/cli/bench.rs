@@ -55,7 +55,7 @@ pub fn bench(a: &BenchArgs) -> Result<()> {
     );
     let iterations = |n| Halt {
         iterations: Some(n),
-        time: None,
+        ..Halt::default()
     };
     for (label, settings) in all {
         // Each algorithm's own peak: the scene, plus what its iterations allocate.
@@ -134,8 +134,8 @@ pub fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
             let params = parse_params(&a.params)?;
             let settings = Settings::for_scene(Some(&alg), &scene, &params)?;
             let halt = Halt {
-                iterations: None,
                 time: Some(Duration::from_secs_f64(secs)),
+                ..Halt::default()
             };
             let seed = a.seed.wrapping_add(1);
             let out = render_with_progress(&scene, &settings, seed, halt, "reference");
@@ -160,8 +160,8 @@ pub fn bench_equal_time(a: &BenchArgs, time: f64) -> Result<()> {
         points: a.points,
     };
     let halt = Halt {
-        iterations: None,
         time: Some(plan.budget),
+        ..Halt::default()
     };
     let mut runs = Vec::new();
     let mut peaks = Vec::new();

@@ -17,6 +17,8 @@ fn job_options(j: JobArgs, name: Option<String>, tags: Vec<String>) -> caustic::
         time_s: j.time,
         iterations: j.iterations,
         target_rmse: j.target_rmse,
+        noise: j.noise,
+        variance_layer: j.variance_layer,
         reference_job: j.reference_job,
         reference: j.reference,
         seed: j.seed,

@@ -2,11 +2,11 @@
 //! image comparison.
 
 use super::args::{ReferenceArgs, RenderArgs};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use caustic::client::parse_params;
 use caustic::film::{self, Image};
 use caustic::integrator::drive::{self, Halt};
-use caustic::integrator::{RenderStats, Settings};
+use caustic::integrator::Settings;
 use caustic::scene::Scene;
 use caustic::tev::TevClient;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -64,17 +64,25 @@ fn scene_error(path: &Path, e: caustic::scene::SceneError) -> anyhow::Error {
 pub fn render(a: &RenderArgs) -> Result<()> {
     let (scene, scene_spp) = load_scene_and_spp(&a.scene)?;
     let settings = Settings::for_scene(a.algorithm.as_deref(), &scene, &parse_params(&a.params)?)?;
-    let halt = match (a.spp, a.time) {
+    let halt = match (a.spp, a.time, a.noise) {
         // An XML scene's sample count, else 16.
-        (None, None) => Halt {
+        (None, None, None) => Halt {
             iterations: Some(scene_spp.map_or(16, u64::from)),
-            time: None,
+            ..Halt::default()
         },
-        (spp, time) => Halt {
+        (spp, time, noise) => Halt {
             iterations: spp,
             time: time.map(Duration::from_secs_f64),
+            noise,
         },
     };
+    if a.noise.is_some() && settings.build().chained() {
+        bail!(
+            "--noise: {} carries its statistics from one iteration to the next, so its \
+             noise cannot be estimated from its iterations; give --spp or --time",
+            settings.name()
+        );
+    }
     let tev = match &a.tev {
         Some(addr) => Some(TevClient::connect(addr, &tev_name(&a.scene))?),
         None => None,
@@ -88,13 +96,7 @@ pub fn render(a: &RenderArgs) -> Result<()> {
     if let Some(t) = tev {
         t.finish();
     }
-    print_summary(
-        settings.name(),
-        out.iterations,
-        out.elapsed,
-        &out.stats,
-        out.film.dropped(),
-    );
+    print_summary(settings.name(), &out);
     Ok(())
 }
 
@@ -181,6 +183,7 @@ pub fn reference(a: &ReferenceArgs) -> Result<()> {
     let halt = Halt {
         iterations: a.spp,
         time: a.time.map(Duration::from_secs_f64),
+        ..Halt::default()
     };
     let out = render_with_progress(&scene, &settings, a.seed, halt, "");
     let image = out.image();
@@ -190,13 +193,7 @@ pub fn reference(a: &ReferenceArgs) -> Result<()> {
         film::write_png(p, &image, 0.0)?;
         eprintln!("wrote {}", p.display());
     }
-    print_summary(
-        settings.name(),
-        out.iterations,
-        out.elapsed,
-        &out.stats,
-        out.film.dropped(),
-    );
+    print_summary(settings.name(), &out);
     Ok(())
 }
 
@@ -218,7 +215,7 @@ fn write_outputs(
                 a.seed,
                 Halt {
                     iterations: Some(4),
-                    time: None,
+                    ..Halt::default()
                 },
                 |_, _| {},
             )
@@ -241,8 +238,9 @@ fn write_outputs(
     Ok(())
 }
 
-fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats, dropped: u64) {
-    let secs = elapsed.as_secs_f64().max(1e-9);
+fn print_summary(alg: &str, out: &drive::RenderOutcome) {
+    let (iterations, s, dropped) = (out.iterations, &out.stats, out.film.dropped());
+    let secs = out.elapsed.as_secs_f64().max(1e-9);
     println!(
         "{alg}: {iterations} iterations in {secs:.3} s ({:.2} ms/iteration), {:.3} M samples/s, {:.2} M rays/s ({} closest + {} shadow), {dropped} dropped samples",
         secs * 1e3 / iterations.max(1) as f64,
@@ -260,6 +258,13 @@ fn print_summary(alg: &str, iterations: u64, elapsed: Duration, s: &RenderStats,
             s.connections as f64 / n,
             s.merges as f64 / n,
             s.merge_radius,
+        );
+    }
+    if let Some(n) = &out.noise {
+        println!(
+            "  estimated from its own iterations: relative error {:.3e}, RMSE {:.3e} (variance only: a consistent method's bias is not in it)",
+            n.rel_error(),
+            n.rmse()
         );
     }
 }

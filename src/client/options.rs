@@ -14,6 +14,10 @@ pub struct JobOptions {
     pub time_s: Option<f64>,
     pub iterations: Option<u64>,
     pub target_rmse: Option<f64>,
+    /// `halt.noise`: the estimated relative error to stop at.
+    pub noise: Option<f64>,
+    /// `variance_layer`: a per-pixel variance layer in the EXRs.
+    pub variance_layer: bool,
     pub reference_job: Option<String>,
     /// `--reference`: a local EXR, `job:ID`, `upload:ID` or an id (see
     /// [`super::reference_spec`]); resolved by the command, which may upload.
@@ -76,6 +80,10 @@ impl JobOptions {
         if let Some(r) = self.target_rmse {
             spec.halt.target_rmse = Some(r);
         }
+        if let Some(n) = self.noise {
+            spec.halt.noise = Some(n);
+        }
+        spec.variance_layer |= self.variance_layer;
         if let Some(j) = &self.reference_job {
             spec.reference = Some(ReferenceSpec::Job(j.clone()));
         }
@@ -117,10 +125,11 @@ impl JobOptions {
 /// (the server's message names the API's fields).
 pub fn require_halt(spec: &JobSpec) -> Result<()> {
     let h = &spec.halt;
-    if h.spp.is_none() && h.iterations.is_none() && h.time_s.is_none() && h.target_rmse.is_none() {
+    let by_error = h.target_rmse.is_some() || h.noise.is_some();
+    if h.spp.is_none() && h.iterations.is_none() && h.time_s.is_none() && !by_error {
         return Err(ClientError::Input(
             "the job needs a halting rule: give --spp N, --iterations N, --time SECONDS, \
-             or --target-rmse X with --reference"
+             --noise X, or --target-rmse X with --reference"
                 .into(),
         ));
     }
@@ -134,6 +143,7 @@ fn grid_key(k: &str) -> String {
         "iterations" => "halt.iterations".into(),
         "time" | "time_s" => "halt.time_s".into(),
         "target_rmse" => "halt.target_rmse".into(),
+        "noise" => "halt.noise".into(),
         k => k.into(),
     }
 }

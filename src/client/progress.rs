@@ -56,6 +56,8 @@ struct Watcher {
     iteration: u64,
     elapsed_ms: f64,
     rmse: Option<f64>,
+    /// Estimated relative error (`JobStatus::noise`).
+    noise: Option<f64>,
     sps: f64,
     eta: Option<f64>,
 }
@@ -94,6 +96,7 @@ impl Watcher {
             iteration: job.iteration,
             elapsed_ms: job.elapsed_s * 1e3,
             rmse: job.last_rmse,
+            noise: job.noise,
             sps: job.samples_per_s,
             eta: job.eta_s,
         };
@@ -116,6 +119,9 @@ impl Watcher {
         msg.push_str(&format!("{} samples/s", rate(self.sps)));
         if let Some(r) = self.rmse {
             msg.push_str(&format!("  rmse {r:.3e}"));
+        }
+        if let Some(n) = self.noise {
+            msg.push_str(&format!("  noise {:.2} %", 100.0 * n));
         }
         if let Some(e) = self.eta {
             msg.push_str(&format!("  eta {}", duration(e)));
@@ -162,6 +168,9 @@ pub fn summary(job: &JobStatus) -> String {
     );
     if let Some(r) = job.last_rmse {
         s.push_str(&format!(", rmse {r:.4e}"));
+    }
+    if let Some(n) = job.noise {
+        s.push_str(&format!(", estimated relative error {:.3} %", 100.0 * n));
     }
     if let Some(e) = &job.error {
         s.push_str(&format!(": {e}"));
@@ -225,9 +234,14 @@ pub(super) fn watch_job(
                     w.eta = eta_s;
                     w.refresh();
                 }
-                Ok(WatchEvent::Snapshot { iteration, rmse }) => {
+                Ok(WatchEvent::Snapshot {
+                    iteration,
+                    rmse,
+                    est_rel_mse,
+                }) => {
                     w.iteration = w.iteration.max(iteration);
                     w.rmse = rmse.or(w.rmse);
+                    w.noise = est_rel_mse.map(f64::sqrt).or(w.noise);
                     w.refresh();
                     snapshot(client, &id);
                 }

@@ -85,6 +85,9 @@ pub enum WatchEvent {
         iteration: u64,
         #[serde(default)]
         rmse: Option<f64>,
+        /// Estimated from the job's own iterations; the watcher shows its square root.
+        #[serde(default)]
+        est_rel_mse: Option<f64>,
     },
     State {
         state: JobState,

@@ -30,6 +30,7 @@ pub fn jobs(client: &Client, o: &JobsOptions, out: &mut impl Write) -> Result<bo
         "iteration",
         "elapsed_s",
         "rmse",
+        "noise",
         "name",
     ];
     let rows: Vec<Vec<String>> = jobs
@@ -50,11 +51,14 @@ pub fn jobs(client: &Client, o: &JobsOptions, out: &mut impl Write) -> Result<bo
                 j.last_rmse
                     .map(|r| format!("{r:.4e}"))
                     .unwrap_or("-".into()),
+                j.noise
+                    .map(|n| format!("{:.2}%", 100.0 * n))
+                    .unwrap_or("-".into()),
                 j.spec.name.clone().unwrap_or_default(),
             ]
         })
         .collect();
-    let right = [false, false, false, true, true, true, false];
+    let right = [false, false, false, true, true, true, true, false];
     out.write_all(table(&headers, &rows, &right).as_bytes())?;
     Ok(true)
 }

@@ -363,6 +363,11 @@ impl Film {
         )
     }
 
+    /// Pixel `i` of [`Film::to_image`]`(scale)`, in f64 (the image rounds it to f32).
+    pub fn pixel(&self, i: usize, scale: f64) -> [f64; 3] {
+        developed(&self.sums, &self.weights, &self.splats, scale, i)
+    }
+
     /// Adds a tile-local buffer (row-major within the tile) and its dropped count.
     /// The values are added as they are: they were screened when the tile was
     /// filled (see [`TileBuffer`]).
@@ -464,22 +469,34 @@ fn develop(
     }
     let pixels = (0..sums.len())
         .map(|i| {
-            let s = sums[i];
-            // A pixel no sample has weighed is left as summed (zero), as Mitsuba does.
-            let camera = match weights.get(i) {
-                Some(&w) if w != 0.0 => [s[0] / w, s[1] / w, s[2] / w],
-                Some(_) => s,
-                None => [s[0] * scale, s[1] * scale, s[2] * scale],
-            };
-            let sp = splats.get(i).copied().unwrap_or([0.0; 3]);
-            Rgb::new(
-                (camera[0] + sp[0] * scale) as f32,
-                (camera[1] + sp[1] * scale) as f32,
-                (camera[2] + sp[2] * scale) as f32,
-            )
+            let v = developed(sums, weights, splats, scale, i);
+            Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32)
         })
         .collect();
     Image::from_pixels(width, height, pixels)
+}
+
+/// Pixel `i` of [`develop`]'s image, in f64.
+fn developed(
+    sums: &[[f64; 3]],
+    weights: &[f64],
+    splats: &[[f64; 3]],
+    scale: f64,
+    i: usize,
+) -> [f64; 3] {
+    let s = sums[i];
+    // A pixel no sample has weighed is left as summed (zero), as Mitsuba does.
+    let camera = match weights.get(i) {
+        Some(&w) if w != 0.0 => [s[0] / w, s[1] / w, s[2] / w],
+        Some(_) => s,
+        None => [s[0] * scale, s[1] * scale, s[2] * scale],
+    };
+    let sp = splats.get(i).copied().unwrap_or([0.0; 3]);
+    [
+        camera[0] + sp[0] * scale,
+        camera[1] + sp[1] * scale,
+        camera[2] + sp[2] * scale,
+    ]
 }
 
 fn image_of(width: u32, height: u32, sums: &[[f64; 3]], scale: f64) -> Image {

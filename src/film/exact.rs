@@ -36,6 +36,11 @@ pub struct ExactSums {
     splats: Vec<[i128; 3]>,
     dropped: u64,
     layers: Vec<ExactLayer>,
+    /// Per pixel, the sum over iterations of the square of each iteration's own pixel
+    /// value (`film::noise`), and how many iterations it holds: empty and 0 unless
+    /// iterations were added one by one ([`ExactSums::add_iteration`]).
+    moments: Vec<[i128; 3]>,
+    moment_iterations: u64,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -56,9 +61,10 @@ pub enum ExactError {
 }
 
 /// Version 1 held the sums and layers only (pixel-box films), version 2 adds the
-/// weights and splats; both are read.
+/// weights and splats, version 3 the second moments; all are read.
 const MAGIC: &[u8; 8] = b"CAUSTEX2";
 const MAGIC_V1: &[u8; 8] = b"CAUSTEX1";
+const MAGIC_V3: &[u8; 8] = b"CAUSTEX3";
 
 impl ExactSums {
     pub fn new(width: u32, height: u32) -> Self {
@@ -70,13 +76,16 @@ impl ExactSums {
             splats: Vec::new(),
             dropped: 0,
             layers: Vec::new(),
+            moments: Vec::new(),
+            moment_iterations: 0,
         }
     }
 
-    /// Bytes the sums of a `width` x `height` film with `layers` layers hold.
+    /// Bytes the sums of a `width` x `height` film with `layers` layers hold, with
+    /// the second moments.
     pub fn bytes_for(width: u32, height: u32, layers: usize) -> u64 {
         let per_image = pixel_count(width, height) * std::mem::size_of::<[i128; 3]>();
-        (per_image * (1 + layers)) as u64
+        (per_image * (2 + layers)) as u64
     }
 
     /// Bytes a filter wider than the pixel box adds to [`ExactSums::bytes_for`]
@@ -118,6 +127,23 @@ impl ExactSums {
         Ok(())
     }
 
+    /// Adds one iteration's film, as [`ExactSums::add_film`] does, and the squares of
+    /// its pixel values to the second moments that the noise estimate reads
+    /// (`film::noise`). A square beyond [`LIMIT`] / 2 (a pixel value above 1.5e9 in
+    /// one iteration) is held there, and the moments' sums saturate rather than wrap:
+    /// such a pixel's estimate is then low, never NaN.
+    pub fn add_iteration(&mut self, film: &Film) -> Result<(), ExactError> {
+        self.add_film(film)?;
+        super::noise::add_squares(&mut self.moments, film);
+        self.moment_iterations += 1;
+        Ok(())
+    }
+
+    /// The second moments and the iterations they hold, if any were added.
+    pub(super) fn moments(&self) -> Option<(&[[i128; 3]], u64)> {
+        (self.moment_iterations > 0).then_some((&self.moments, self.moment_iterations))
+    }
+
     /// Adds another set of exact sums (e.g. a worker's range): exact, so the order of
     /// merges never shows in the result.
     pub fn merge(&mut self, other: &ExactSums) -> Result<(), ExactError> {
@@ -126,6 +152,8 @@ impl ExactSums {
         add_exact(&mut self.sums, &other.sums);
         add_exact(&mut self.weights, &other.weights);
         add_exact(&mut self.splats, &other.splats);
+        super::noise::add_moments(&mut self.moments, &other.moments);
+        self.moment_iterations += other.moment_iterations;
         for l in &other.layers {
             let k = self.layer(&l.name);
             let mine = &mut self.layers[k];
@@ -151,11 +179,17 @@ impl ExactSums {
     /// iteration count and sums (version 1). Sums with filter weights or splats
     /// anywhere are written as version 2, where the sums are followed by the weights
     /// and the splats and each layer's sums by its splats, each of these a flag byte
-    /// (0 absent, 1 present) and then the values.
+    /// (0 absent, 1 present) and then the values. Sums with second moments are
+    /// version 3: version 2 followed by the moments' iteration count and the moments.
     pub fn encode(&self) -> Vec<u8> {
-        let v2 = self.is_filtered();
-        let mut out = Vec::with_capacity(32 + 48 * self.sums.len() * (1 + self.layers.len()));
-        out.extend_from_slice(if v2 { MAGIC } else { MAGIC_V1 });
+        let v3 = self.moment_iterations > 0;
+        let v2 = v3 || self.is_filtered();
+        let mut out = Vec::with_capacity(32 + 48 * self.sums.len() * (2 + self.layers.len()));
+        out.extend_from_slice(match (v3, v2) {
+            (true, _) => MAGIC_V3,
+            (false, true) => MAGIC,
+            (false, false) => MAGIC_V1,
+        });
         out.extend_from_slice(&self.width.to_le_bytes());
         out.extend_from_slice(&self.height.to_le_bytes());
         out.extend_from_slice(&self.dropped.to_le_bytes());
@@ -174,6 +208,10 @@ impl ExactSums {
                 put_optional(&mut out, &l.splats);
             }
         }
+        if v3 {
+            out.extend_from_slice(&self.moment_iterations.to_le_bytes());
+            put_optional(&mut out, &self.moments);
+        }
         out
     }
 
@@ -186,9 +224,10 @@ impl ExactSums {
     /// Reads what [`ExactSums::encode`] wrote; any truncation or excess is an error.
     pub fn decode(bytes: &[u8]) -> Result<ExactSums, ExactError> {
         let mut r = Reader(bytes);
-        let v2 = match r.take(8)? {
-            m if m == MAGIC => true,
-            m if m == MAGIC_V1 => false,
+        let (v2, v3) = match r.take(8)? {
+            m if m == MAGIC_V3 => (true, true),
+            m if m == MAGIC => (true, false),
+            m if m == MAGIC_V1 => (false, false),
             _ => return Err(ExactError::Malformed("not exact sums (magic)")),
         };
         let (width, height) = (r.u32()?, r.u32()?);
@@ -219,6 +258,13 @@ impl ExactSums {
                 splats,
             });
         }
+        let (moment_iterations, moments) = match v3 {
+            true => (r.u64()?, r.optional(n)?),
+            false => (0, Vec::new()),
+        };
+        if (moment_iterations > 0) == moments.is_empty() {
+            return Err(ExactError::Malformed("moments without iterations"));
+        }
         if !r.0.is_empty() {
             return Err(ExactError::Malformed("bytes after the last layer"));
         }
@@ -230,6 +276,8 @@ impl ExactSums {
             splats,
             dropped,
             layers,
+            moments,
+            moment_iterations,
         })
     }
 
@@ -260,7 +308,7 @@ impl ExactSums {
 /// m, so x 2^64 is m shifted, with no float-to-i128 cast (a slow library call, which
 /// cost 11% of a 1-spp path-traced iteration).
 #[inline]
-fn to_fixed(x: f64) -> Option<i128> {
+pub(super) fn to_fixed(x: f64) -> Option<i128> {
     // NaN fails this too.
     if x.is_nan() || x.abs() >= LIMIT {
         return None;
@@ -326,8 +374,13 @@ fn add_exact<const N: usize>(sums: &mut Vec<[i128; N]>, other: &[[i128; N]]) {
 }
 
 fn to_f64<const N: usize>(sums: &[[i128; N]]) -> Vec<[f64; N]> {
-    let unit = 2f64.powi(-FRAC_BITS);
-    sums.iter().map(|s| s.map(|c| c as f64 * unit)).collect()
+    sums.iter().map(|s| s.map(from_fixed)).collect()
+}
+
+/// A fixed-point value back in f64 (rounded once).
+#[inline]
+pub(super) fn from_fixed(c: i128) -> f64 {
+    c as f64 * 2f64.powi(-FRAC_BITS)
 }
 
 fn put_sums<const N: usize>(out: &mut Vec<u8>, sums: &[[i128; N]]) {
@@ -390,234 +443,4 @@ impl<'a> Reader<'a> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::Vec3 as Rgb;
-
-    /// A film of one "iteration": values spread over many binades, as radiance is.
-    fn iteration(seed: u64, layer: bool) -> Film {
-        let mut film = Film::new(5, 4);
-        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for i in 0..20 {
-            let e = (next() * 40.0 - 20.0) as i32;
-            let v = next() as f32 * 2f32.powi(e);
-            film.add_index(i, Rgb::new(v, v * 0.3, next() as f32));
-            if layer {
-                let k = film.begin_layer("bpt");
-                film.add_layer_index(k, i, Rgb::splat(v));
-            }
-        }
-        film
-    }
-
-    #[test]
-    fn any_grouping_and_order_gives_the_same_bits() {
-        let films: Vec<Film> = (0..12).map(|i| iteration(i, i % 3 != 0)).collect();
-        let mut sequential = ExactSums::new(5, 4);
-        for f in &films {
-            sequential.add_film(f).unwrap();
-        }
-        // Ranges [0, 5), [5, 7), [7, 12), merged last to first.
-        let mut merged = ExactSums::new(5, 4);
-        for range in [7..12, 5..7, 0..5] {
-            let mut part = ExactSums::new(5, 4);
-            for f in &films[range] {
-                part.add_film(f).unwrap();
-            }
-            merged.merge(&part).unwrap();
-        }
-        assert_eq!(merged, sequential);
-        // The plain f64 way does depend on the grouping here (why this module exists).
-        let mut a = films[0].clone();
-        for f in &films[1..] {
-            a.merge(f);
-        }
-        let mut b = films[11].clone();
-        for f in films[..11].iter().rev() {
-            b.merge(f);
-        }
-        assert_ne!(a.sums(), b.sums());
-    }
-
-    #[test]
-    fn the_film_it_gives_matches_the_f64_sums_to_rounding() {
-        let films: Vec<Film> = (0..6).map(|i| iteration(i, true)).collect();
-        let mut exact = ExactSums::new(5, 4);
-        let mut plain = films[0].clone();
-        exact.add_film(&films[0]).unwrap();
-        for f in &films[1..] {
-            exact.add_film(f).unwrap();
-            plain.merge(f);
-        }
-        let film = exact.to_film();
-        for (x, y) in film.sums().iter().zip(plain.sums()) {
-            for c in 0..3 {
-                let tol = 1e-15 * y[c].abs() + 6.0 * 2f64.powi(-65);
-                assert!((x[c] - y[c]).abs() <= tol, "{} vs {}", x[c], y[c]);
-            }
-        }
-        let (layers, plain_layers) = (film.layer_images(), plain.layer_images());
-        assert_eq!(layers.len(), 1);
-        assert_eq!(layers[0].0, plain_layers[0].0);
-        let (m, p) = (layers[0].1.mean(), plain_layers[0].1.mean());
-        assert!((m - p).abs().max_element() <= 1e-6 * p.abs().max_element());
-        assert_eq!(film.dropped(), plain.dropped());
-    }
-
-    #[test]
-    fn fixed_point_from_the_bits_is_the_rounded_product() {
-        let reference = |x: f64| (x * 2f64.powi(FRAC_BITS)).round() as i128;
-        let mut values = vec![0.0, -0.0, 1.0, -1.5, 2f64.powi(-65), 2f64.powi(-66), 3e-20];
-        values.extend([LIMIT * 0.999_999, -LIMIT * 0.5, 1e-300, f64::MIN_POSITIVE]);
-        let mut s = 0x2545_f491_4f6c_dd1du64;
-        for _ in 0..100_000 {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            // Random bits over every binade from 2^-80 to 2^61, either sign.
-            let e = (s % 142) as i32 - 80;
-            let m = 1.0 + (s >> 12) as f64 / (1u64 << 52) as f64;
-            values.push(if s & 1 == 1 { -m } else { m } * 2f64.powi(e));
-        }
-        // Exact halves of one unit round away from zero.
-        values.extend([2.5 * 2f64.powi(-64), -2.5 * 2f64.powi(-64)]);
-        for x in values {
-            assert_eq!(to_fixed(x), Some(reference(x)), "{x:e}");
-        }
-        for x in [LIMIT, -LIMIT, f64::INFINITY, f64::NAN] {
-            assert_eq!(to_fixed(x), None);
-        }
-    }
-
-    #[test]
-    fn values_beyond_the_limit_are_dropped_and_counted() {
-        let mut film = Film::new(2, 1);
-        film.add_index(0, Rgb::new(1e19, 1.0, 0.0));
-        film.add_index(1, Rgb::new(3.0e-20, 2.0e-20, 0.0));
-        let mut exact = ExactSums::new(2, 1);
-        exact.add_film(&film).unwrap();
-        assert_eq!(exact.dropped(), 1);
-        let back = exact.to_film();
-        assert_eq!(back.sums()[0], [0.0, 1.0, 0.0]);
-        // 3e-20 is just over one unit of 2^-64 (5.4e-20) / 2: rounds to one unit;
-        // 2e-20 to zero.
-        assert_eq!(back.sums()[1], [2f64.powi(-64), 0.0, 0.0]);
-    }
-
-    #[test]
-    fn bytes_round_trip_and_reject_damage() {
-        let mut exact = ExactSums::new(5, 4);
-        exact.add_film(&iteration(3, true)).unwrap();
-        exact.add_film(&iteration(4, false)).unwrap();
-        let bytes = exact.encode();
-        assert_eq!(ExactSums::decode(&bytes).unwrap(), exact);
-        for cut in [0, 7, 30, bytes.len() - 1] {
-            assert!(ExactSums::decode(&bytes[..cut]).is_err(), "cut at {cut}");
-        }
-        let mut long = bytes.clone();
-        long.push(0);
-        assert!(ExactSums::decode(&long).is_err());
-        let mut huge = bytes.clone();
-        huge[8..16].copy_from_slice(&[0xff; 8]);
-        assert!(ExactSums::decode(&huge).is_err());
-    }
-
-    /// A filtered film of one "iteration": camera samples spread by a Gaussian (with
-    /// summed weights), splats, and a layer with both.
-    fn filtered_iteration(seed: u64) -> Film {
-        use crate::film::{Filter, PixelFilter, TileBuffer};
-        use glam::Vec2;
-        let filter = PixelFilter::new(Filter::Gaussian { stddev: 0.5 });
-        let mut film = iteration(seed, false);
-        film.clear();
-        let k = film.begin_layer("s2_t1");
-        let mut s = seed | 1;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
-        for t in crate::film::tiles(5, 4, 2) {
-            let mut buf = TileBuffer::for_filter(t, &filter, 5, 4);
-            for y in t.y0..t.y1 {
-                for x in t.x0..t.x1 {
-                    let p = Vec2::new(x as f32 + next(), y as f32 + next());
-                    let v = Rgb::new(next(), next() * 1e-3, next() * 1e3);
-                    buf.add_sample(&filter, (x, y, p), v);
-                    film.add_layer_sample(&filter, k, (x, y, p), v * 0.5);
-                }
-            }
-            film.add_tile_buffer(&buf);
-        }
-        for _ in 0..30 {
-            let p = Vec2::new(next() * 5.0, next() * 4.0);
-            film.add_splat(&filter, p, Rgb::splat(next()), Some(k));
-        }
-        film
-    }
-
-    #[test]
-    fn filter_weights_and_splats_sum_exactly_and_round_trip() {
-        let films: Vec<Film> = (1..=9).map(filtered_iteration).collect();
-        let mut sequential = ExactSums::new(5, 4);
-        for f in &films {
-            sequential.add_film(f).unwrap();
-        }
-        let mut merged = ExactSums::new(5, 4);
-        for range in [6..9, 0..2, 2..6] {
-            let mut part = ExactSums::new(5, 4);
-            for f in &films[range] {
-                part.add_film(f).unwrap();
-            }
-            merged.merge(&part).unwrap();
-        }
-        assert_eq!(merged, sequential);
-        assert!(!sequential.weights.is_empty() && !sequential.splats.is_empty());
-        assert!(!sequential.layers[0].splats.is_empty());
-        // Its film develops as the f64 sums of the same films do, to rounding.
-        let mut plain = films[0].clone();
-        for f in &films[1..] {
-            plain.merge(f);
-        }
-        let (a, b) = (
-            sequential.to_film().to_image(1.0 / 9.0),
-            plain.to_image(1.0 / 9.0),
-        );
-        assert!((a.mean() - b.mean()).abs().max_element() < 1e-6 * b.mean().max_element());
-        let bytes = sequential.encode();
-        assert_eq!(&bytes[..8], MAGIC);
-        assert_eq!(ExactSums::decode(&bytes).unwrap(), sequential);
-        for cut in [20, 40 + 48 * 20, bytes.len() - 1] {
-            assert!(ExactSums::decode(&bytes[..cut]).is_err(), "cut at {cut}");
-        }
-        // Magic, width, height, dropped and the layer count take 28 bytes.
-        let mut flag = bytes.clone();
-        assert_eq!(flag[28 + 48 * 20], 1, "the weights' flag");
-        flag[28 + 48 * 20] = 2;
-        assert!(ExactSums::decode(&flag).is_err(), "a weights flag of 2");
-    }
-
-    #[test]
-    fn pixel_box_sums_are_written_as_version_1() {
-        let mut exact = ExactSums::new(5, 4);
-        exact.add_film(&iteration(3, true)).unwrap();
-        assert_eq!(&exact.encode()[..8], MAGIC_V1);
-    }
-
-    #[test]
-    fn films_of_another_size_are_refused() {
-        let mut exact = ExactSums::new(5, 4);
-        assert_eq!(
-            exact.add_film(&Film::new(4, 5)),
-            Err(ExactError::Size(5, 4, 4, 5))
-        );
-        assert!(exact.merge(&ExactSums::new(1, 1)).is_err());
-    }
-}
+mod tests;

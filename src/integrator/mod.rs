@@ -377,9 +377,9 @@ impl Settings {
     }
 
     /// The peak memory of a job with these settings on `scene`, by part (module
-    /// [`memory`]): the algorithm's own stores, then the film and exact sums every
-    /// job keeps (twice the sums for a chained integrator, whose sums are rebuilt
-    /// each iteration).
+    /// [`memory`]): the algorithm's own stores, then the film, exact sums and noise
+    /// estimate every job keeps (twice the sums for a chained integrator, whose sums
+    /// are rebuilt each iteration, and no noise estimate).
     pub fn memory(&self, scene: &Scene) -> memory::Estimate {
         let f = memory::Facts::new(scene);
         let (name, params) = self.parts();
@@ -388,7 +388,10 @@ impl Settings {
         let layers = self.layers();
         let chained = matches!(params.film(name), FilmUse::Chained);
         let sums = crate::film::ExactSums::bytes_for(w, h, layers) * (1 + chained as u64);
-        let film = crate::film::Film::bytes_for(w, h, layers) + sums + self.filter_bytes(scene);
+        // The noise estimate, made at each snapshot (none for a chained film).
+        let noise = crate::film::Noise::bytes_for(w, h) * !chained as u64;
+        let film =
+            crate::film::Film::bytes_for(w, h, layers) + sums + noise + self.filter_bytes(scene);
         let what = match layers {
             0 => f.film(),
             n => format!("{} with {n} layers", f.film()),

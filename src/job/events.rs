@@ -21,6 +21,9 @@ pub enum Event {
         iteration: u64,
         rmse: Option<f64>,
         rel_mse: Option<f64>,
+        /// Estimated from the job's own iterations (`film::noise`).
+        est_rmse: Option<f64>,
+        est_rel_mse: Option<f64>,
     },
     State {
         job: String,

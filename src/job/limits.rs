@@ -82,9 +82,10 @@ pub fn check_spec(spec: &JobSpec) -> Result<(), JobError> {
 
 fn check_halt(spec: &JobSpec) -> Result<(), JobError> {
     let h = &spec.halt;
-    if h.max_iterations().is_none() && h.time_s.is_none() && h.target_rmse.is_none() {
+    let by_error = h.target_rmse.is_some() || h.noise.is_some();
+    if h.max_iterations().is_none() && h.time_s.is_none() && !by_error {
         return Err(bad(
-            "halt: give at least one of spp, iterations, time_s, target_rmse",
+            "halt: give at least one of spp, iterations, time_s, target_rmse, noise",
         ));
     }
     if h.max_iterations() == Some(0) {
@@ -101,6 +102,12 @@ fn check_halt(spec: &JobSpec) -> Result<(), JobError> {
     if h.target_rmse.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
         let field = Some("halt.target_rmse");
         return Err(bad("halt.target_rmse must be a positive number").at_field(field));
+    }
+    if h.noise.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
+        let field = Some("halt.noise");
+        return Err(
+            bad("halt.noise must be a positive number (e.g. 0.01 for 1 %)").at_field(field),
+        );
     }
     if h.target_rmse.is_some() && spec.reference.is_none() {
         return Err(bad("halt.target_rmse needs a reference").at_field(Some("halt.target_rmse")));

@@ -117,7 +117,8 @@ mod tests {
     }
 
     /// A film-bound job: the message names the film as what drives it, and the checkpoint
-    /// copies, at about 360 bytes a pixel, dominate `pt`'s estimate.
+    /// copies, at about 600 bytes a pixel (360 before the noise estimate's second
+    /// moments joined the exact sums), dominate `pt`'s estimate.
     #[test]
     fn a_film_bound_job_names_the_film() {
         let scene = scene(1024);
@@ -126,13 +127,13 @@ mod tests {
         let e = estimate(&pt, &scene, &job);
         let per_pixel = e.total() as f64 / (1024.0 * 1024.0);
         assert!(
-            (300.0..450.0).contains(&per_pixel),
+            (500.0..700.0).contains(&per_pixel),
             "{per_pixel} bytes a pixel: {e:?}"
         );
         assert!(check(&pt, &scene, &job, e.total()).is_ok());
         let err = check(&pt, &scene, &job, 100 << 20).unwrap_err().to_string();
         assert!(
-            err.starts_with("pt: film 1024x1024 needs about 3") && err.contains("100 MiB per job"),
+            err.starts_with("pt: film 1024x1024 needs about 6") && err.contains("100 MiB per job"),
             "{err}"
         );
         // A reference image is held too.

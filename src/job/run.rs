@@ -16,7 +16,9 @@ use super::failpoint;
 use super::layer_log::{append_layer_rows, truncate_layer_log, LayerRow};
 use super::remote::ranges::{remote_batch, RemoteJob};
 use super::runtime::Runtime;
-use super::spec::{JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery};
+use super::spec::{
+    JobSpec, JobState, JobStatus, ReferenceSpec, SnapshotEvery, NOISE_HALT_MIN_ITERATIONS,
+};
 use super::store::{append_log, read_log, truncate_log, Checkpoint, LogRow};
 use super::transition::{self, To};
 use super::JobError;
@@ -108,7 +110,11 @@ pub(super) fn halt_reached(status: &JobStatus) -> bool {
         .target_rmse
         .zip(status.last_rmse)
         .is_some_and(|(target, r)| r <= target);
-    by_count || by_time || by_error
+    let by_noise = status.iteration >= NOISE_HALT_MIN_ITERATIONS
+        && h.noise
+            .zip(status.noise)
+            .is_some_and(|(target, n)| n <= target);
+    by_count || by_time || by_error || by_noise
 }
 
 /// Builds the runtime: compiled scene (cached), integrator, and the checkpoint if
@@ -131,10 +137,9 @@ fn start(ctx: &Context, settings: JobSettings, status: &mut JobStatus) -> Result
     status.iteration = at;
     status.elapsed_s = runtime.last_snapshot.1;
     status.dropped = runtime.sums.dropped();
-    status.last_rmse = read_log(&dir)
-        .last()
-        .filter(|r| r.iteration == at)
-        .and_then(|r| r.rmse);
+    let last = read_log(&dir).pop().filter(|r| r.iteration == at);
+    status.last_rmse = last.as_ref().and_then(|r| r.rmse);
+    status.noise = last.and_then(|r| r.est_rel_mse).map(f64::sqrt);
     Ok(Live {
         runtime,
         remote: None,
@@ -283,7 +288,7 @@ fn complete(ctx: &Context, status: &mut JobStatus, rt: &Runtime) -> Result<(), J
     let dir = ctx.job_dir(&status.id);
     let film = rt.sums.to_film();
     let img = film.to_image(1.0 / status.iteration.max(1) as f64);
-    let layers = film.layer_images();
+    let layers = exr_layers(&status.spec, rt, &film, status.iteration);
     let named: Vec<(&str, &Image)> = layers.iter().map(|(n, i)| (n.as_str(), i)).collect();
     failpoint::hit("final-exr", status.iteration);
     film::write_exr_layers(dir.final_image("exr"), &img, &named)?;
@@ -309,21 +314,36 @@ fn batch_figures(stats: &RenderStats, n: u64, secs: f64, pixels: usize) -> LogRo
     }
 }
 
+/// The EXR layers of an image after `it` iterations: the film's own (techniques,
+/// radii), and the estimated variance if the job asked for it and there is one.
+fn exr_layers(spec: &JobSpec, rt: &Runtime, film: &film::Film, it: u64) -> Vec<(String, Image)> {
+    let mut layers = film.layer_images();
+    if spec.variance_layer {
+        if let Some(noise) = rt.sums.noise(film, it) {
+            layers.push(("variance".into(), noise.variance_image()));
+        }
+    }
+    layers
+}
+
+/// Seconds left: the least of what the iteration limit, the time budget and the noise
+/// target each leave. Noise falls as 1 / sqrt(iterations), so reaching `target` from
+/// `noise` takes (noise / target)^2 times the iterations so far.
 fn eta(status: &JobStatus, per_iter: f64) -> Option<f64> {
-    let by_count = status
-        .spec
-        .halt
+    let halt = &status.spec.halt;
+    let by_count = halt
         .max_iterations()
         .map(|m| m.saturating_sub(status.iteration) as f64 * per_iter);
-    let by_time = status
-        .spec
-        .halt
-        .time_s
-        .map(|t| (t - status.elapsed_s).max(0.0));
-    match (by_count, by_time) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    }
+    let by_time = halt.time_s.map(|t| (t - status.elapsed_s).max(0.0));
+    let by_noise = halt.noise.zip(status.noise).map(|(target, n)| {
+        let needed =
+            (status.iteration as f64 * (n / target).powi(2)).max(NOISE_HALT_MIN_ITERATIONS as f64);
+        (needed - status.iteration as f64).max(0.0) * per_iter
+    });
+    [by_count, by_time, by_noise]
+        .into_iter()
+        .flatten()
+        .reduce(f64::min)
 }
 
 /// Snapshot EXR + PNG, latest.*, a log row with the error against the reference (and
@@ -338,12 +358,18 @@ fn snapshot(
     let it = status.iteration;
     let film = rt.sums.to_film();
     let img = film.to_image(1.0 / it.max(1) as f64);
+    let noise = rt.sums.noise(&film, it);
+    let variance = match (&noise, status.spec.variance_layer) {
+        (Some(n), true) => vec![("variance", n.variance_image())],
+        _ => Vec::new(),
+    };
+    let variance: Vec<(&str, &Image)> = variance.iter().map(|(n, i)| (*n, i)).collect();
     failpoint::hit("snapshot-exr", it);
-    film::write_exr(dir.snapshot(it, "exr"), &img)?;
+    film::write_exr_layers(dir.snapshot(it, "exr"), &img, &variance)?;
     failpoint::hit("snapshot-png", it);
     film::write_png(dir.snapshot(it, "png"), &img, 0.0)?;
     failpoint::hit("latest-exr", it);
-    film::write_exr(dir.latest("exr"), &img)?;
+    film::write_exr_layers(dir.latest("exr"), &img, &variance)?;
     failpoint::hit("latest-png", it);
     film::write_png(dir.latest("png"), &img, 0.0)?;
     let metrics = rt
@@ -352,6 +378,11 @@ fn snapshot(
         .map(|r| film::compare(&img, r))
         .transpose()?;
     status.last_rmse = metrics.map(|m| m.rmse);
+    let (est_rmse, est_rel_mse) = (
+        noise.as_ref().map(|n| n.rmse()),
+        noise.as_ref().map(|n| n.rel_mse()),
+    );
+    status.noise = est_rel_mse.map(f64::sqrt);
     failpoint::hit("log", it);
     append_log(
         &dir,
@@ -362,6 +393,8 @@ fn snapshot(
             rmse: metrics.map(|m| m.rmse),
             rel_mse: metrics.map(|m| m.rel_mse),
             dropped: status.dropped,
+            est_rmse,
+            est_rel_mse,
             ..figures.clone()
         },
     )?;
@@ -375,6 +408,8 @@ fn snapshot(
         iteration: it,
         rmse: metrics.map(|m| m.rmse),
         rel_mse: metrics.map(|m| m.rel_mse),
+        est_rmse,
+        est_rel_mse,
     });
     Ok(())
 }

@@ -19,7 +19,15 @@ pub struct HaltSpec {
     /// Stop when the RMSE against the reference falls to this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_rmse: Option<f64>,
+    /// Stop when the image's estimated relative error (`noise` in the status: sqrt of
+    /// the relative MSE estimated from the job's own iterations, `film::noise`) falls
+    /// to this value, e.g. 0.01 for 1 %. Checked at snapshots, from
+    /// [`NOISE_HALT_MIN_ITERATIONS`] iterations on; needs no reference.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f64>,
 }
+
+pub use crate::integrator::drive::NOISE_HALT_MIN_ITERATIONS;
 
 impl HaltSpec {
     /// The iteration limit, from `spp` or `iterations` (the smaller if both).
@@ -98,6 +106,10 @@ pub struct JobSpec {
     /// it later; by default a completed job drops it.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub keep_checkpoint: bool,
+    /// Add a `variance` layer to the EXR snapshots and the final EXR: each pixel's
+    /// estimated variance of the mean, per channel (`film::noise`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub variance_layer: bool,
     /// Set by the server for jobs expanded from a sweep; a client may not set it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(read_only)]
@@ -215,6 +227,11 @@ pub struct JobStatus {
     pub samples_per_s: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub last_rmse: Option<f64>,
+    /// Estimated relative error of the image at the last snapshot, from its own
+    /// iterations (sqrt of `est_rel_mse` in the log); absent before two iterations and
+    /// for `sppm`/`ppm`, whose iterations are not independent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f64>,
     /// Seconds left, when the halting rule allows an estimate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eta_s: Option<f64>,
@@ -316,6 +333,7 @@ impl JobStatus {
             elapsed_s: 9.0,
             samples_per_s: 0.0,
             last_rmse: None,
+            noise: None,
             eta_s: None,
             dropped: 0,
             width: 2,

@@ -244,19 +244,28 @@ pub struct LogRow {
     /// Merges per pixel per iteration.
     #[serde(default)]
     pub merges_per_pixel: f64,
+    /// RMSE and relative MSE of the image estimated from its own iterations, with no
+    /// reference (`film::noise`): the variance only, not a consistent method's bias.
+    /// Empty before two iterations, for `sppm`/`ppm`, and in older logs.
+    #[serde(default)]
+    pub est_rmse: Option<f64>,
+    #[serde(default)]
+    pub est_rel_mse: Option<f64>,
 }
 
-pub const LOG_HEADER: &str = "iteration,elapsed_s,samples,rmse,rel_mse,dropped,rays_per_s,merge_radius,light_vertices,connections_per_pixel,merges_per_pixel";
+pub const LOG_HEADER: &str = "iteration,elapsed_s,samples,rmse,rel_mse,dropped,rays_per_s,merge_radius,light_vertices,connections_per_pixel,merges_per_pixel,est_rmse,est_rel_mse";
 
 /// Columns of logs written before the per-iteration figures were added; such rows
 /// still parse, with those figures 0.
 const OLD_COLUMNS: usize = 7;
+/// Columns of logs written before the noise estimates; such rows parse without them.
+const PRE_NOISE_COLUMNS: usize = 11;
 
 impl LogRow {
     pub fn csv(&self) -> String {
         let opt = |v: Option<f64>| v.map(|x| format!("{x:.6e}")).unwrap_or_default();
         format!(
-            "{},{:.4},{},{},{},{},{:.0},{:.6e},{:.1},{:.4},{:.4}",
+            "{},{:.4},{},{},{},{},{:.0},{:.6e},{:.1},{:.4},{:.4},{},{}",
             self.iteration,
             self.elapsed_s,
             self.samples,
@@ -267,15 +276,17 @@ impl LogRow {
             self.merge_radius,
             self.light_vertices,
             self.connections_per_pixel,
-            self.merges_per_pixel
+            self.merges_per_pixel,
+            opt(self.est_rmse),
+            opt(self.est_rel_mse)
         )
     }
 
-    /// A row in the current format, or in the old seven-column one.
+    /// A row in the current format, or in an older one (7 or 11 columns).
     pub fn parse(line: &str) -> Option<LogRow> {
         let f: Vec<&str> = line.split(',').collect();
         let columns = LOG_HEADER.split(',').count();
-        if f.len() != columns && f.len() != OLD_COLUMNS {
+        if ![columns, PRE_NOISE_COLUMNS, OLD_COLUMNS].contains(&f.len()) {
             return None;
         }
         let opt = |s: &str| if s.is_empty() { None } else { s.parse().ok() };
@@ -293,6 +304,8 @@ impl LogRow {
             light_vertices: extra(8)?,
             connections_per_pixel: extra(9)?,
             merges_per_pixel: extra(10)?,
+            est_rmse: f.get(11).and_then(|s| opt(s)),
+            est_rel_mse: f.get(12).and_then(|s| opt(s)),
         })
     }
 }
@@ -474,6 +487,8 @@ mod tests {
                 light_vertices: 1234.0,
                 connections_per_pixel: 3.5,
                 merges_per_pixel: 0.125,
+                est_rmse: (i > 2).then_some(2.5e-3),
+                est_rel_mse: Some(1e-4 * i as f64),
             };
             append_log(&jd, &row).unwrap();
         }
@@ -485,6 +500,7 @@ mod tests {
         assert_eq!(rows[1].merge_radius, 0.25);
         assert_eq!(rows[1].light_vertices, 1234.0);
         assert_eq!(rows[1].connections_per_pixel, 3.5);
+        assert_eq!((rows[1].est_rmse, rows[1].est_rel_mse), (None, Some(2e-4)));
         assert_eq!(rows[1].merges_per_pixel, 0.125);
     }
 
@@ -537,6 +553,9 @@ mod tests {
         // Rows of neither shape are skipped.
         assert!(LogRow::parse("1,2,3").is_none());
         assert!(LogRow::parse("1,0.5,10,,,0,5,x,0,0,0").is_none());
+        // Rows from before the noise estimates (11 columns) parse without them.
+        let pre = LogRow::parse("1,0.5,10,,,0,5,0.1,0,0,0").unwrap();
+        assert_eq!((pre.merge_radius, pre.est_rel_mse), (0.1, None));
     }
 
     #[test]

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// `grid` keys: `algorithm`, `seed`, `priority`, `halt.spp`, `halt.iterations`,
-/// `halt.time_s`, `halt.target_rmse`, or `params.<name>` for an algorithm parameter.
+/// `halt.time_s`, `halt.target_rmse`, `halt.noise`, or `params.<name>` for an
+/// algorithm parameter.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SweepSpec {
@@ -81,6 +82,7 @@ fn set(spec: &mut JobSpec, key: &str, v: &serde_json::Value) -> Result<(), JobEr
         "halt.iterations" => spec.halt.iterations = Some(int()?),
         "halt.time_s" => spec.halt.time_s = Some(num()?),
         "halt.target_rmse" => spec.halt.target_rmse = Some(num()?),
+        "halt.noise" => spec.halt.noise = Some(num()?),
         k => match k.strip_prefix("params.") {
             Some(p) if !p.is_empty() => {
                 spec.params.insert(p.into(), v.clone());
@@ -167,7 +169,7 @@ impl SweepSpec {
     /// jobs with those radii and the same seed would render them
     /// (tests/radius_sweeps.rs). Only where the halt is a count: under `halt.time_s` a
     /// job with layers runs fewer iterations than each separate job would, and
-    /// `halt.target_rmse` watches the main image alone. Every other point is a group
+    /// `halt.target_rmse` and `halt.noise` watch the main image alone. Every other point is a group
     /// of its own. The service still falls back to separate jobs where the algorithm
     /// has no radius layers.
     pub fn radius_groups(&self, expanded: &[(Point, JobSpec)]) -> Vec<Vec<usize>> {
@@ -193,7 +195,8 @@ impl SweepSpec {
 /// may not share: a halt by time or error, a value that is not a positive number, or
 /// for a volume radius a `radius` that is not one (the layers repeat it).
 fn radius_free_key(spec: &JobSpec, param: &str) -> Option<String> {
-    if spec.halt.time_s.is_some() || spec.halt.target_rmse.is_some() {
+    let h = &spec.halt;
+    if h.time_s.is_some() || h.target_rmse.is_some() || h.noise.is_some() {
         return None;
     }
     let positive = |key: &str| {

@@ -11,6 +11,30 @@ use std::time::{Duration, Instant};
 pub struct Halt {
     pub iterations: Option<u64>,
     pub time: Option<Duration>,
+    /// The estimated relative error to stop at (`film::Noise::rel_error`), checked
+    /// from [`NOISE_HALT_MIN_ITERATIONS`] iterations on, about 32 times per doubling of
+    /// the iteration count (each check is a pass over the film).
+    pub noise: Option<f64>,
+}
+
+/// Iterations before a noise target may stop a render (a job's `halt.noise` too): the
+/// estimate from fewer is itself too noisy to trust (its relative spread is about
+/// sqrt(2 / (N - 1)) per pixel).
+pub const NOISE_HALT_MIN_ITERATIONS: u64 = 16;
+
+impl Halt {
+    /// Whether the noise target is met after `i` iterations; evaluates the noise only
+    /// on the iterations it checks.
+    fn noise_met(&self, i: u64, sums: &ExactSums) -> bool {
+        let Some(target) = self.noise else {
+            return false;
+        };
+        if i < NOISE_HALT_MIN_ITERATIONS || !i.is_multiple_of((i / 32).max(1)) {
+            return false;
+        }
+        sums.noise(&sums.to_film(), i)
+            .is_some_and(|n| n.rel_error() <= target)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -19,6 +43,9 @@ pub struct RenderOutcome {
     pub iterations: u64,
     pub elapsed: Duration,
     pub stats: RenderStats,
+    /// The image's noise estimated from its own iterations (`film::noise`), when
+    /// there is one.
+    pub noise: Option<crate::film::Noise>,
 }
 
 /// Runs iterations `first..` until `halt`; `progress(done, elapsed)` is called after each.
@@ -49,6 +76,12 @@ impl Progress<'_> {
             .to_film()
             .to_image(1.0 / self.iterations.max(1) as f64)
     }
+
+    /// The image's noise estimated from its own iterations (`film::noise`), when
+    /// the integrator's iterations are independent and there are at least two.
+    pub fn noise(&self) -> Option<crate::film::Noise> {
+        self.sums.noise(&self.sums.to_film(), self.iterations)
+    }
 }
 
 /// [`render`] with an observer that may look at the image after each iteration.
@@ -76,13 +109,17 @@ pub fn render_observed(
         });
         let by_count = halt.iterations.is_some_and(|n| i >= n);
         let by_time = halt.time.is_some_and(|t| elapsed >= t);
-        let unbounded = halt.iterations.is_none() && halt.time.is_none();
-        if by_count || by_time || unbounded {
+        // A chained integrator has no noise estimate (`iterate_exact`).
+        let by_noise = halt.noise.is_some() && !integrator.chained();
+        let unbounded = halt.iterations.is_none() && halt.time.is_none() && !by_noise;
+        if by_count || by_time || unbounded || halt.noise_met(i, &sums) {
             break;
         }
     }
+    let film = sums.to_film();
     RenderOutcome {
-        film: sums.to_film(),
+        noise: sums.noise(&film, i),
+        film,
         iterations: i,
         elapsed: start.elapsed(),
         stats,
@@ -110,15 +147,36 @@ pub fn iterate_exact(
     scratch: &mut Film,
     sums: &mut ExactSums,
 ) -> RenderStats {
-    let chained = integrator.chained();
-    if !chained {
+    let stats = iterate_scratch(scene, integrator, seed, iteration, scratch);
+    fold_exact(integrator.chained(), scratch, sums);
+    stats
+}
+
+/// The first half of [`iterate_exact`]: renders iteration `iteration` into
+/// `scratch` (cleared first unless the integrator is chained).
+pub fn iterate_scratch(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    seed: u64,
+    iteration: u64,
+    scratch: &mut Film,
+) -> RenderStats {
+    if !integrator.chained() {
         scratch.clear();
     }
-    let stats = integrator.iterate(scene, seed, iteration, scratch);
-    if chained {
+    integrator.iterate(scene, seed, iteration, scratch)
+}
+
+/// The second half of [`iterate_exact`]: adds what [`iterate_scratch`] rendered to
+/// `sums` (or, `chained`, makes `sums` hold it).
+pub fn fold_exact(chained: bool, scratch: &Film, sums: &mut ExactSums) {
+    // A chained film holds every iteration so far: it has no single iteration's
+    // values to take second moments of, so its jobs have no noise estimate.
+    let added = if chained {
         *sums = ExactSums::new(scratch.width(), scratch.height());
-    }
-    sums.add_film(scratch)
-        .expect("iterate_exact: scratch film and sums of different sizes");
-    stats
+        sums.add_film(scratch)
+    } else {
+        sums.add_iteration(scratch)
+    };
+    added.expect("iterate_exact: scratch film and sums of different sizes");
 }

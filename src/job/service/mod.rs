@@ -366,6 +366,15 @@ impl Service {
         }
         run::load_reference(&self.shared.ctx, &spec, &scene)?;
         let settings = Settings::for_scene(spec.algorithm.as_deref(), &scene, &spec.params)?;
+        if spec.halt.noise.is_some() && settings.build().chained() {
+            return Err(bad(format!(
+                "halt.noise: {} carries its statistics from one iteration to the next, so \
+                 its noise cannot be estimated from its iterations; use a time or \
+                 iteration limit",
+                settings.parts().0
+            ))
+            .at_field(Some("halt.noise")));
+        }
         super::memory::check(&settings, &scene, &spec, self.config.max_job)?;
         let status = JobStatus {
             id: self.new_id(),
@@ -375,6 +384,7 @@ impl Service {
             elapsed_s: 0.0,
             samples_per_s: 0.0,
             last_rmse: None,
+            noise: None,
             eta_s: None,
             dropped: 0,
             width: scene.width(),

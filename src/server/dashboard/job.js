@@ -83,7 +83,7 @@ export function jobPage(view, route, signal) {
     el("div", { class: "scroll" },
       el("table", { id: "log" },
         el("thead", {}, el("tr", {},
-          ["iteration", "elapsed", "samples", "RMSE", "rel MSE", "dropped", "rays/s", "merge radius"].map((h) => el("th", { class: "num" }, h)))),
+          ["iteration", "elapsed", "samples", "RMSE", "rel MSE", "est. RMSE", "est. rel MSE", "dropped", "rays/s", "merge radius"].map((h) => el("th", { class: "num" }, h)))),
         logBody)),
   );
 
@@ -99,6 +99,7 @@ export function jobPage(view, route, signal) {
       ...row("samples/s", fmtNum(j.samples_per_s)),
       ...row("ETA", j.state === "running" ? fmtDuration(j.eta_s) : "–"),
       ...row("last RMSE", fmtNum(j.last_rmse)),
+      ...row("noise", j.noise != null ? `${fmtNum(100 * j.noise, 3)} %` : "–"),
       ...row("dropped", j.dropped),
       ...row("scene", j.spec.scene),
       ...row("algorithm", j.settings?.algorithm ?? j.spec.algorithm ?? "–"),
@@ -205,12 +206,17 @@ export function jobPage(view, route, signal) {
         el("td", { class: "num" }, r.samples),
         el("td", { class: "num" }, fmtNum(r.rmse, 4)),
         el("td", { class: "num" }, fmtNum(r.rel_mse, 4)),
+        el("td", { class: "num" }, fmtNum(r.est_rmse, 4)),
+        el("td", { class: "num" }, fmtNum(r.est_rel_mse, 4)),
         el("td", { class: "num" }, r.dropped),
         el("td", { class: "num" }, fmtNum(r.rays_per_s)),
         el("td", { class: "num" }, fmtNum(r.merge_radius)))));
       logLogPlot(plot, [
         { name: "RMSE", color: "#f0a53a", points: rows.filter((r) => r.rmse != null).map((r) => [r.elapsed_s, r.rmse]) },
         { name: "rel MSE", color: "#5cb3f0", points: rows.filter((r) => r.rel_mse != null).map((r) => [r.elapsed_s, r.rel_mse]) },
+        // From the job's own iterations, no reference needed (variance only).
+        { name: "est. RMSE", color: "#c77dff", points: rows.filter((r) => r.est_rmse != null).map((r) => [r.elapsed_s, r.est_rmse]) },
+        { name: "est. rel MSE", color: "#7ddf9a", points: rows.filter((r) => r.est_rel_mse != null).map((r) => [r.elapsed_s, r.est_rel_mse]) },
         ...(await layerSeries(rows)),
       ], { xLabel: "render time (s)", yLabel: "error" });
     } catch (e) {
@@ -244,6 +250,7 @@ export function jobPage(view, route, signal) {
         showJob({ ...job, iteration: ev.iteration, elapsed_s: ev.elapsed_s, samples_per_s: ev.samples_per_s, eta_s: ev.eta_s, dropped: ev.dropped });
       } else if (name === "snapshot") {
         if (ev.rmse != null) job.last_rmse = ev.rmse;
+        if (ev.est_rel_mse != null) job.noise = Math.sqrt(ev.est_rel_mse);
         refreshAll();
       } else if (name === "state" || name === "done") {
         try {

@@ -49,6 +49,8 @@ export function submitPage(view, route, signal) {
   const spp = text({ id: "halt-spp", value: "64" });
   const time = text({ id: "halt-time_s" });
   const target = text({ id: "halt-target_rmse" });
+  const noise = text({ id: "halt-noise", placeholder: "0.01" });
+  const variance = el("input", { id: "variance-layer", type: "checkbox" });
   const refJob = el("select", { id: "reference-job" }, el("option", { value: "" }, "none"));
   const refFile = el("input", { id: "reference-file", type: "file", accept: ".exr" });
   const seed = text({ id: "seed", value: "0" });
@@ -70,7 +72,8 @@ export function submitPage(view, route, signal) {
     el("fieldset", {}, el("legend", {}, "Halt (at whichever comes first)"),
       field("samples per pixel", "halt.spp", spp),
       field("time (s)", "halt.time_s", time),
-      field("target RMSE", "halt.target_rmse", target, "needs a reference")),
+      field("target RMSE", "halt.target_rmse", target, "needs a reference"),
+      field("noise", "halt.noise", noise, "estimated relative error, e.g. 0.01 for 1 %; no reference needed")),
     el("fieldset", {}, el("legend", {}, "Reference (for RMSE logs)"),
       field("a completed job", "reference.job", refJob),
       field("or upload an EXR", "reference.upload", refFile)),
@@ -79,6 +82,7 @@ export function submitPage(view, route, signal) {
       field("priority", "priority", priority),
       field("name", "name", name),
       field("tags", "tags", tags, "comma-separated"),
+      field("variance layer", "variance_layer", variance, "estimated per-pixel variance in the EXRs"),
       el("div", { class: "row" }, el("label", { for: "snapshot-every" }, "snapshot every"), every, everyKind,
         el("span", { class: "field-error", dataset: { errorFor: "snapshot_every" } }))),
     formError,
@@ -149,6 +153,8 @@ export function submitPage(view, route, signal) {
       if (spp.value.trim()) job.halt.spp = parseValue(spp.value.trim());
       if (time.value.trim()) job.halt.time_s = parseValue(time.value.trim());
       if (target.value.trim()) job.halt.target_rmse = parseValue(target.value.trim());
+      if (noise.value.trim()) job.halt.noise = parseValue(noise.value.trim());
+      if (variance.checked) job.variance_layer = true;
       if (refFile.files.length) {
         const resp = await request("/v1/references", { method: "POST", raw: refFile.files[0] });
         job.reference = { upload: (await resp.json()).id };

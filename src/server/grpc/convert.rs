@@ -52,6 +52,7 @@ fn halt_to_pb(h: &HaltSpec) -> pb::Halt {
         iterations: h.iterations,
         time_s: h.time_s,
         target_rmse: h.target_rmse,
+        noise: h.noise,
     }
 }
 
@@ -61,6 +62,7 @@ fn halt_from_pb(h: pb::Halt) -> HaltSpec {
         iterations: h.iterations,
         time_s: h.time_s,
         target_rmse: h.target_rmse,
+        noise: h.noise,
     }
 }
 
@@ -125,6 +127,7 @@ fn spec_to_pb(s: &JobSpec) -> pb::JobSpec {
         },
         keep_all_snapshots: s.keep_snapshots == KeepSnapshots::All,
         keep_checkpoint: s.keep_checkpoint,
+        variance_layer: s.variance_layer,
     }
 }
 
@@ -158,6 +161,7 @@ pub(super) fn spec_from_pb(s: pb::JobSpec) -> Result<JobSpec, JobError> {
             (false, None) => KeepSnapshots::DEFAULT,
         },
         keep_checkpoint: s.keep_checkpoint,
+        variance_layer: s.variance_layer,
     })
 }
 
@@ -170,6 +174,7 @@ pub(super) fn job_to_pb(j: JobStatus) -> pb::Job {
         elapsed_s: j.elapsed_s,
         samples_per_s: j.samples_per_s,
         last_rmse: j.last_rmse,
+        noise: j.noise,
         eta_s: j.eta_s,
         dropped: j.dropped,
         width: j.width,
@@ -248,11 +253,15 @@ pub(super) fn event_to_pb(e: Event) -> pb::JobEvent {
             iteration,
             rmse,
             rel_mse,
+            est_rmse,
+            est_rel_mse,
             ..
         } => event(E::Snapshot(pb::Snapshot {
             iteration,
             rmse,
             rel_mse,
+            est_rmse,
+            est_rel_mse,
             png: Vec::new(),
         })),
         Event::State { state, .. } => state_event(state),

@@ -39,7 +39,7 @@ pub(in crate::integrator::bidir) fn image(
 ) -> Image {
     let halt = Halt {
         iterations: Some(n),
-        time: None,
+        ..Halt::default()
     };
     let out = render(scene, integ, seed, halt, |_, _| {});
     out.film.to_image(1.0 / n as f64)
