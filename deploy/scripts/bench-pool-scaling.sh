@@ -57,7 +57,9 @@ def values(field):
 fetch, decode, merge = values("fetch_s"), values("decode_s"), values("merge_s")
 med = lambda xs: statistics.median(xs) if xs else float("nan")
 ranges = len(merge)
-print(f"ranges: {ranges}; result per range: {48 * w * h / 1e6:.0f} MB of exact sums")
+sizes = values("bytes")
+print(f"ranges: {ranges}; result per range: {96 * w * h / 1e6:.0f} MB of exact sums "
+      f"(sums and second moments), {med(sizes) / 1e6:.1f} MB as sent (median)")
 print(f"median fetch_s {med(fetch):.3f} (min {min(fetch):.3f}, max {max(fetch):.3f})")
 print(f"median decode_s {med(decode):.3f}, merge_s {med(merge):.3f}")
 serial = med(decode) + med(merge)

@@ -442,5 +442,7 @@ impl<'a> Reader<'a> {
     }
 }
 
+mod packed;
+
 #[cfg(test)]
 mod tests;

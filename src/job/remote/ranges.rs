@@ -102,9 +102,14 @@ pub fn remote_batch(
         .map(|(done, tries)| (Arrival { done, body: None }, tries))
         .collect();
     answers.extend(ex.take(&status.id, WAIT).into_iter().map(|a| (a, 0)));
-    let chained = rt.chained();
+    let expect = Expected {
+        chained: rt.chained(),
+        size: (rt.scene.width(), rt.scene.height()),
+        // Main, moments, layers, and a filter's weights and splats, as whole images.
+        images: 2 + 2 * (1 + rt.settings.layers()),
+    };
     for (arrival, tries) in answers {
-        file(&mut r, status, arrival, tries, chained)?;
+        file(&mut r, status, arrival, tries, &expect)?;
     }
     let (mut n, mut stats) = (0, RenderStats::default());
     while let Some((end, answer, s)) = r.pending.remove(&status.iteration) {
@@ -191,6 +196,14 @@ fn publish(
     })
 }
 
+/// What a job's results must be: a chained job's checkpoints, or exact sums of the
+/// film's size holding at most `images` images.
+struct Expected {
+    chained: bool,
+    size: (u32, u32),
+    images: usize,
+}
+
 /// Keeps a result that extends or will extend the prefix; drops stale and duplicate
 /// ones (a range a dead worker had finished but not acknowledged comes twice).
 fn file(
@@ -198,7 +211,7 @@ fn file(
     status: &JobStatus,
     arrival: Arrival,
     tries: u32,
-    chained: bool,
+    expect: &Expected,
 ) -> Result<(), JobError> {
     let Arrival { done, body } = arrival;
     let drop_result = |r: &RemoteJob| {
@@ -241,17 +254,19 @@ fn file(
         },
     };
     let started = Instant::now();
-    let answer = if chained {
+    let answer = if expect.chained {
         Checkpoint::decode(&bytes).map(Answer::Chain)
     } else {
-        ExactSums::decode(&bytes).ok().map(Answer::Sums)
+        ExactSums::decode_expected(&bytes, expect.size, expect.images)
+            .ok()
+            .map(Answer::Sums)
     };
     let Some(answer) = answer else {
         tracing::warn!(job = %status.id, "{object} is damaged; rendering it again");
         r.lost.push((done.first, done.end));
         return Ok(());
     };
-    tracing::debug!(job = %status.id, decode_s = started.elapsed().as_secs_f64(), "range decoded");
+    tracing::debug!(job = %status.id, decode_s = started.elapsed().as_secs_f64(), bytes = bytes.len(), "range decoded");
     r.per_iter = done.seconds / (done.end - done.first).max(1) as f64;
     r.pending.insert(done.first, (done.end, answer, done.stats));
     Ok(())
