@@ -359,11 +359,11 @@ fn snapshot(
     let film = rt.sums.to_film();
     let img = film.to_image(1.0 / it.max(1) as f64);
     let noise = rt.sums.noise(&film, it);
-    let variance = match (&noise, status.spec.variance_layer) {
-        (Some(n), true) => vec![("variance", n.variance_image())],
-        _ => Vec::new(),
-    };
-    let variance: Vec<(&str, &Image)> = variance.iter().map(|(n, i)| (*n, i)).collect();
+    let variance = noise
+        .as_ref()
+        .filter(|_| status.spec.variance_layer)
+        .map(|n| n.variance_image());
+    let variance: Vec<(&str, &Image)> = variance.iter().map(|i| ("variance", i)).collect();
     failpoint::hit("snapshot-exr", it);
     film::write_exr_layers(dir.snapshot(it, "exr"), &img, &variance)?;
     failpoint::hit("snapshot-png", it);

@@ -76,12 +76,6 @@ impl Progress<'_> {
             .to_film()
             .to_image(1.0 / self.iterations.max(1) as f64)
     }
-
-    /// The image's noise estimated from its own iterations (`film::noise`), when
-    /// the integrator's iterations are independent and there are at least two.
-    pub fn noise(&self) -> Option<crate::film::Noise> {
-        self.sums.noise(&self.sums.to_film(), self.iterations)
-    }
 }
 
 /// [`render`] with an observer that may look at the image after each iteration.
