@@ -2,9 +2,11 @@
 //! answers, and fetches their results. The scheduler thread calls it synchronously;
 //! it runs its own small tokio runtime, so the render core and the scheduler stay
 //! free of async (DESIGN.md "Rules of the house"). Results are fetched there as their
-//! answers arrive, several at once, so the scheduler thread only merges.
+//! answers arrive, several at once, and decoded and added to their job's groups on
+//! its blocking threads (`intake`), so the scheduler thread only adds whole groups.
 
 use super::claim::{self, Holder};
+use super::intake::{Filed, Intake, Intakes};
 use super::{
     connect, read_object, setup, Done, RemoteError, Unit, WorkerInfo, DONE_STREAM, WORKERS_BUCKET,
 };
@@ -21,14 +23,24 @@ use std::time::Duration;
 const COORDINATOR: &str = "caustic-coordinator";
 
 /// Results fetched at once; more answers wait their turn (bounds the memory held
-/// by fetches in flight, 100 MB each at 1080p).
-const FETCHES: usize = 4;
+/// by fetches in flight: 64 MB each at 1080p, packed).
+const FETCHES: usize = 8;
 
-/// A worker's answer with its result, when that could be fetched (else the job's
-/// runner fetches it again with [`NatsExecutor::fetch`]).
+/// A worker's answer with what became of its result.
 pub struct Arrival {
     pub done: Done,
-    pub body: Option<Vec<u8>>,
+    pub result: Fetched,
+}
+
+pub enum Fetched {
+    /// Offered to the job's intake.
+    Filed(Filed),
+    /// Fetched but not decoded (a chained job's checkpoint, or a job without an
+    /// intake here).
+    Bytes(Vec<u8>),
+    /// Not fetched (none, or NATS failed): the job's runner fetches it again with
+    /// [`NatsExecutor::fetch`] if it has one.
+    Missing,
 }
 
 /// Answers received, by job, until the job's runner takes them.
@@ -45,6 +57,7 @@ pub struct NatsExecutor {
     scenes: ObjectStore,
     results: ObjectStore,
     inbox: Arc<Inbox>,
+    intakes: Arc<Intakes>,
     /// Scenes already in the object store.
     published: Mutex<HashSet<String>>,
 }
@@ -59,6 +72,7 @@ impl NatsExecutor {
             .build()
             .map_err(RemoteError::nats)?;
         let inbox = Arc::new(Inbox::default());
+        let intakes = Arc::new(Intakes::default());
         let (js, handles) = rt.block_on(async {
             let (_client, js) = connect(url, "caustic-coordinator").await?;
             claim::claim(&js, me).await?;
@@ -78,7 +92,12 @@ impl NatsExecutor {
                 )
                 .await
                 .map_err(RemoteError::nats)?;
-            tokio::spawn(collect(consumer, inbox.clone(), handles.results.clone()));
+            let sinks = Sinks {
+                inbox: inbox.clone(),
+                intakes: intakes.clone(),
+                results: handles.results.clone(),
+            };
+            tokio::spawn(collect(consumer, sinks));
             Ok::<_, RemoteError>((js, handles))
         })?;
         Ok(NatsExecutor {
@@ -88,7 +107,32 @@ impl NatsExecutor {
             scenes: handles.scenes,
             results: handles.results,
             inbox,
+            intakes,
             published: Mutex::new(HashSet::new()),
+        })
+    }
+
+    /// Results of the job's ranges go to `intake` from now on.
+    pub fn receive(&self, job: &str, intake: Arc<Intake>) {
+        self.intakes.insert(job, intake);
+    }
+
+    /// Stops [`NatsExecutor::receive`] for the job's stream of units `generation`.
+    pub fn stop_receiving(&self, job: &str, generation: u64) {
+        self.intakes.remove(job, generation);
+    }
+
+    /// How many workers reported within the heartbeats' time to live (counted from
+    /// the keys alone).
+    pub fn worker_count(&self) -> Result<usize, RemoteError> {
+        let js = self.js.clone();
+        self.run(async move {
+            let kv = js
+                .get_key_value(WORKERS_BUCKET)
+                .await
+                .map_err(RemoteError::nats)?;
+            let keys = kv.keys().await.map_err(RemoteError::nats)?;
+            Ok(keys.filter(|k| std::future::ready(k.is_ok())).count().await)
         })
     }
 
@@ -243,12 +287,24 @@ async fn take_object(results: &ObjectStore, name: &str) -> Result<Vec<u8>, Remot
     Ok(bytes)
 }
 
+/// Where [`collect`] puts what arrives.
+struct Sinks {
+    inbox: Arc<Inbox>,
+    intakes: Arc<Intakes>,
+    results: ObjectStore,
+}
+
 /// Files each answer under its job with its result, acknowledging it: from here on
 /// the coordinator owns it (an answer lost in a coordinator crash only means the range
-/// is rendered again after the job resumes from its checkpoint). Starts over when the
-/// stream of messages ends (the NATS server went away).
-async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>, results: ObjectStore) {
+/// is rendered again after the job resumes from its checkpoint). A result whose job
+/// has an intake here is decoded and added to its group on a blocking thread, as many
+/// at once as the machine has cores. Starts over when the stream of messages ends (the
+/// NATS server went away).
+async fn collect(consumer: PullConsumer, sinks: Sinks) {
+    let sinks = Arc::new(sinks);
     let fetches = Arc::new(tokio::sync::Semaphore::new(FETCHES));
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    let decodes = Arc::new(tokio::sync::Semaphore::new(cores));
     loop {
         match consumer.messages().await {
             Ok(mut messages) => {
@@ -265,18 +321,19 @@ async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>, results: ObjectStore
                     let Ok(permit) = fetches.clone().acquire_owned().await else {
                         return;
                     };
-                    let (inbox, results) = (inbox.clone(), results.clone());
+                    let (sinks, decodes) = (sinks.clone(), decodes.clone());
                     tokio::spawn(async move {
                         let started = std::time::Instant::now();
                         let body = match &done.object {
-                            Some(o) => take_object(&results, o).await.ok(),
+                            Some(o) => take_object(&sinks.results, o).await.ok(),
                             None => None,
                         };
                         // The per-range cost of the coordinator, for the scaling
                         // model (README).
                         tracing::debug!(job = %done.job, fetch_s = started.elapsed().as_secs_f64(), "range fetched");
                         drop(permit);
-                        file(&inbox, Arrival { done, body });
+                        let result = offer(&sinks.intakes, &decodes, &done, body).await;
+                        file(&sinks.inbox, Arrival { done, result });
                         let _ = m.ack().await;
                     });
                 }
@@ -284,6 +341,31 @@ async fn collect(consumer: PullConsumer, inbox: Arc<Inbox>, results: ObjectStore
             Err(e) => tracing::warn!("answers: {e}"),
         }
         tokio::time::sleep(Duration::from_secs(1)).await;
+    }
+}
+
+/// Offers a fetched result to its job's intake, decoding on a blocking thread.
+async fn offer(
+    intakes: &Intakes,
+    decodes: &Arc<tokio::sync::Semaphore>,
+    done: &Done,
+    body: Option<Vec<u8>>,
+) -> Fetched {
+    let Some(bytes) = body else {
+        return Fetched::Missing;
+    };
+    let intake = intakes.get(&done.job).filter(|_| done.error.is_none());
+    let Some(intake) = intake else {
+        return Fetched::Bytes(bytes);
+    };
+    let Ok(_permit) = decodes.clone().acquire_owned().await else {
+        return Fetched::Bytes(bytes);
+    };
+    let done = done.clone();
+    match tokio::task::spawn_blocking(move || intake.fold(&done, &bytes)).await {
+        Ok(filed) => Fetched::Filed(filed),
+        // A panic while decoding: treat the result as damaged.
+        Err(_) => Fetched::Filed(Filed::Damaged),
     }
 }
 

@@ -23,6 +23,7 @@
 
 pub mod claim;
 pub mod coordinator;
+pub mod intake;
 pub mod ranges;
 pub mod worker;
 
