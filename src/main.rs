@@ -18,6 +18,10 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .init();
     let command = Cli::parse().command;
+    if let Command::VdbGrid { file, grid, memory } = &command {
+        let status = caustic::medium::grid_io::vdb_child_main(file, grid, *memory);
+        return ExitCode::from(status as u8);
+    }
     if !matches!(command, Command::Serve(_) | Command::Worker(_)) {
         quiet_broken_pipe();
     }
@@ -46,6 +50,7 @@ fn run(command: Command) -> Result<()> {
         }),
         Command::Serve(a) => serve::serve(a),
         Command::Worker(a) => serve::worker(a),
+        Command::VdbGrid { .. } => unreachable!("handled in main"),
         Command::Submit(a) => client::submit(a),
         Command::Watch(a) => client::watch(a),
         Command::Jobs(a) => client::jobs(a),

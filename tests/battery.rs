@@ -1561,6 +1561,11 @@ fn scene_cases() -> Vec<Case> {
     let with_obj = scene_with_mesh(t.clone(), "obj", "m/quad.obj");
     let with_ply = scene_with_mesh(t.clone(), "ply", "m/quad.ply");
     let with_env = scene_with_envmap(t.clone(), "env.exr");
+    let mut with_vdb = t.clone();
+    with_vdb["media"] =
+        json!({"smoke": {"type": "grid", "file": "smoke.VDB", "sigma_t": [1, 1, 1]}});
+    with_vdb["shapes"] = json!([{"type": "cube", "material": "m", "interior": "smoke"}]);
+    let with_vdb = with_vdb.to_string();
     let valid_exr = exr(8, 4);
     let blob = text_blob(256 << 10);
 
@@ -1871,11 +1876,14 @@ fn scene_cases() -> Vec<Case> {
         )
         .mentions("evil.obj"),
         case(
-            "tar: a .vdb entry",
-            upload(tar(&[tar_scene_again(&text), file("smoke.VDB", b"x")])),
-            &[400],
+            "tar: a scene's .vdb grid that is no OpenVDB file",
+            upload(tar(&[
+                file("scene.json", with_vdb.as_bytes()),
+                file("smoke.VDB", b"x"),
+            ])),
+            &[422],
         )
-        .mentions("OpenVDB"),
+        .mentions("smoke.VDB"),
         case(
             "tar: no scene.json",
             upload(tar(&[file("m/quad.obj", QUAD_OBJ)])),

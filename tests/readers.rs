@@ -415,3 +415,116 @@ fn load_a_mesh_for_measuring() {
     );
     assert!(!mesh.indices.is_empty());
 }
+
+// ------------------------------------------------------------------ OpenVDB in a child process
+
+fn vdb_fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn isolation(time: Duration) -> caustic::medium::grid_io::Isolation {
+    caustic::medium::grid_io::Isolation {
+        time,
+        ..caustic::medium::grid_io::Isolation::server(env!("CARGO_BIN_EXE_caustic").into())
+    }
+}
+
+#[test]
+fn a_vdb_grid_read_by_the_child_process_is_the_grid_read_in_process() {
+    use caustic::medium::grid_io::{load_grid, read_vdb_in_child};
+    let iso = isolation(Duration::from_secs(60));
+    for (file, grid) in [
+        ("density_zip.vdb", "density"),
+        ("grids.vdb", "density"),
+        ("temperature_active.vdb", "temperature"),
+    ] {
+        // This test binary never isolates: load_grid reads in process.
+        let here = load_grid(&vdb_fixture(file), Some(grid)).unwrap();
+        let child = read_vdb_in_child(&iso, &vdb_fixture(file), grid).unwrap();
+        assert_eq!(child.dims, here.dims, "{file}");
+        assert_eq!(child.bounds, here.bounds, "{file}");
+        let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&child.data), bits(&here.data), "{file}");
+    }
+}
+
+#[test]
+fn a_vdb_file_that_aborts_its_reader_is_an_error_naming_the_file_only() {
+    use caustic::medium::grid_io::read_vdb_in_child;
+    // A size field forged to 2^32 - 1 bytes: vdb-rs asks for the memory and the
+    // child, past its address-space limit, aborts (found by scanning mutations).
+    let forged = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/vdb/alloc_4g.vdb");
+    let err = read_vdb_in_child(&isolation(Duration::from_secs(60)), &forged, "density")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("alloc_4g.vdb") && err.contains("stopped"),
+        "{err}"
+    );
+    // The child ran in the file's folder with its name alone: what it says names no
+    // folder (the caller's path comes first, and uploads show the scene's name there).
+    let folder = forged.parent().unwrap().display().to_string();
+    assert!(!child_says(&err).contains(&folder), "{err}");
+}
+
+/// Every input that crashed the in-process reader under the fuzzer
+/// (tests/fuzz, target `vdb`) is an error from the child process, in time.
+#[test]
+fn every_vdb_fuzz_finding_is_an_error_from_the_child_process() {
+    use caustic::medium::grid_io::read_vdb_in_child;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/vdb");
+    let iso = isolation(Duration::from_secs(60));
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let result = read_vdb_in_child(&iso, &path, "density");
+        assert!(result.is_err(), "{} was read", path.display());
+        n += 1;
+    }
+    assert!(n >= 1, "no findings in {}", dir.display());
+}
+
+/// The part of a VDB error that came from the child process.
+fn child_says(err: &str) -> &str {
+    err.split_once("cannot read OpenVDB data: ")
+        .map_or(err, |(_, m)| m)
+}
+
+#[test]
+fn a_vdb_reader_past_its_deadline_is_stopped() {
+    use caustic::medium::grid_io::read_vdb_in_child;
+    let err = read_vdb_in_child(
+        &isolation(Duration::ZERO),
+        &vdb_fixture("grids.vdb"),
+        "density",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("longer than 0 s"), "{err}");
+}
+
+#[test]
+fn vdb_errors_reported_by_the_child_keep_their_text() {
+    use caustic::medium::grid_io::read_vdb_in_child;
+    let iso = isolation(Duration::from_secs(60));
+    let err = read_vdb_in_child(&iso, &vdb_fixture("grids.vdb"), "smoke")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("no grid named \"smoke\"") && err.contains("density"),
+        "{err}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let not_vdb = dir.path().join("plain.vdb");
+    std::fs::write(&not_vdb, b"not a vdb file at all").unwrap();
+    let err = read_vdb_in_child(&iso, &not_vdb, "density")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("plain.vdb"), "{err}");
+    assert!(
+        !child_says(&err).contains(&dir.path().display().to_string()),
+        "{err}"
+    );
+}

@@ -45,6 +45,17 @@ pub enum Command {
     /// Render work units for a server started with --nats: pull iteration ranges from
     /// the NATS JetStream work queue, render them, return their sums.
     Worker(WorkerArgs),
+    /// Internal: reads one grid of an OpenVDB file for a server or worker, in a
+    /// process of its own, and writes it as a Mitsuba .vol to standard output.
+    #[command(hide = true)]
+    VdbGrid {
+        file: PathBuf,
+        #[arg(long)]
+        grid: String,
+        /// Address space this process may use, in bytes.
+        #[arg(long)]
+        memory: u64,
+    },
     /// Submit a render job to a server (uploading a local scene file first).
     ///
     /// Prints the job id. Exit status with --watch: 0 completed, 1 failed or
@@ -316,6 +327,13 @@ pub struct WorkerArgs {
     /// Most primitives a scene may compile to (as the coordinator's `--max-primitives`).
     #[arg(long, default_value_t = caustic::scene::CompileBudget::SERVER.max_primitives)]
     pub max_primitives: usize,
+    /// Benchmark only (bench-pool-scaling.sh): play this many workers that answer
+    /// with copies of one real result, so the images are wrong.
+    #[arg(long, hide = true)]
+    pub simulate: Option<usize>,
+    /// Seconds per iteration the simulated workers pretend to take.
+    #[arg(long, hide = true, default_value_t = 1.0)]
+    pub simulate_iteration_s: f64,
 }
 
 #[derive(Args)]

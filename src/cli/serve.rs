@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use std::time::Duration;
 
 pub fn serve(a: ServeArgs) -> Result<()> {
+    isolate_vdb()?;
     let mut config = caustic::job::ServiceConfig::new(&a.data_dir);
     config.workers = a.workers.unwrap_or(0);
     config.max_resolution = a.max_resolution;
@@ -132,8 +133,16 @@ async fn stop_signal() {
     let _ = tokio::signal::ctrl_c().await;
 }
 
+/// Uploaded `.vdb` files are read in a child process (`grid_io::vdb_child`).
+fn isolate_vdb() -> Result<()> {
+    let exe = std::env::current_exe()?;
+    caustic::medium::grid_io::isolate_vdb(caustic::medium::grid_io::Isolation::server(exe));
+    Ok(())
+}
+
 /// `caustic worker`: renders work units until stopped.
 pub fn worker(a: WorkerArgs) -> Result<()> {
+    isolate_vdb()?;
     let name = a
         .name
         .unwrap_or_else(|| format!("{}-{}", caustic::job::lock::hostname(), std::process::id()));
@@ -141,13 +150,17 @@ pub fn worker(a: WorkerArgs) -> Result<()> {
         "caustic worker {name} on {}",
         caustic::job::remote::redact(&a.nats)
     );
-    caustic::job::remote::worker::run(caustic::job::remote::worker::WorkerOptions {
+    let opts = caustic::job::remote::worker::WorkerOptions {
         url: a.nats,
         name,
         threads: a.threads.unwrap_or(0),
         cache_dir: a.cache_dir,
         max_scene: a.max_scene_mib << 20,
         max_primitives: a.max_primitives,
-    })?;
+    };
+    match a.simulate {
+        Some(n) => caustic::job::remote::simulate::run(opts, n, a.simulate_iteration_s)?,
+        None => caustic::job::remote::worker::run(opts)?,
+    }
     Ok(())
 }

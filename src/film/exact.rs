@@ -223,8 +223,12 @@ impl ExactSums {
 
     /// Reads what [`ExactSums::encode`] wrote; any truncation or excess is an error.
     pub fn decode(bytes: &[u8]) -> Result<ExactSums, ExactError> {
-        let mut r = Reader(bytes);
-        let (v2, v3) = match r.take(8)? {
+        ExactSums::read(Reader::plain(bytes))
+    }
+
+    /// What [`ExactSums::decode`] reads, from a reader of plain or shuffled bytes.
+    fn read(mut r: Reader) -> Result<ExactSums, ExactError> {
+        let (v2, v3) = match &*r.take(8)? {
             m if m == MAGIC_V3 => (true, true),
             m if m == MAGIC => (true, false),
             m if m == MAGIC_V1 => (false, false),
@@ -245,7 +249,7 @@ impl ExactSums {
         let mut layers = Vec::new();
         for _ in 0..count {
             let len = r.u32()? as usize;
-            let name = std::str::from_utf8(r.take(len)?)
+            let name = std::str::from_utf8(&r.take(len)?)
                 .map_err(|_| ExactError::Malformed("layer name is not UTF-8"))?
                 .to_string();
             let iterations = r.u64()?;
@@ -265,7 +269,7 @@ impl ExactSums {
         if (moment_iterations > 0) == moments.is_empty() {
             return Err(ExactError::Malformed("moments without iterations"));
         }
-        if !r.0.is_empty() {
+        if !r.at_end() {
             return Err(ExactError::Malformed("bytes after the last layer"));
         }
         Ok(ExactSums {
@@ -397,52 +401,9 @@ fn put_optional<const N: usize>(out: &mut Vec<u8>, sums: &[[i128; N]]) {
     put_sums(out, sums);
 }
 
-struct Reader<'a>(&'a [u8]);
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], ExactError> {
-        if self.0.len() < n {
-            return Err(ExactError::Malformed("truncated"));
-        }
-        let (head, rest) = self.0.split_at(n);
-        self.0 = rest;
-        Ok(head)
-    }
-
-    fn u32(&mut self) -> Result<u32, ExactError> {
-        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap()))
-    }
-
-    fn u64(&mut self) -> Result<u64, ExactError> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
-    }
-
-    fn sums<const N: usize>(&mut self, n: usize) -> Result<Vec<[i128; N]>, ExactError> {
-        let bytes = self.take(
-            n.checked_mul(16 * N)
-                .ok_or(ExactError::Malformed("too large"))?,
-        )?;
-        Ok(bytes
-            .chunks_exact(16 * N)
-            .map(|c| {
-                std::array::from_fn(|k| {
-                    i128::from_le_bytes(c[16 * k..16 * k + 16].try_into().unwrap())
-                })
-            })
-            .collect())
-    }
-
-    /// What [`put_optional`] wrote.
-    fn optional<const N: usize>(&mut self, n: usize) -> Result<Vec<[i128; N]>, ExactError> {
-        match self.take(1)?[0] {
-            0 => Ok(Vec::new()),
-            1 => self.sums(n),
-            _ => Err(ExactError::Malformed("bad flag")),
-        }
-    }
-}
-
 mod packed;
+mod reader;
+use reader::Reader;
 
 #[cfg(test)]
 mod tests;

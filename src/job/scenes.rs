@@ -502,18 +502,6 @@ fn safe_entry(name: &Path) -> Result<PathBuf, JobError> {
             }
         }
     }
-    // The OpenVDB reader (vdb-rs) aborts the whole process on some malformed files
-    // (it allocates whatever a size field says), so uploads may not carry them.
-    if out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("vdb"))
-    {
-        return Err(bad(format!(
-            "bundle entry \"{}\": OpenVDB files are accepted only in local scenes (the reader \
-             cannot safely parse untrusted files); convert the grid to a Mitsuba .vol or a raw grid",
-            name.display()
-        )));
-    }
     Ok(out)
 }
 

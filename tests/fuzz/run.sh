@@ -9,7 +9,7 @@ here="$(cd "$(dirname "$0")" && pwd)"
 target="${1:?usage: run.sh TARGET SECONDS}"
 seconds="${2:?usage: run.sh TARGET SECONDS}"
 shift 2
-targets="scene_json bundle exr hdr png jpeg obj ply vol raw_grid"
+targets="scene_json bundle exr hdr png jpeg obj ply vol raw_grid vdb"
 [[ " $targets " == *" $target "* ]] || { echo "unknown target $target; one of: $targets" >&2; exit 2; }
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$here/target}"
 cd "$here"

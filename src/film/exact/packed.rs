@@ -8,13 +8,12 @@
 //! The header keeps the film size and the unpacked length outside the compressed
 //! part, so a reader checks them against what it expects before it allocates.
 
+use super::reader::{Reader, STRIDE};
 use super::{ExactError, ExactSums};
 
 const MAGIC: &[u8; 8] = b"CAUSTEXZ";
 /// Magic, width, height, unpacked length.
 const HEADER: usize = 8 + 4 + 4 + 8;
-/// The planes' stride: one i128.
-const STRIDE: usize = 16;
 
 impl ExactSums {
     /// [`ExactSums::encode`], byte-plane shuffled and LZ4-compressed.
@@ -40,7 +39,7 @@ impl ExactSums {
         images: usize,
     ) -> Result<ExactSums, ExactError> {
         let sums = match bytes.strip_prefix(MAGIC.as_slice()) {
-            Some(rest) => ExactSums::decode(&unpack(rest, size, images)?)?,
+            Some(rest) => ExactSums::read(Reader::planes(&unpack(rest, size, images)?))?,
             None => ExactSums::decode(bytes)?,
         };
         if sums.size() != size {
@@ -50,7 +49,7 @@ impl ExactSums {
     }
 }
 
-/// The unpacked bytes after the magic, if the header agrees with `size` and `images`.
+/// The byte planes after the magic, if the header agrees with `size` and `images`.
 fn unpack(rest: &[u8], size: (u32, u32), images: usize) -> Result<Vec<u8>, ExactError> {
     let field = |at: usize, n: usize| -> Result<&[u8], ExactError> {
         rest.get(at..at + n)
@@ -75,10 +74,10 @@ fn unpack(rest: &[u8], size: (u32, u32), images: usize) -> Result<Vec<u8>, Exact
     if planes.len() as u64 != len {
         return Err(ExactError::Malformed("packed sums have the wrong length"));
     }
-    Ok(unshuffle(&planes))
+    Ok(planes)
 }
 
-/// Values per block of [`shuffle`] and [`unshuffle`]: the block's 16 planes and its
+/// Values per block of [`shuffle`]: the block's 16 planes and its
 /// values both stay in the core's cache while bytes move between them.
 const BLOCK: usize = 4096;
 
@@ -99,7 +98,8 @@ fn shuffle(raw: &[u8]) -> Vec<u8> {
     out
 }
 
-/// What [`shuffle`] undoes.
+/// What [`shuffle`] undoes (decoding reads the planes in place: `reader`).
+#[cfg(test)]
 fn unshuffle(planes: &[u8]) -> Vec<u8> {
     let n = planes.len() / STRIDE;
     let mut out = vec![0u8; planes.len()];

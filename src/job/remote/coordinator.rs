@@ -43,6 +43,29 @@ pub enum Fetched {
     Missing,
 }
 
+/// The intake's smoothed cost per range, as measured: what units are sized by.
+#[derive(Default)]
+struct Costs {
+    /// Seconds to fetch a result (up to [`FETCHES`] at once).
+    fetch_s: f64,
+    /// Seconds of a blocking thread to decode and add one (up to one per core).
+    cpu_s: f64,
+    ranges: u64,
+}
+
+impl Costs {
+    /// Smoothing weight of the latest range.
+    const WEIGHT: f64 = 0.2;
+
+    fn add(cost: &mut f64, first: bool, secs: f64) {
+        *cost = if first {
+            secs
+        } else {
+            (1.0 - Self::WEIGHT) * *cost + Self::WEIGHT * secs
+        };
+    }
+}
+
 /// Answers received, by job, until the job's runner takes them.
 #[derive(Default)]
 struct Inbox {
@@ -58,6 +81,7 @@ pub struct NatsExecutor {
     results: ObjectStore,
     inbox: Arc<Inbox>,
     intakes: Arc<Intakes>,
+    costs: Arc<Mutex<Costs>>,
     /// Scenes already in the object store.
     published: Mutex<HashSet<String>>,
 }
@@ -73,6 +97,7 @@ impl NatsExecutor {
             .map_err(RemoteError::nats)?;
         let inbox = Arc::new(Inbox::default());
         let intakes = Arc::new(Intakes::default());
+        let costs = Arc::new(Mutex::new(Costs::default()));
         let (js, handles) = rt.block_on(async {
             let (_client, js) = connect(url, "caustic-coordinator").await?;
             claim::claim(&js, me).await?;
@@ -95,6 +120,7 @@ impl NatsExecutor {
             let sinks = Sinks {
                 inbox: inbox.clone(),
                 intakes: intakes.clone(),
+                costs: costs.clone(),
                 results: handles.results.clone(),
             };
             tokio::spawn(collect(consumer, sinks));
@@ -108,6 +134,7 @@ impl NatsExecutor {
             results: handles.results,
             inbox,
             intakes,
+            costs,
             published: Mutex::new(HashSet::new()),
         })
     }
@@ -120,6 +147,17 @@ impl NatsExecutor {
     /// Stops [`NatsExecutor::receive`] for the job's stream of units `generation`.
     pub fn stop_receiving(&self, job: &str, generation: u64) {
         self.intakes.remove(job, generation);
+    }
+
+    /// Ranges per second the intake can take, from its measured costs (None until a
+    /// few ranges came in): fetches and decodes run several at once.
+    pub fn intake_capacity(&self) -> Option<f64> {
+        let c = self.costs.lock().expect("costs");
+        (c.ranges >= 4).then(|| {
+            let fetching = FETCHES as f64 / c.fetch_s.max(1e-3);
+            let decoding = cores() as f64 / c.cpu_s.max(1e-3);
+            fetching.min(decoding)
+        })
     }
 
     /// How many workers reported within the heartbeats' time to live (counted from
@@ -291,7 +329,13 @@ async fn take_object(results: &ObjectStore, name: &str) -> Result<Vec<u8>, Remot
 struct Sinks {
     inbox: Arc<Inbox>,
     intakes: Arc<Intakes>,
+    costs: Arc<Mutex<Costs>>,
     results: ObjectStore,
+}
+
+/// The coordinator's cores: how many results it decodes at once.
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get())
 }
 
 /// Files each answer under its job with its result, acknowledging it: from here on
@@ -303,8 +347,7 @@ struct Sinks {
 async fn collect(consumer: PullConsumer, sinks: Sinks) {
     let sinks = Arc::new(sinks);
     let fetches = Arc::new(tokio::sync::Semaphore::new(FETCHES));
-    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-    let decodes = Arc::new(tokio::sync::Semaphore::new(cores));
+    let decodes = Arc::new(tokio::sync::Semaphore::new(cores()));
     loop {
         match consumer.messages().await {
             Ok(mut messages) => {
@@ -328,11 +371,20 @@ async fn collect(consumer: PullConsumer, sinks: Sinks) {
                             Some(o) => take_object(&sinks.results, o).await.ok(),
                             None => None,
                         };
+                        let fetch_s = started.elapsed().as_secs_f64();
                         // The per-range cost of the coordinator, for the scaling
                         // model (README).
-                        tracing::debug!(job = %done.job, fetch_s = started.elapsed().as_secs_f64(), "range fetched");
+                        tracing::debug!(job = %done.job, fetch_s, "range fetched");
                         drop(permit);
+                        let started = std::time::Instant::now();
                         let result = offer(&sinks.intakes, &decodes, &done, body).await;
+                        if let Fetched::Filed(Filed::Added) = result {
+                            let mut c = sinks.costs.lock().expect("costs");
+                            let first = c.ranges == 0;
+                            Costs::add(&mut c.fetch_s, first, fetch_s);
+                            Costs::add(&mut c.cpu_s, first, started.elapsed().as_secs_f64());
+                            c.ranges += 1;
+                        }
                         file(&sinks.inbox, Arrival { done, result });
                         let _ = m.ack().await;
                     });

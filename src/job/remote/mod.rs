@@ -14,8 +14,11 @@
 //!   sums into [`RESULTS_BUCKET`], publishes a [`Done`] on the stream [`DONE_STREAM`]
 //!   (subject `caustic.done.<job>`) and only then acknowledges the unit. A worker that
 //!   dies in between leaves a range rendered twice, which the coordinator counts once.
-//! - The coordinator adds ranges in index order from the job's checkpoint on. Since
-//!   the sums are exact, the image is the in-process one bit for bit.
+//! - Units go out in groups of about one per worker. The coordinator decodes each
+//!   result and adds it to its group as it arrives, on its NATS runtime's blocking
+//!   threads (`intake`), and adds whole groups to the job's sums in index order from
+//!   the checkpoint on. Since the sums are exact, the image is the in-process one bit
+//!   for bit.
 //! - A chained integrator (sppm, ppm: each iteration continues the previous one's
 //!   statistics) runs as an ordered chain: one unit at a time carries the job's
 //!   checkpoint to a worker, which returns the checkpoint after its range; the
@@ -25,6 +28,7 @@ pub mod claim;
 pub mod coordinator;
 pub mod intake;
 pub mod ranges;
+pub mod simulate;
 pub mod worker;
 
 use crate::integrator::{RenderStats, Settings};

@@ -23,16 +23,19 @@ const WAIT: Duration = Duration::from_millis(250);
 /// and answering are small beside it, short enough to balance the pool and show
 /// progress often. Units of large films are longer ([`unit_time`]).
 const UNIT: Duration = Duration::from_secs(2);
-/// Raw result bytes the coordinator is planned to take in per second from all
-/// workers together: fetching, decoding and adding a 1080p range (199 MB) costs it
-/// about 0.4 core-seconds (README "Scaling"), so this keeps it below one core.
+/// Raw result bytes the coordinator plans to take in per second from all workers
+/// together, until it has measured its own costs: fetching, decoding and adding a
+/// 1080p range (199 MB) costs it about 0.3 core-seconds (README "Scaling").
 const INTAKE_BYTES_PER_S: f64 = 1e9;
+/// How much more the coordinator's intake could take than the units it plans for.
+const INTAKE_HEADROOM: f64 = 2.0;
 /// Fewest units in a group; a group has about as many units as the pool has workers.
 const GROUP_UNITS: usize = 8;
 /// Groups a job keeps published ahead of what it has added: all workers stay busy
 /// while the oldest group waits for its last range.
 const OPEN_GROUPS: usize = 3;
-/// A worker counts as serving a job while its last answer is this recent.
+/// A worker counts as serving a job while its last answer is this recent, or two
+/// units' time when units are longer.
 const SERVING: Duration = Duration::from_secs(10);
 /// Failed fetches of one result before its range is rendered again.
 const FETCH_TRIES: u32 = 3;
@@ -59,6 +62,8 @@ pub struct RemoteJob {
     serving: HashMap<String, Instant>,
     /// Workers in the pool when the latest group was published.
     pool: usize,
+    /// The target render time of the latest group's units.
+    unit: Duration,
 }
 
 impl Drop for RemoteJob {
@@ -105,7 +110,8 @@ pub fn remote_batch(
         status.iteration = end;
         stats += s;
     }
-    r.serving.retain(|_, at| at.elapsed() < SERVING);
+    let serving = SERVING.max(2 * r.unit);
+    r.serving.retain(|_, at| at.elapsed() < serving);
     status.workers = Some(r.serving.len() as u32);
     *remote = Some(r);
     Ok((n, stats))
@@ -140,6 +146,7 @@ fn start(
         per_iter: 0.0,
         serving: HashMap::new(),
         pool: GROUP_UNITS,
+        unit: UNIT,
     })
 }
 
@@ -223,7 +230,8 @@ fn top_up(r: &mut RemoteJob, status: &JobStatus, rt: &Runtime) -> Result<(), sup
         if let Ok(n) = r.ex.worker_count() {
             r.pool = n.max(1);
         }
-        let units = group(r, status, rt);
+        r.unit = unit_time(r.pool, rt, &r.ex);
+        let units = group(r, status);
         let (first, end) = (units[0].0, units[units.len() - 1].1);
         intake.open(first, end);
         r.next = end;
@@ -238,14 +246,20 @@ fn top_up(r: &mut RemoteJob, status: &JobStatus, rt: &Runtime) -> Result<(), sup
 }
 
 /// The units of the next group from `r.next`: about one per worker in the pool, each
-/// of [`unit_time`], ending early at the halt count or at a snapshot (so that the job
-/// reaches the iterations its snapshots are due at).
-fn group(r: &RemoteJob, status: &JobStatus, rt: &Runtime) -> Vec<(u64, u64)> {
+/// of the target time `r.unit`, ending early at the halt count or at a snapshot (so
+/// that the job reaches the iterations its snapshots are due at).
+fn group(r: &RemoteJob, status: &JobStatus) -> Vec<(u64, u64)> {
     let spec = &status.spec;
-    let target = unit_time(r.pool, rt);
+    let target = r.unit;
+    // Until a first answer tells how long an iteration takes, units are single
+    // iterations: few of them.
+    let count = match r.per_iter > 0.0 {
+        true => r.pool.max(GROUP_UNITS),
+        false => GROUP_UNITS,
+    };
     let mut units = Vec::new();
     let mut next = r.next;
-    while units.len() < r.pool.max(GROUP_UNITS) {
+    while units.len() < count {
         let end = next + batch_len(spec, next, r.per_iter, target);
         units.push((next, end));
         next = end;
@@ -259,14 +273,18 @@ fn group(r: &RemoteJob, status: &JobStatus, rt: &Runtime) -> Vec<(u64, u64)> {
 }
 
 /// A unit's target render time with `workers` in the pool: at least [`UNIT`], and
-/// long enough that the results of all of them together stay within
-/// [`INTAKE_BYTES_PER_S`] (the units of a 1080p film on 100 workers last 20 s).
-pub(super) fn unit_time(workers: usize, rt: &Runtime) -> Duration {
+/// long enough that the results of all of them together leave the coordinator's
+/// intake [`INTAKE_HEADROOM`] times what it needs, by its measured costs per range
+/// or, before it has them, by the results' size (at [`INTAKE_BYTES_PER_S`], a 1080p
+/// film's units on 100 workers last 20 s).
+fn unit_time(workers: usize, rt: &Runtime, ex: &NatsExecutor) -> Duration {
     let e = expected(rt);
     let bytes = 48.0 * e.size.0 as f64 * e.size.1 as f64 * (2 + rt.settings.layers()) as f64;
-    UNIT.max(Duration::from_secs_f64(
-        workers as f64 * bytes / INTAKE_BYTES_PER_S,
-    ))
+    let secs = match ex.intake_capacity() {
+        Some(ranges_per_s) => INTAKE_HEADROOM * workers as f64 / ranges_per_s,
+        None => workers as f64 * bytes / INTAKE_BYTES_PER_S,
+    };
+    UNIT.max(Duration::from_secs_f64(secs))
 }
 
 /// Publishes the unit of iterations `first..end`, storing the checkpoint it carries

@@ -50,6 +50,51 @@ pub fn run(opts: WorkerOptions) -> Result<(), RemoteError> {
     rt.block_on(serve(opts, Arc::new(pool)))
 }
 
+/// Pull requests the shared consumer lets wait: idle workers at once.
+const MAX_WAITING: i64 = 1 << 14;
+
+/// The next unit, waiting up to 5 s for one (None: none came, or NATS failed, after
+/// a pause of a second so that a failing NATS is not asked in a tight loop).
+pub(super) async fn next_unit(consumer: &PullConsumer) -> Option<Message> {
+    let batch = consumer
+        .fetch()
+        .max_messages(1)
+        .expires(Duration::from_secs(5))
+        .messages()
+        .await;
+    let failed = match batch {
+        Ok(mut batch) => match batch.next().await {
+            Some(Ok(msg)) => return Some(msg),
+            Some(Err(e)) => e.to_string(),
+            None => return None,
+        },
+        Err(e) => e.to_string(),
+    };
+    tracing::warn!("fetching a unit: {failed}");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    None
+}
+
+/// The workers' shared consumer of the units stream.
+pub(super) async fn units_consumer(handles: &super::Handles) -> Result<PullConsumer, RemoteError> {
+    handles
+        .units
+        .get_or_create_consumer(
+            WORKERS,
+            pull::Config {
+                durable_name: Some(WORKERS.into()),
+                ack_policy: AckPolicy::Explicit,
+                ack_wait: ack_wait(),
+                // Every idle worker waits with one pull request; NATS's default of 512
+                // waiting requests would turn workers past the 512th away.
+                max_waiting: MAX_WAITING,
+                ..Default::default()
+            },
+        )
+        .await
+        .map_err(RemoteError::nats)
+}
+
 struct Worker {
     name: String,
     /// What the heartbeat task reports.
@@ -65,19 +110,7 @@ struct Worker {
 async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), RemoteError> {
     let (_client, js) = connect(&opts.url, &opts.name).await?;
     let handles = setup(&js).await?;
-    let consumer: PullConsumer = handles
-        .units
-        .get_or_create_consumer(
-            WORKERS,
-            pull::Config {
-                durable_name: Some(WORKERS.into()),
-                ack_policy: AckPolicy::Explicit,
-                ack_wait: ack_wait(),
-                ..Default::default()
-            },
-        )
-        .await
-        .map_err(RemoteError::nats)?;
+    let consumer = units_consumer(&handles).await?;
     let budget = CompileBudget {
         max_primitives: opts.max_primitives,
         ..CompileBudget::SERVER
@@ -102,25 +135,8 @@ async fn serve(opts: WorkerOptions, pool: Arc<rayon::ThreadPool>) -> Result<(), 
         scenes: HashMap::new(),
     };
     loop {
-        let batch = consumer
-            .fetch()
-            .max_messages(1)
-            .expires(Duration::from_secs(5))
-            .messages()
-            .await;
-        let mut batch = match batch {
-            Ok(b) => b,
-            Err(e) => {
-                tracing::warn!("fetching a unit: {e}");
-                tokio::time::sleep(Duration::from_secs(1)).await;
-                continue;
-            }
-        };
-        while let Some(msg) = batch.next().await {
-            match msg {
-                Ok(msg) => w.handle(msg).await,
-                Err(e) => tracing::warn!("receiving a unit: {e}"),
-            }
+        while let Some(msg) = next_unit(&consumer).await {
+            w.handle(msg).await;
         }
     }
 }
@@ -217,20 +233,28 @@ impl Worker {
         let rendered =
             tokio::task::spawn_blocking(move || pool.install(|| render_range(&scene, &u, from)))
                 .await;
-        alive.abort();
         self.info.lock().expect("info").current_job = None;
         let range = match rendered {
             Ok(Ok(r)) => r,
-            Ok(Err(e)) => return Outcome::Failed(e),
+            Ok(Err(e)) => {
+                alive.abort();
+                return Outcome::Failed(e);
+            }
             // A panic in the render core: a bug that this range will hit again.
-            Err(e) => return Outcome::Failed(format!("render task: {e}")),
+            Err(e) => {
+                alive.abort();
+                return Outcome::Failed(format!("render task: {e}"));
+            }
         };
         let name = unit.object_name();
+        // Still kept alive: storing a large result on a busy NATS can outlast the
+        // ack wait, and the unit must not go to another worker meanwhile.
         let stored = self
             .buckets
             .1
             .put(name.as_str(), &mut range.result.as_slice())
             .await;
+        alive.abort();
         if let Err(e) = stored {
             return Outcome::Transient(format!("storing the result: {e}"));
         }
@@ -260,34 +284,42 @@ impl Worker {
         Ok(())
     }
 
-    /// The compiled scene of content id `id`: cached, built in, or fetched once. A
-    /// scene that does not validate fails the job; one that cannot be fetched now is
-    /// tried again when the unit comes back.
+    /// The compiled scene of content id `id`, cached.
     async fn scene(&mut self, id: &str) -> Result<Arc<Scene>, Outcome> {
         if let Some(s) = self.scenes.get(id) {
             return Ok(s.clone());
         }
-        let local = if self.store.exists(id) {
-            id.to_string()
-        } else {
-            let bytes = read_object(&self.buckets.0, id)
-                .await
-                .map_err(|e| Outcome::Transient(format!("scene {id}: {e}")))?;
-            self.store
-                .upload(&bytes)
-                .map_err(|e| Outcome::Failed(e.client_message()))?
-        };
-        let scene = self
-            .store
-            .compiled(&local)
-            .map_err(|e| Outcome::Failed(e.client_message()))?;
+        let scene = compiled_scene(&self.store, &self.buckets.0, id).await?;
         self.scenes.insert(id.to_string(), scene.clone());
         Ok(scene)
     }
 }
 
+/// The compiled scene of content id `id`: built in, kept in `store`, or fetched from
+/// the `scenes` bucket. A scene that does not validate fails the job; one that cannot
+/// be fetched now is tried again when the unit comes back.
+pub(super) async fn compiled_scene(
+    store: &SceneStore,
+    scenes: &ObjectStore,
+    id: &str,
+) -> Result<Arc<Scene>, Outcome> {
+    let local = if store.exists(id) {
+        id.to_string()
+    } else {
+        let bytes = read_object(scenes, id)
+            .await
+            .map_err(|e| Outcome::Transient(format!("scene {id}: {e}")))?;
+        store
+            .upload(&bytes)
+            .map_err(|e| Outcome::Failed(e.client_message()))?
+    };
+    store
+        .compiled(&local)
+        .map_err(|e| Outcome::Failed(e.client_message()))
+}
+
 /// What became of a unit.
-enum Outcome {
+pub(super) enum Outcome {
     /// Rendered; its sums are stored under this name.
     Rendered(String, RenderStats, f64),
     /// It cannot be rendered (its job fails with this).
@@ -298,7 +330,7 @@ enum Outcome {
 
 /// Reports `info` every [`HEARTBEAT`] under the worker's name (it expires when the
 /// worker stops reporting).
-async fn heartbeat(js: Js, info: Arc<Mutex<WorkerInfo>>) {
+pub(super) async fn heartbeat(js: Js, info: Arc<Mutex<WorkerInfo>>) {
     let kv = match js.get_key_value(WORKERS_BUCKET).await {
         Ok(kv) => kv,
         Err(e) => return tracing::warn!("no heartbeat bucket: {e}"),

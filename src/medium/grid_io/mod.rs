@@ -55,14 +55,20 @@
 //! Level-set grids (class `"level set"`) are refused: they hold signed distances, not
 //! densities. vdb-rs panics on some malformed input; those panics are caught and
 //! returned as errors, but a size field forged to an absurd value can still make it
-//! request memory the machine cannot give, which aborts the process.
+//! request memory the machine cannot give, which aborts the process. So a server or
+//! worker reads `.vdb` files in a child process with a memory limit and a deadline
+//! (`vdb_child`); only a local render reads them in process.
 
 mod raw;
 mod vdb;
+mod vdb_child;
 mod vol;
 
 pub use raw::{decode_raw, raw_data_file, write_raw};
-pub use vol::{decode_vol, write_vol};
+pub use vdb_child::{
+    child_main as vdb_child_main, isolate_vdb, read_in_child as read_vdb_in_child, Isolation,
+};
+pub use vol::{decode_vol, encode_vol, write_vol};
 
 use std::fs::File;
 use std::io::{self, Read, Write};
@@ -327,7 +333,7 @@ pub fn load_grid(path: &Path, grid: Option<&str>) -> Result<DenseGrid> {
     let loaded = match format {
         Format::Vol => vol::read_vol(path)?,
         Format::Raw => raw::read_raw(path)?,
-        Format::Vdb => vdb::read_vdb(path, grid.unwrap_or(vdb::DEFAULT_VDB_GRID))?,
+        Format::Vdb => vdb_child::read(path, grid.unwrap_or(vdb::DEFAULT_VDB_GRID))?,
     };
     check_grid(path, loaded)
 }

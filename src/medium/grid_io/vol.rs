@@ -5,7 +5,7 @@ use super::{
     DenseGrid, GridError, Result, MEMORY,
 };
 use std::fs::File;
-use std::io::{self, BufReader, BufWriter, Read, Write};
+use std::io::{self, BufReader, Read, Write};
 use std::path::Path;
 
 /// Bytes before the data in a Mitsuba .vol file.
@@ -85,23 +85,35 @@ fn read_vol_from(path: &Path, mut reader: impl Read, len: u64) -> Result<DenseGr
 /// Writes a Mitsuba volume (version 3, float32, one channel). A grid without bounds
 /// is written with the unit cube, the box Mitsuba assumes by default.
 pub fn write_vol(path: &Path, grid: &DenseGrid) -> io::Result<()> {
-    check_shape(grid)?;
-    let too_big = |_| io::Error::new(io::ErrorKind::InvalidInput, "dimension exceeds i32");
-    let dims: Vec<i32> = grid
-        .dims
-        .iter()
-        .map(|&d| i32::try_from(d).map_err(too_big))
-        .collect::<io::Result<_>>()?;
+    let bytes = encode_vol(grid)?;
+    let mut f = File::create(path)?;
+    f.write_all(&bytes)?;
+    f.sync_all()
+}
+
+/// [`write_vol`] to a writer (`dims` checked to fit an i32).
+fn write_vol_to(w: &mut impl Write, grid: &DenseGrid, dims: &[i32]) -> io::Result<()> {
     let (min, max) = grid.bounds.unwrap_or(([0.0; 3], [1.0; 3]));
-    let mut w = BufWriter::new(File::create(path)?);
     w.write_all(b"VOL\x03")?;
     for v in [1, dims[0], dims[1], dims[2], 1] {
         w.write_all(&v.to_le_bytes())?;
     }
-    write_floats(&mut w, &min)?;
-    write_floats(&mut w, &max)?;
-    write_floats(&mut w, &grid.data)?;
-    w.into_inner().map_err(|e| e.into_error())?.sync_all()
+    write_floats(w, &min)?;
+    write_floats(w, &max)?;
+    write_floats(w, &grid.data)
+}
+
+/// The bytes [`write_vol`] writes.
+pub fn encode_vol(grid: &DenseGrid) -> io::Result<Vec<u8>> {
+    check_shape(grid)?;
+    let dims: Vec<i32> = grid
+        .dims
+        .iter()
+        .map(|&d| i32::try_from(d).map_err(|_| io::Error::other("dimension exceeds i32")))
+        .collect::<io::Result<_>>()?;
+    let mut out = Vec::with_capacity(VOL_HEADER_BYTES as usize + 4 * grid.data.len());
+    write_vol_to(&mut out, grid, &dims)?;
+    Ok(out)
 }
 
 /// A Mitsuba `.vol` file in memory (for fuzzing and tests), checked as [`load_grid`]

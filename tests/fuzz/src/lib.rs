@@ -16,6 +16,7 @@ pub const TARGETS: &[&str] = &[
     "ply",
     "vol",
     "raw_grid",
+    "vdb",
 ];
 
 /// Feeds `data` to the reader `target` and says how it went ("ok" or the error);
@@ -35,6 +36,7 @@ pub fn run(target: &str, data: &[u8]) -> Option<String> {
         "ply" => outcome(load::parse_ply(data, "shapes[0]", "fuzz.ply")),
         "vol" => outcome(grid_io::decode_vol(data)),
         "raw_grid" => raw_grid(data),
+        "vdb" => vdb(data),
         _ => return None,
     })
 }
@@ -63,6 +65,26 @@ fn raw_grid(data: &[u8]) -> String {
     let split = data.iter().position(|&b| b == 0).unwrap_or(data.len());
     let rest = data.get(split + 1..).unwrap_or(&[]);
     outcome(caustic::medium::grid_io::decode_raw(&data[..split], rest))
+}
+
+/// An OpenVDB file, read in process (as a local render reads it; servers read them
+/// in a child process, `grid_io::vdb_child`) from a file in /dev/shm, since the
+/// reader takes a path. Its aborts are the findings: each is kept as a regression
+/// input that the child process must survive (tests/readers.rs).
+fn vdb(data: &[u8]) -> String {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    let dir = DIR.get_or_init(|| {
+        let shm = std::path::Path::new("/dev/shm");
+        let dir = if shm.is_dir() {
+            tempfile::tempdir_in(shm)
+        } else {
+            tempfile::tempdir()
+        };
+        dir.expect("temp dir for vdb inputs")
+    });
+    let path = dir.path().join("input.vdb");
+    std::fs::write(&path, data).expect("write the input");
+    outcome(caustic::medium::grid_io::load_grid(&path, Some("density")))
 }
 
 /// Largest bundle the target accepts, and so the most it may unpack.

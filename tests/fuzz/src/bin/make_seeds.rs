@@ -54,6 +54,7 @@ fn main() {
     save(&out, "ply", "le.ply", &ply_binary(false));
     save(&out, "ply", "be.ply", &ply_binary(true));
     grid_seeds(&out);
+    vdb_seeds(&out, &repo);
 }
 
 fn save(out: &Path, target: &str, name: &str, bytes: &[u8]) {
@@ -254,6 +255,14 @@ fn ply_binary(big: bool) -> Vec<u8> {
         }
     }
     out
+}
+
+/// The two smaller OpenVDB test files (zlib, and half floats without compression).
+fn vdb_seeds(out: &Path, repo: &Path) {
+    for name in ["density_zip.vdb", "temperature_active.vdb"] {
+        let bytes = std::fs::read(repo.join("tests/data").join(name)).unwrap();
+        save(out, "vdb", name, &bytes);
+    }
 }
 
 /// A 3 x 4 x 5 grid as .vol and as a raw grid (header, NUL, data: raw_grid's input).
