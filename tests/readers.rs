@@ -453,7 +453,7 @@ fn a_vdb_grid_read_by_the_child_process_is_the_grid_read_in_process() {
 #[test]
 fn a_vdb_file_that_aborts_its_reader_is_an_error_naming_the_file_only() {
     use caustic::medium::grid_io::read_vdb_in_child;
-    // A size field forged to 2^32 - 1 bytes: vdb-rs asks for the memory and the
+    // A size field forged to 2^31 - 1: vdb-rs asks for about 4 GiB and the
     // child, past its address-space limit, aborts (found by scanning mutations).
     let forged = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/vdb/alloc_4g.vdb");
     let err = read_vdb_in_child(&isolation(Duration::from_secs(60)), &forged, "density")
