@@ -44,7 +44,11 @@ fn main() {
     save(&out, "hdr", "flat.hdr", &hdr(false));
     save(&out, "hdr", "rle.hdr", &hdr(true));
     for (name, bytes) in image_seeds() {
-        let target = if name.ends_with(".png") { "png" } else { "jpeg" };
+        let target = if name.ends_with(".png") {
+            "png"
+        } else {
+            "jpeg"
+        };
         save(&out, target, name, &bytes);
     }
     for (name, text) in OBJS {
@@ -193,7 +197,8 @@ fn exr_file(compression: x::Compression, half: bool, tiles: bool, parts: usize) 
 fn image_seeds() -> Vec<(&'static str, Vec<u8>)> {
     use image::{DynamicImage, ImageFormat};
     let rgb = image::RgbImage::from_fn(8, 4, |x, y| image::Rgb([x as u8 * 30, y as u8 * 60, 90]));
-    let grey_alpha = image::GrayAlphaImage::from_fn(5, 3, |x, y| image::LumaA([x as u8 * 50, y as u8 * 80]));
+    let grey_alpha =
+        image::GrayAlphaImage::from_fn(5, 3, |x, y| image::LumaA([x as u8 * 50, y as u8 * 80]));
     let deep = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(4, 4, |x, y| {
         image::Rgb([x as u16 * 9000, y as u16 * 9000, 4000])
     });
@@ -204,10 +209,19 @@ fn image_seeds() -> Vec<(&'static str, Vec<u8>)> {
     };
     vec![
         ("rgb.png", encode(rgb.clone().into(), ImageFormat::Png)),
-        ("grey_alpha.png", encode(grey_alpha.into(), ImageFormat::Png)),
+        (
+            "grey_alpha.png",
+            encode(grey_alpha.into(), ImageFormat::Png),
+        ),
         ("deep.png", encode(deep.into(), ImageFormat::Png)),
         ("rgb.jpg", encode(rgb.clone().into(), ImageFormat::Jpeg)),
-        ("grey.jpg", encode(DynamicImage::from(rgb).into_luma8().into(), ImageFormat::Jpeg)),
+        (
+            "grey.jpg",
+            encode(
+                DynamicImage::from(rgb).into_luma8().into(),
+                ImageFormat::Jpeg,
+            ),
+        ),
     ]
 }
 
