@@ -143,7 +143,9 @@ fn vcm_radius_layers_in_fog_equal_separate_jobs() {
 #[test]
 fn upbp_radius_layers_in_fog_equal_separate_jobs() {
     let scene = shipped_media("fog-cornell", 16, 8);
-    let base = json!({"radius": 0.03, "medium_radius": 0.05, "techniques": "bpt+surf+pp3d"});
+    // A job with radii selects `all` (`auto` is adaptive without them).
+    let base = json!({"radius": 0.03, "medium_radius": 0.05, "techniques": "bpt+surf+pp3d",
+                      "selection": "all"});
     assert_layers_are_separate_jobs(
         &scene,
         "upbp",
@@ -163,7 +165,7 @@ fn upbp_beam_radius_layers_in_fog_equal_separate_jobs() {
     for query_beams in ["short", "long"] {
         let base = json!({"radius": 0.03, "medium_radius": 0.05, "pb2d_radius": 0.04,
                           "bb1d_radius": 0.015, "query_beams": query_beams,
-                          "techniques": "bpt+surf+pp3d+pb2d+bb1d"});
+                          "techniques": "bpt+surf+pp3d+pb2d+bb1d", "selection": "all"});
         assert_layers_are_separate_jobs(
             &scene,
             "upbp",

@@ -185,14 +185,30 @@ fn radius_sweeps_that_cannot_share_a_job_run_separately() {
 }
 
 /// A sweep over a volume radius (`upbp`'s beam x beam 1D radius, the job's `radius`
-/// fixed): one job whose layers repeat the radius and list the beam radii, each point
-/// with the error of a separate job.
+/// fixed) with `selection: all`: one job whose layers repeat the radius and list the
+/// beam radii, each point with the error of a separate job. With the default
+/// `selection: auto`, adaptive for each separate job but not for one with layers, the
+/// points stay separate jobs.
 #[test]
 fn a_beam_radius_sweep_is_one_upbp_job() {
     let s = TestServer::start(None);
     let setup = upload_with_reference(&s, foggy_scene(12));
-    let base = json!({"algorithm": "upbp", "params": {"radius": 0.05, "light_paths": 0.5}});
+    let params = json!({"radius": 0.05, "light_paths": 0.5});
     let key = "params.bb1d_radius";
+    let auto = sweep_over(
+        &s,
+        &setup,
+        (json!({"algorithm": "upbp", "params": params}), key),
+        json!({}),
+    );
+    let jobs: std::collections::BTreeSet<_> = rows(&auto)
+        .iter()
+        .map(|r| r["job"].as_str().unwrap())
+        .collect();
+    assert_eq!(jobs.len(), rows(&auto).len(), "{auto}");
+    let mut params = params;
+    params["selection"] = json!("all");
+    let base = json!({"algorithm": "upbp", "params": params});
     let layered = sweep_over(&s, &setup, (base.clone(), key), json!({}));
     let separate = sweep_over(&s, &setup, (base, key), json!({"radius_layers": false}));
     let (shared, own) = (rows(&layered), rows(&separate));

@@ -440,6 +440,16 @@ impl Settings {
         s.radii.iter().enumerate().map(layer).collect()
     }
 
+    /// Whether the radius layers are not what separate jobs of one radius each (these
+    /// settings without `radii`) would render: their `selection: auto` differs.
+    pub fn layers_differ_from_separate_jobs(&self) -> bool {
+        let (name, Settings::Bpm(s) | Settings::Vcm(s) | Settings::Upbp(s)) = (self.name(), self)
+        else {
+            return false;
+        };
+        s.radii_change_selection(s.technique_of(name))
+    }
+
     pub fn build(&self) -> Box<dyn Integrator> {
         let (name, params) = self.parts();
         params.build(name)

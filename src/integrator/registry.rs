@@ -399,6 +399,31 @@ mod tests {
         Settings::resolve(Some("upbp"), None, &fine).unwrap();
     }
 
+    /// `selection: auto` (the default) is adaptive for plain `upbp` only; an explicit
+    /// choice stands.
+    #[test]
+    fn the_default_selection_is_adaptive_for_upbp_alone() {
+        use bidir::PixelSelection::{Adaptive, All};
+        let resolved = |alg: &str, params: Value| {
+            let (Settings::Bpm(s) | Settings::Vcm(s) | Settings::Upbp(s)) =
+                Settings::resolve(Some(alg), None, &map(params)).unwrap()
+            else {
+                panic!("{alg} is not a merging algorithm");
+            };
+            s.selection_for(s.technique_of(alg))
+        };
+        assert_eq!(resolved("upbp", json!({})), Adaptive);
+        assert_eq!(resolved("upbp", json!({"selection": "all"})), All);
+        assert_eq!(resolved("upbp", json!({"radii": [0.01, 0.02]})), All);
+        let correlated = json!({"correlation_aware": true, "merge_depth": "all"});
+        assert_eq!(resolved("upbp", correlated), All);
+        // Connections alone: nothing to select.
+        assert_eq!(resolved("upbp", json!({"techniques": "bpt"})), All);
+        assert_eq!(resolved("vcm", json!({})), All);
+        assert_eq!(resolved("bpm", json!({})), All);
+        assert_eq!(resolved("vcm", json!({"selection": "adaptive"})), Adaptive);
+    }
+
     #[test]
     fn correlation_aware_is_refused_where_its_evaluator_does_not_reach() {
         let on = |extra: serde_json::Value| {

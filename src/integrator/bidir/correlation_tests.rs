@@ -26,7 +26,8 @@ fn quarters(scene: &Scene, alg: &str, params: &serde_json::Value, seeds: u64) ->
         .collect()
 }
 
-/// `alg` with `params` against the same with `correlation_aware`: per quarter, the
+/// `alg` with `params` against the same with `correlation_aware` (for `upbp`, `params`
+/// select `all`, which correlation-aware jobs take): per quarter, the
 /// paired mean difference within 4 standard errors; and the largest single-seed
 /// difference relative to the quarter's mean, which the caller asserts is not
 /// rounding (the weights do move).
@@ -80,7 +81,7 @@ fn correlation_aware_upbp_keeps_its_expectation_in_media() {
         let scene = scene(&format!("scenes/media/{file}.json"), 16);
         let params = serde_json::json!({
             "max_depth": 6, "merge_depth": "all", "techniques": "bpt+surf+pp3d",
-            "radius_factor": 0.0125, "medium_radius_factor": 0.01
+            "radius_factor": 0.0125, "medium_radius_factor": 0.01, "selection": "all"
         });
         let moved = agrees(&scene, "upbp", params, 100);
         assert!(moved > 1e-4, "{file}: the weights did not move ({moved})");
@@ -102,7 +103,7 @@ fn correlation_aware_upbp_with_beams_keeps_its_expectation() {
         let params = serde_json::json!({
             "max_depth": 6, "merge_depth": "all", "query_beams": beams,
             "radius_factor": 0.0125, "medium_radius_factor": 0.01,
-            "pb2d_radius_factor": 0.005, "bb1d_radius_factor": 0.0025
+            "pb2d_radius_factor": 0.005, "bb1d_radius_factor": 0.0025, "selection": "all"
         });
         let moved = agrees(&scene, "upbp", params, 100);
         assert!(moved > 1e-4, "{file}: the weights did not move ({moved})");

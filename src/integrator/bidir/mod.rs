@@ -106,7 +106,7 @@ pub struct Bidir {
 
 impl Bidir {
     pub fn new(technique: Technique, s: BidirSettings) -> Self {
-        let adaptive = (s.selection == PixelSelection::Adaptive)
+        let adaptive = (s.selection_for(technique) == PixelSelection::Adaptive)
             .then(|| Mutex::new(adaptive::State::default()));
         Bidir {
             layers: Layers::new(&s, technique),

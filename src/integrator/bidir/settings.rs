@@ -161,10 +161,10 @@ impl Estimators {
 /// | `max_vertex_mib` | 2048 | budget for stored light vertices (and segments) per iteration |
 /// | `technique_layers` | false | `vcm`: EXR layers `vc` and `vm` with the connection-only and merging-only parts (thesis Table 5.5); `upbp`: one layer per technique |
 /// | `depth_layers` | false | with `technique_layers`: each merge layer split by the camera vertex or segment the merge sits at: `<technique>_c1`, `_c2`, `_c3+` |
-/// | `radii` | none | `bpm`, `vcm`, `upbp`: more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding); at most 16 |
+/// | `radii` | none | `bpm`, `vcm`, `upbp`: more initial surface merge radii in scene units (a list, or a string joined by `+` or spaces), each rendered into its own EXR layer `radius0`, `radius1`, ... in the same job, from the same light paths, connections and merge queries: layer i is the image the job would render with `radius: radii[i]` (up to float rounding; for `upbp`, whose `selection: auto` is adaptive, with `selection: all`, which a job with `radii` takes); at most 16 |
 /// | `medium_radii` | none | with `radii`: the layers' initial medium merge radii (as `medium_radius`), one per radius; absent, every layer keeps the job's own |
 /// | `pb2d_radii`, `bb1d_radii` | none | with `radii`: the layers' initial point x beam 2D and beam x beam 1D radii (as `pb2d_radius`, `bb1d_radius`), one per radius; absent, every layer keeps the job's own |
-/// | `selection` | `all` | `bpm`, `vcm`, `upbp`: every pixel merges with every estimator (`all`), or each pixel keeps the estimators that render it most efficiently (`adaptive`: second moments and merge counts measured at iterations 0, 3, 15, 63, ..., choices renewed after 4^j iterations; paths only a dropped estimator finds keep it, so the image stays unbiased); not with `radii` |
+/// | `selection` | `auto` | `bpm`, `vcm`, `upbp`: every pixel merges with every estimator (`all`), or each pixel keeps the estimators that render it most efficiently (`adaptive`: second moments and merge counts measured at iterations 0, 3, 15, 63, ..., choices renewed after 4^j iterations; paths only a dropped estimator finds keep it, so the image stays unbiased; not with `radii` or `correlation_aware`); `auto` is `adaptive` for `upbp` (what measured best at equal time) unless `radii` or `correlation_aware` is given, and `all` otherwise |
 /// | `strategy_images` | 0 | `bpt`/`vcm`/`lt`: one EXR layer `s<S>_t<T>` per connection strategy for path lengths up to this (0: off) |
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -237,7 +237,7 @@ impl Default for BidirSettings {
             techniques: UpbpTechnique::ALL.to_vec(),
             merge_first: true,
             merge_depth: MergeDepth::First,
-            selection: PixelSelection::All,
+            selection: PixelSelection::Auto,
             correlation_aware: false,
             local_media_mis: false,
             russian_roulette: true,
@@ -268,8 +268,11 @@ pub enum MergeDepth {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PixelSelection {
-    /// Every estimator of the technique, everywhere.
+    /// `Adaptive` where the job can take it and it measured best (`upbp` without
+    /// `radii` or `correlation_aware`), else `All`: [`BidirSettings::selection_for`].
     #[default]
+    Auto,
+    /// Every estimator of the technique, everywhere.
     All,
     /// Per pixel, chosen by efficiency from pilot iterations (`bidir::adaptive`).
     Adaptive,
@@ -342,6 +345,39 @@ fn check_alpha(name: &str, alpha: f32) -> Result<(), ParamError> {
 
 impl BidirSettings {
     /// The technique this algorithm runs as (`upbp`'s from its `techniques`).
+    /// The selection a job of `technique` renders with: `auto` resolved. Adaptive
+    /// selection is `upbp`'s default because it measured best at equal time on five
+    /// of the issue-39 scenes (1.3x to 2.4x the best single method's RMSE, against
+    /// 2.2x to 5.2x with every estimator everywhere; scenes/media/bench-upbp-39).
+    /// `bpm` and `vcm` keep every estimator: their adaptive selection was not
+    /// measured against it. Nor is it combined with radius layers or correlation-aware
+    /// weights, which it does not support yet.
+    pub fn selection_for(&self, technique: Technique) -> PixelSelection {
+        match self.selection {
+            PixelSelection::Auto => {
+                let upbp = matches!(technique, Technique::Upbp(_));
+                let plain = self.radii.is_empty() && !self.correlation_aware;
+                if upbp && plain && technique.merges() {
+                    PixelSelection::Adaptive
+                } else {
+                    PixelSelection::All
+                }
+            }
+            chosen => chosen,
+        }
+    }
+
+    /// Whether `radii` changed what `auto` resolves to: the same job without them
+    /// (a separate job of one radius) would select adaptively, so its image is not
+    /// the radius layer's.
+    pub fn radii_change_selection(&self, technique: Technique) -> bool {
+        let single = BidirSettings {
+            radii: Vec::new(),
+            ..self.clone()
+        };
+        single.selection_for(technique) != self.selection_for(technique)
+    }
+
     pub fn technique_of(&self, name: &str) -> Technique {
         match name {
             "lt" => Technique::Lt,

@@ -77,7 +77,9 @@ impl Service {
 
     /// The one job of a group of points that differ only in their radius, if the
     /// group has several points and such a job prepares (the algorithm has radius
-    /// layers, and the job fits the memory budget); None: separate jobs.
+    /// layers, and the job fits the memory budget) and renders what the separate jobs
+    /// would (not `upbp` whose `selection: auto` the layers turn from adaptive to
+    /// `all`); None: separate jobs.
     fn prepare_layered(
         &self,
         spec: &SweepSpec,
@@ -87,7 +89,8 @@ impl Service {
         let swept = spec.swept_radius().filter(|_| group.len() > 1)?;
         let specs: Vec<&JobSpec> = group.iter().map(|&i| &expanded[i].1).collect();
         let job = self.prepare(layered_spec(&specs, swept)).ok()?;
-        (job.1.radius_layers().len() + 1 == group.len()).then_some(job)
+        let layers = job.1.radius_layers().len();
+        (layers + 1 == group.len() && !job.1.layers_differ_from_separate_jobs()).then_some(job)
     }
 
     pub fn get_sweep(&self, id: &str) -> Result<Sweep, JobError> {

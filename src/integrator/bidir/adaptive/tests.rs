@@ -125,7 +125,7 @@ fn adaptive_upbp_agrees_with_upbp() {
             }
             q
         };
-        let plain = serde_json::json!({"max_depth": 6});
+        let plain = serde_json::json!({"max_depth": 6, "selection": "all"});
         let runs: Vec<([f64; 4], [f64; 4])> = (0..10)
             .map(|seed| {
                 (

@@ -130,7 +130,8 @@ fn pixels_render_as_the_job_of_their_candidate() {
 fn upbp_pixels_render_as_the_job_of_their_candidate() {
     let scene = scene("scenes/media/fog-cornell.json", 16);
     let params = serde_json::json!({"max_depth": 5, "radius_factor": 0.1,
-        "medium_radius_factor": 0.1, "pb2d_radius_factor": 0.05, "bb1d_radius_factor": 0.05});
+        "medium_radius_factor": 0.1, "pb2d_radius_factor": 0.05, "bb1d_radius_factor": 0.05,
+        "selection": "all"});
     let sets = [
         "bpt+surf+pp3d+pb2d+bb1d",
         "bpt",

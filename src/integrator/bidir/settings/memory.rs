@@ -61,7 +61,7 @@ impl BidirSettings {
             let bytes = BeamStore::bytes_for(points, segments, pieces);
             e.add("photon points and beams", &driver, bytes);
         }
-        let adaptive = self.selection == PixelSelection::Adaptive;
+        let adaptive = self.selection_for(technique) == PixelSelection::Adaptive;
         if self.correlation_aware {
             // Each stored vertex's link, and in its merge set (or among the photon
             // points) where it sits; each kept segment's flight start, in the store
