@@ -167,6 +167,48 @@ fn reference_writes_an_exr() {
     assert!(img.mean().y > 0.0);
 }
 
+/// `reference --variance-layer`: each pixel's estimated variance of its mean, which
+/// must explain the squared difference of two references of other seeds:
+/// E[(a - b)^2] = var_a + var_b per value, checked over all values within 4 standard
+/// errors of their mean difference.
+#[test]
+fn a_reference_variance_layer_explains_the_difference_of_two_references() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let render = |seed: &str| {
+        let exr = dir.path().join(format!("ref{seed}.exr"));
+        run(caustic()
+            .arg("reference")
+            .arg(&scene)
+            .args(["-a", "pt", "--spp", "32", "--variance-layer"])
+            .args(["--seed", seed])
+            .args(["--param", "max_depth=4", "-o"])
+            .arg(&exr));
+        let image = caustic::film::read_exr(&exr).unwrap();
+        let variance = caustic::film::read_exr_layer(&exr, "variance").unwrap();
+        (image, variance)
+    };
+    let ((a, va), (b, vb)) = (render("1"), render("2"));
+    let mut gaps = Vec::new();
+    for i in 0..a.pixels().len() {
+        let d = a.pixels()[i] - b.pixels()[i];
+        let v = va.pixels()[i] + vb.pixels()[i];
+        assert!(
+            v.is_finite() && v.min_element() >= 0.0,
+            "pixel {i}: variance {v:?}"
+        );
+        gaps.extend((d * d - v).to_array().map(f64::from));
+    }
+    let n = gaps.len() as f64;
+    let mean = gaps.iter().sum::<f64>() / n;
+    let var = gaps.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let scale = va.mean().y as f64;
+    assert!(scale > 0.0, "no variance in the layer");
+    let z = mean / (var / n).sqrt();
+    eprintln!("mean (a - b)^2 - (var_a + var_b): {mean:.3e} ({z:.2} se); mean var {scale:.3e}");
+    assert!(z.abs() < 4.0, "{z} standard errors");
+}
+
 #[test]
 fn speed_bench_reports_wall_and_cpu_time_per_iteration() {
     let dir = tempfile::tempdir().unwrap();

@@ -9,7 +9,9 @@
 # seed REF_SEED (default 1000, shared with no run). Writes OUT/<scene>/reference.exr,
 # OUT/<scene>/seed<S>/ (bench.csv, rmse_vs_time.png, the final images) and
 # OUT/<scene>/seed<S>.txt, then prints per scene and algorithm the median RMSE over the
-# seeds, its min-max spread, and the same without the lamp pixels
+# seeds, its min-max spread, and the same without the lamp pixels, with the
+# reference's own estimated noise taken out where it has a variance layer (as this
+# script renders it)
 # (deploy/scripts/equal_time_summary.py, which needs numpy and OpenEXR; PYTHON names
 # the interpreter that has them, default python3): OUT/summary.txt and OUT/summary.csv.
 #
@@ -52,7 +54,7 @@ for scene in "${scenes[@]}"; do
         cp "$REFS/$scene/reference.exr" "$dir/reference.exr"
     elif [ ! -f "$dir/reference.exr" ]; then
         "$c" reference "scenes/media/$scene.json" -a "${REF_ALG:-volpath}" --time "$ref" \
-            --seed "${REF_SEED:-1000}" "${threads[@]}" -o "$dir/reference.exr"
+            --seed "${REF_SEED:-1000}" "${threads[@]}" --variance-layer -o "$dir/reference.exr"
     fi
     for seed in $(seq 0 $((seeds - 1))); do
         "$c" bench "scenes/media/$scene.json" --algorithms "$algs" --time "$secs" \

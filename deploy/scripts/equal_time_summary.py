@@ -15,6 +15,14 @@ bench.csv. For each scene and algorithm it prints, over the seeds:
   does not start with `upbp`; of all entries if there are none), the figure the issue's
   targets are stated in.
 
+Where the reference has a `variance` layer (`caustic reference --variance-layer`, as
+bench-upbp.sh renders it), each pixel's estimated variance of the reference is taken
+out of the squared errors: E[(image - reference)^2] = E[(image - truth)^2] +
+var(reference), as the two renders share no samples. Every figure is then the RMSE
+against the true image, which matters when the runs are long enough that the
+reference's own noise is not small beside theirs (the 240 s budget); the header says
+so and gives the reference's own RMSE.
+
 It also writes OUT/summary.csv, one row per scene and algorithm.
 
     python3 deploy/scripts/equal_time_summary.py OUT [SCENE...] [--bright 3]
@@ -28,12 +36,30 @@ import statistics
 
 import numpy as np
 
+import OpenEXR
+
 from pair_variance import load
 
 
-def rmse(image, reference, keep=None):
+def rmse(image, reference, keep=None, noise=None):
+    """RMSE over all values (of the pixels in `keep`), less the reference's estimated
+    variance `noise` where given (never below 0)."""
     d2 = (image - reference) ** 2
-    return float(np.sqrt(d2[keep].mean() if keep is not None else d2.mean()))
+    if noise is not None:
+        d2 = d2 - noise
+    return float(np.sqrt(max(d2[keep].mean() if keep is not None else d2.mean(), 0.0)))
+
+
+def reference_noise(path):
+    """The reference's `variance` layer, or None."""
+    part = OpenEXR.File(path).parts[0]
+    for name in ("variance.RGB", "variance"):
+        if name in part.channels:
+            return np.asarray(part.channels[name].pixels, dtype=np.float64)
+    if all(f"variance.{c}" in part.channels for c in "RGB"):
+        return np.stack([np.asarray(part.channels[f"variance.{c}"].pixels, dtype=np.float64)
+                         for c in "RGB"], axis=-1)
+    return None
 
 
 def last_rows(bench_csv):
@@ -54,17 +80,21 @@ def seed_dirs(scene_dir):
 
 
 def measure_scene(scene_dir, bright):
-    """({algorithm: [(iterations, rmse, rmse without lamp), one per seed]}, lamp pixels)."""
-    reference = load(os.path.join(scene_dir, "reference.exr"))
+    """({algorithm: [(iterations, rmse, rmse without lamp), one per seed]}, lamp pixels,
+    the reference's own estimated RMSE or None)."""
+    path = os.path.join(scene_dir, "reference.exr")
+    reference, noise = load(path), reference_noise(path)
     keep = reference.mean(axis=2) <= bright
     runs = {}
     for d in seed_dirs(scene_dir):
         for name, row in last_rows(os.path.join(d, "bench.csv")).items():
             image = load(os.path.join(d, f"{name}.exr"))
             runs.setdefault(name, []).append(
-                (int(row["iteration"]), rmse(image, reference), rmse(image, reference, keep))
+                (int(row["iteration"]), rmse(image, reference, None, noise),
+                 rmse(image, reference, keep, noise))
             )
-    return runs, int((~keep).sum())
+    own = None if noise is None else float(np.sqrt(noise.mean()))
+    return runs, int((~keep).sum()), own
 
 
 def best_single(medians):
@@ -76,7 +106,7 @@ def spread(values):
     return statistics.median(values), min(values), max(values)
 
 
-def summarise(scene, runs, lamp_pixels):
+def summarise(scene, runs, lamp_pixels, own):
     """Printed table and csv rows of one scene."""
     all_px = {name: spread([r[1] for r in rs]) for name, rs in runs.items()}
     no_lamp = {name: spread([r[2] for r in rs]) for name, rs in runs.items()}
@@ -85,7 +115,9 @@ def summarise(scene, runs, lamp_pixels):
     seeds = max(len(rs) for rs in runs.values())
     lines = [
         f"{scene}: {seeds} seeds; without lamp = without the {lamp_pixels} pixels above "
-        f"the threshold in the reference; x best = median / best single method's median",
+        f"the threshold in the reference; x best = median / best single method's median"
+        + ("" if own is None else
+           f"; the reference's own noise (RMSE {own:.4e}) taken out of every figure"),
         f"{'algorithm':<26} {'seeds':>5} {'iters':>7} {'RMSE':>10} {'min':>10} {'max':>10}"
         f" {'x best':>7} {'w/o lamp':>10} {'min':>10} {'max':>10} {'x best':>7}",
     ]
@@ -97,7 +129,8 @@ def summarise(scene, runs, lamp_pixels):
             f"{name:<26} {len(rs):>5} {iters:>7.0f} {a[0]:>10.4e} {a[1]:>10.4e} {a[2]:>10.4e}"
             f" {a[0] / best:>7.2f} {n[0]:>10.4e} {n[1]:>10.4e} {n[2]:>10.4e} {n[0] / best_nl:>7.2f}"
         )
-        rows.append([scene, name, len(rs), iters, *a, a[0] / best, *n, n[0] / best_nl])
+        rows.append([scene, name, len(rs), iters, *a, a[0] / best, *n, n[0] / best_nl,
+                     "" if own is None else own])
     return "\n".join(lines), rows
 
 
@@ -112,7 +145,8 @@ def main():
         if os.path.isdir(os.path.join(a.out, d)) and seed_dirs(os.path.join(a.out, d))
     )
     header = ["scene", "algorithm", "seeds", "iterations", "rmse_median", "rmse_min", "rmse_max",
-              "rmse_x_best", "no_lamp_median", "no_lamp_min", "no_lamp_max", "no_lamp_x_best"]
+              "rmse_x_best", "no_lamp_median", "no_lamp_min", "no_lamp_max", "no_lamp_x_best",
+              "reference_rmse_removed"]
     table = [header]
     for scene in scenes:
         text, rows = summarise(scene, *measure_scene(os.path.join(a.out, scene), a.bright))

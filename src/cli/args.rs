@@ -448,6 +448,11 @@ pub struct ReferenceArgs {
     /// Also write an sRGB PNG here.
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Also write each pixel's estimated variance (of its mean, from the reference's
+    /// own iterations) as the EXR layer `variance`, so that error measurements can
+    /// take the reference's own noise out of squared errors.
+    #[arg(long)]
+    pub variance_layer: bool,
 }
 
 #[derive(Args)]

@@ -187,7 +187,18 @@ pub fn reference(a: &ReferenceArgs) -> Result<()> {
     };
     let out = render_with_progress(&scene, &settings, a.seed, halt, "");
     let image = out.image();
-    film::write_exr(&a.output, &image)?;
+    match out.noise.as_ref().filter(|_| a.variance_layer) {
+        Some(noise) => {
+            film::write_exr_layers(&a.output, &image, &[("variance", &noise.variance_image())])?
+        }
+        None => film::write_exr(&a.output, &image)?,
+    }
+    if a.variance_layer && out.noise.is_none() {
+        eprintln!(
+            "warning: {} carries statistics from one iteration to the next: no variance layer",
+            settings.name()
+        );
+    }
     eprintln!("wrote {}", a.output.display());
     if let Some(p) = &a.png {
         film::write_png(p, &image, 0.0)?;
