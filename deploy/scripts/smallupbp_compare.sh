@@ -1,21 +1,26 @@
 #!/usr/bin/env bash
 # caustic's upbp against SmallUPBP (Křivánek et al. 2014's reference code) on one of
-# SmallUPBP's built-in scenes, rebuilt in caustic's format, 256 x 256, 2 threads, path
+# SmallUPBP's built-in scenes, rebuilt in caustic's format, 256 x 256, THREADS threads (default 2), path
 # length 10:
 #   SCENE=1  scenes/media/smallupbp-scene1.json: the Cornell box with a sphere of
 #            isotropic medium (sigma_s 0.9), lit from the small ceiling lamp;
 #   SCENE=2  scenes/media/smallupbp-scene2.json: a mirror sphere, a glossy floor and a
 #            weak isotropic medium (sigma_s 0.1) filling all space, the camera's too.
 #
-#   [SCENE=1|2] [PBC=0.01] deploy/scripts/smallupbp_compare.sh SMALLUPBP_BINARY [OUT] [ROUNDS] [SECONDS] [REFERENCE]
+#   [SCENE=1|2] [PBC=0.01] [THREADS=2] deploy/scripts/smallupbp_compare.sh SMALLUPBP_BINARY [OUT] [ROUNDS] [SECONDS] [REFERENCE]
+#
+# THREADS sets both programs' thread count (e.g. THREADS=1 under `taskset -c 1`).
 #
 # 1. CPU seconds per iteration (user + sys over a fixed iteration count) of each
 #    technique set, bpt, pp3d, pb2d, bb1d and all, for both programs, alternately,
 #    ROUNDS times: OUT/timing.csv, and the medians with caustic / SmallUPBP ratios in
 #    OUT/timing-summary.txt.
 # 2. Equal time (skipped when SECONDS is 0): upbp_all for SECONDS of wall time in each
-#    program, plus caustic's upbp at its own defaults, its bpt and volpath, against a
+#    program, plus caustic's upbp at its own defaults (adaptive selection), with
+#    `selection: all` at its own defaults otherwise, its bpt and volpath, against a
 #    caustic volpath reference of REFERENCE seconds (another seed): OUT/equal-time.txt.
+#    SmallUPBP checks its clock between iterations, so it may overrun SECONDS by up to
+#    one iteration: its log's "done in" line is the time it took.
 #
 # Both programs run with the UPBP paper's settings: long query beams, short photon
 # beams, and photon beams from the first PBC of each iteration's light paths
@@ -24,8 +29,9 @@
 # The radii are SmallUPBP's defaults on these scenes (both have scene radius 2.2171):
 # surface 0.0015 x the scene radius with alpha 0.75; point x point, point x beam and
 # beam x beam 0.001 x the scene radius, not reduced (alpha 1). Merges in media at
-# every camera segment and vertex, as SmallUPBP does by default (caustic's
-# merge_depth=all; its own default, first, is the "at its own defaults" run).
+# every camera segment and vertex and every estimator in every pixel, as SmallUPBP
+# does by default (caustic's merge_depth=all and selection=all; its own defaults,
+# first and adaptive, are the "at its own defaults" run).
 #
 # SmallUPBP is not part of this repository. Build it outside it from its public
 # sources (github.com/PetrVevoda/smallupbp): its bundled Embree 2.0 (CMake, built with
@@ -47,6 +53,7 @@ out=${2:-smallupbp-compare-scene$scene_id}
 rounds=${3:-3}
 secs=${4:-60}
 ref=${5:-600}
+threads=${THREADS:-2}
 case $scene_id in
     1 | 2) ;;
     *) echo "SCENE must be 1 or 2, not $scene_id" >&2; exit 2 ;;
@@ -62,8 +69,8 @@ p=(--param radius=0.003326 --param alpha=0.75
    --param pb2d_radius=0.002217 --param pb2d_alpha=1
    --param bb1d_radius=0.002217 --param bb1d_alpha=1
    --param beam_paths="$pbc" --param query_beams=long --param max_depth=10
-   --param merge_depth=all)
-s=(-s "$scene_id" -r 256x256 -th 2 -l 10 -qbt L -pbt S -pbc "-$pbc")
+   --param merge_depth=all --param selection=all)
+s=(-s "$scene_id" -r 256x256 -th "$threads" -l 10 -qbt L -pbt S -pbc "-$pbc")
 measure() { # command... -> "wall_s,cpu_s" (cpu = user + sys)
     /usr/bin/time -f "%e %U %S" -o time.txt "$@" > /dev/null 2>&1
     awk '{ printf "%s,%.2f\n", $1, $2 + $3 }' time.txt
@@ -77,7 +84,7 @@ for round in $(seq "$rounds"); do
         t=${entry%:*}
         n=${entry#*:}
         row "$round" caustic "$t" "$n" "$(measure "$c" render "$scene" -a upbp --spp "$n" \
-            --threads 2 "${p[@]}" --param techniques="$t" -o "caustic-$t.exr")"
+            --threads "$threads" "${p[@]}" --param techniques="$t" -o "caustic-$t.exr")"
         row "$round" smallupbp "$t" "$n" "$(measure "$sup" "${s[@]}" -a "upbp_$t" -i "$n" \
             -o "smallupbp-$t.exr")"
     done
@@ -95,13 +102,16 @@ for t in dict.fromkeys(r["technique"] for r in rows):
     print(f"{t:<10} {a:16.3f} {b:19.3f} {a / b:6.2f}")
 PY
 [ "$secs" = 0 ] && exit 0
-"$c" render "$scene" -a upbp --time "$secs" --threads 2 "${p[@]}" -o caustic-all-eq.exr
+"$c" render "$scene" -a upbp --time "$secs" --threads "$threads" "${p[@]}" -o caustic-all-eq.exr
 "$sup" "${s[@]}" -a upbp_all -t "$secs" -o smallupbp-all-eq.exr > smallupbp-all-eq.log
-"$c" render "$scene" -a upbp --time "$secs" --threads 2 --param max_depth=10 -o caustic-upbp-defaults-eq.exr
-"$c" render "$scene" -a upbp --time "$secs" --threads 2 --param max_depth=10 \
+"$c" render "$scene" -a upbp --time "$secs" --threads "$threads" --param max_depth=10 \
+    --param selection=adaptive -o caustic-upbp-defaults-eq.exr
+"$c" render "$scene" -a upbp --time "$secs" --threads "$threads" --param max_depth=10 \
+    --param selection=all -o caustic-upbp-all-defaults-eq.exr
+"$c" render "$scene" -a upbp --time "$secs" --threads "$threads" --param max_depth=10 \
     --param techniques=bpt -o caustic-bpt-eq.exr
-"$c" render "$scene" -a volpath --time "$secs" --threads 2 --param max_depth=10 -o caustic-volpath-eq.exr
-"$c" render "$scene" -a volpath --time "$ref" --threads 2 --seed 7 --param max_depth=10 -o reference.exr
-for f in caustic-all-eq smallupbp-all-eq caustic-upbp-defaults-eq caustic-bpt-eq caustic-volpath-eq; do
+"$c" render "$scene" -a volpath --time "$secs" --threads "$threads" --param max_depth=10 -o caustic-volpath-eq.exr
+"$c" render "$scene" -a volpath --time "$ref" --threads "$threads" --seed 7 --param max_depth=10 -o reference.exr
+for f in caustic-all-eq smallupbp-all-eq caustic-upbp-defaults-eq caustic-upbp-all-defaults-eq caustic-bpt-eq caustic-volpath-eq; do
     echo "$f $("$c" diff "$f.exr" reference.exr | tr '\n' ' ')"
 done | tee equal-time.txt
