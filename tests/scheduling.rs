@@ -139,7 +139,8 @@ fn at_most_max_active_jobs_are_held_in_memory() {
         std::thread::sleep(Duration::from_millis(20));
     }
     for id in &ids[1..] {
-        s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+        let (code, job) = s.post_json(&format!("/v1/jobs/{id}/cancel"), &json!({}));
+        assert_eq!((code, &job["state"]), (200, &json!("cancelled")), "{job}");
     }
     // A cancelled job lets go of its memory when its scheduler notices, just after the
     // request returns: wait for that, within a minute of the cancels (on one busy core
@@ -148,8 +149,9 @@ fn at_most_max_active_jobs_are_held_in_memory() {
     while metric(&s, "caustic_jobs_held") != 0 {
         assert!(
             cancelled.elapsed() < Duration::from_secs(60),
-            "cancelled jobs still held: {}",
-            metric(&s, "caustic_jobs_held")
+            "cancelled jobs still held: {}; jobs: {}",
+            metric(&s, "caustic_jobs_held"),
+            s.get_json("/v1/jobs").1
         );
         std::thread::sleep(Duration::from_millis(20));
     }

@@ -101,8 +101,12 @@ fn urgency(t: &Table, e: &Entry) -> i64 {
     e.status.spec.priority as i64 * AGING + t.tick.saturating_sub(e.served) as i64
 }
 
+/// Queued or running, stored, and in no one's hands: not `active`, which a pause or
+/// cancel also sets while it writes the job's checkpoint. A job picked then would
+/// start again from disk, and the end of that step would overwrite the cancel with
+/// `running` (seen as a cancelled job rendering on, tests/scheduling.rs).
 fn runnable(e: &Entry) -> bool {
-    matches!(e.status.state, JobState::Queued | JobState::Running) && !e.unsaved
+    matches!(e.status.state, JobState::Queued | JobState::Running) && !e.unsaved && !e.active
 }
 
 /// Picks the next job to run, if any. Jobs already held in memory run as long as they
